@@ -1,0 +1,3 @@
+from aamsim.cli import main
+
+main()

@@ -1,0 +1,117 @@
+"""International Standard Atmosphere and airspeed conversions (SI units).
+
+The formulas are the standard ISA troposphere/lower-stratosphere model and the
+compressible-flow CAS <-> TAS relations, with the same constants BlueSky uses,
+so that speeds agree with it to floating-point precision. Each function works
+on floats inside the Numba step kernel and on numpy arrays elsewhere.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit, vectorize
+
+P0 = 101325.0  # Pa, sea-level pressure
+RHO0 = 1.225  # kg/m^3, sea-level density
+T0 = 288.15  # K, sea-level temperature
+T_STRAT = 216.65  # K, isothermal layer temperature (to 22 km)
+R_AIR = 287.05287  # J/(kg K)
+GAMMA = 1.40
+LAPSE = -0.0065  # K/m below the tropopause
+
+
+@njit(cache=True, inline="always")
+def temperature(h: float) -> float:
+    """ISA temperature [K] at geopotential altitude h [m]."""
+    return max(T0 + LAPSE * h, T_STRAT)
+
+
+@njit(cache=True, inline="always")
+def density(h: float) -> float:
+    """ISA density [kg/m^3] at altitude h [m]."""
+    t = temperature(h)
+    rho_trop = RHO0 * (t / T0) ** 4.256848030018761
+    return rho_trop * math.exp(-max(0.0, h - 11000.0) / 6341.552161)
+
+
+@njit(cache=True, inline="always")
+def pressure(h: float) -> float:
+    """ISA pressure [Pa] at altitude h [m]."""
+    return density(h) * R_AIR * temperature(h)
+
+
+@njit(cache=True, inline="always")
+def speed_of_sound(h: float) -> float:
+    """Speed of sound [m/s] at altitude h [m]."""
+    return math.sqrt(GAMMA * R_AIR * temperature(h))
+
+
+@njit(cache=True)
+def cas2tas_scalar(cas: float, h: float) -> float:
+    """Calibrated to true airspeed [m/s] at altitude h [m] (sign preserved)."""
+    rho = density(h)
+    p = rho * R_AIR * temperature(h)
+    qdyn = P0 * ((1.0 + RHO0 * cas * cas / (7.0 * P0)) ** 3.5 - 1.0)
+    tas = math.sqrt(7.0 * p / rho * ((1.0 + qdyn / p) ** (2.0 / 7.0) - 1.0))
+    return -tas if cas < 0.0 else tas
+
+
+@njit(cache=True)
+def tas2cas_scalar(tas: float, h: float) -> float:
+    """True to calibrated airspeed [m/s] at altitude h [m] (sign preserved)."""
+    rho = density(h)
+    p = rho * R_AIR * temperature(h)
+    qdyn = p * ((1.0 + rho * tas * tas / (7.0 * p)) ** 3.5 - 1.0)
+    cas = math.sqrt(7.0 * P0 / RHO0 * ((qdyn / P0 + 1.0) ** (2.0 / 7.0) - 1.0))
+    return -cas if tas < 0.0 else cas
+
+
+@njit(cache=True, inline="always")
+def mach2tas_scalar(mach: float, h: float) -> float:
+    """Mach number to true airspeed [m/s] at altitude h [m]."""
+    return mach * speed_of_sound(h)
+
+
+@njit(cache=True, inline="always")
+def tas2mach_scalar(tas: float, h: float) -> float:
+    """True airspeed [m/s] to Mach number at altitude h [m]."""
+    return tas / speed_of_sound(h)
+
+
+@njit(cache=True)
+def spd2tas_scalar(spd: float, is_mach: bool, h: float) -> float:
+    """A commanded speed (CAS m/s, or Mach when ``is_mach``) to TAS [m/s]."""
+    if is_mach:
+        return mach2tas_scalar(spd, h)
+    return cas2tas_scalar(spd, h)
+
+
+@vectorize(["float64(float64, float64)"], cache=True)
+def cas2tas(cas: float, h: float) -> float:
+    """Vectorised :func:`cas2tas_scalar` (numpy arrays or floats)."""
+    return cas2tas_scalar(cas, h)
+
+
+@vectorize(["float64(float64, float64)"], cache=True)
+def tas2cas(tas: float, h: float) -> float:
+    """Vectorised :func:`tas2cas_scalar` (numpy arrays or floats)."""
+    return tas2cas_scalar(tas, h)
+
+
+def mach2tas(mach: np.ndarray | float, h: np.ndarray | float) -> np.ndarray | float:
+    """Mach number to TAS [m/s]."""
+    t = np.maximum(T0 + LAPSE * np.asarray(h, dtype=float), T_STRAT)
+    return mach * np.sqrt(GAMMA * R_AIR * t)
+
+
+def tas2mach(tas: np.ndarray | float, h: np.ndarray | float) -> np.ndarray | float:
+    """TAS [m/s] to Mach number."""
+    t = np.maximum(T0 + LAPSE * np.asarray(h, dtype=float), T_STRAT)
+    return tas / np.sqrt(GAMMA * R_AIR * t)
+
+
+def mach2cas(mach: float, h: float) -> float:
+    """Mach number to CAS [m/s] at altitude h [m]."""
+    return float(tas2cas(mach2tas(mach, h), h))

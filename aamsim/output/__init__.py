@@ -1,0 +1,1 @@
+"""Run outputs: trajectory and flight logs, summaries, run directories."""

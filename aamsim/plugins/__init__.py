@@ -1,0 +1,72 @@
+"""Plugin loader.
+
+A plugin is a module with ``init_plugin(sim)``: it receives the simulation
+and registers what it provides explicitly (``sim.commands.add(...)``,
+``sim.hooks.post_step.add(...)``, ...), keeping any state in its own objects
+(or ``sim.extensions``), never in module globals, so that two simulations in
+one process stay independent. ``init_plugin`` may return an object; it is
+kept in ``sim.plugins[name]``.
+
+Plugins come from the built-in table below or from installed packages that
+declare an entry point in the ``aamsim.plugins`` group::
+
+    [options.entry_points]
+    aamsim.plugins =
+        myplugin = mypackage.myplugin
+"""
+
+from __future__ import annotations
+
+import importlib
+from importlib.metadata import entry_points
+from types import ModuleType
+from typing import TYPE_CHECKING, Any
+
+from aamsim.errors import CommandError
+
+if TYPE_CHECKING:
+    from aamsim.simulation import Simulation
+
+BUILTIN_PLUGINS: dict[str, str] = {
+    "EXAMPLE": "aamsim.plugins.example",
+}
+
+
+def _entry_point_plugins() -> dict[str, Any]:
+    return {ep.name.upper(): ep for ep in entry_points(group="aamsim.plugins")}
+
+
+def available() -> dict[str, str]:
+    """Name -> where it comes from (module path or distribution)."""
+    found = {name: path for name, path in BUILTIN_PLUGINS.items()}
+    for name, ep in _entry_point_plugins().items():
+        found.setdefault(name, ep.value)
+    return found
+
+
+def _import(name: str) -> ModuleType:
+    key = name.upper()
+    if key in BUILTIN_PLUGINS:
+        return importlib.import_module(BUILTIN_PLUGINS[key])
+    eps = _entry_point_plugins()
+    if key in eps:
+        loaded = eps[key].load()
+        if isinstance(loaded, ModuleType):
+            return loaded
+        module = importlib.import_module(loaded.__module__)
+        return module
+    raise CommandError(f"unknown plugin {name}; available: {', '.join(sorted(available())) or 'none'}")
+
+
+def load_plugin(sim: Simulation, name: str) -> Any:
+    """Load a plugin into a simulation (once); returns what ``init_plugin`` returned."""
+    key = name.upper()
+    if key in sim.plugins:
+        return sim.plugins[key]
+    module = _import(key)
+    init = getattr(module, "init_plugin", None)
+    if init is None:
+        raise CommandError(f"plugin {name} has no init_plugin(sim) function")
+    result = init(sim)
+    sim.plugins[key] = result if result is not None else module
+    return sim.plugins[key]

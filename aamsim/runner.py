@@ -1,0 +1,168 @@
+"""Run a scenario headless and write its run directory (what ``aamsim run`` does).
+
+The run directory holds ``scenario.scn`` (the exact text that ran),
+``flights.csv``, ``trajectories.csv`` (unless the log period is 0),
+``summary.json`` and ``messages.log`` (every error, warning, note and ECHO).
+Services that report more (conflict metrics) add their own files through
+the ``finish`` callbacks in ``sim.extensions["run_outputs"]``.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import platform
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from datetime import datetime
+from pathlib import Path
+from typing import Any
+
+import aamsim
+from aamsim.errors import ScenarioSyntaxError
+from aamsim.output.flights import write_flights
+from aamsim.output.recorder import TrajectoryRecorder
+from aamsim.scenarios import resolve_scenario
+from aamsim.simulation import Simulation, iter_flights
+from aamsim.stack.validate import validate_scenario
+
+
+class ScenarioNotFound(FileNotFoundError):
+    pass
+
+
+class StrictValidationFailed(Exception):
+    """``--strict`` found errors; nothing was simulated."""
+
+    def __init__(self, errors: list[ScenarioSyntaxError]):
+        super().__init__(f"{len(errors)} error(s) in the scenario")
+        self.errors = errors
+
+
+@dataclass
+class RunConfig:
+    """Everything that defines a run (the CLI options)."""
+
+    scenario: str | Path
+    out_dir: Path | None = None
+    until_s: float | None = None
+    dt_s: float = 0.05
+    seed: int | None = None
+    strict: bool = False
+    log_period_s: float = 1.0
+    plugins: tuple[str, ...] = ()
+    delete_on_arrival: bool = False
+    metrics: tuple[str, ...] = ("safety", "operational")
+
+
+@dataclass
+class RunResult:
+    sim: Simulation
+    out_dir: Path
+    summary: dict[str, Any]
+    wall_s: float
+    extra: dict[str, Any] = field(default_factory=dict)
+
+
+def default_out_dir(scenario: Path) -> Path:
+    stamp = datetime.now().strftime("%Y%m%d-%H%M%S")
+    base = Path("runs") / f"{scenario.stem}-{stamp}"
+    candidate, k = base, 1
+    while candidate.exists():
+        candidate = base.with_name(f"{base.name}-{k}")
+        k += 1
+    return candidate
+
+
+def build_simulation(cfg: RunConfig, path: Path, text: str) -> Simulation:
+    """A simulation with the run's settings, plugins and services attached."""
+    sim = Simulation(seed=cfg.seed, dt=cfg.dt_s)
+    sim.settings.delete_on_arrival = cfg.delete_on_arrival
+    sim.scenario_name = path.stem
+    sim.scenario_path = path
+    sim.scenario_text = text
+    from aamsim.services import attach_run_services
+
+    attach_run_services(sim, cfg)
+    from aamsim.plugins import load_plugin
+
+    for name in cfg.plugins:
+        load_plugin(sim, name)
+    return sim
+
+
+def run_scenario(
+    cfg: RunConfig,
+    progress: Callable[[Simulation, float], None] | None = None,
+    listener: Callable[[Any], None] | None = None,
+) -> RunResult:
+    """Simulate a scenario and write its run directory.
+
+    Raises:
+        ScenarioNotFound: the scenario file does not exist (here or shipped).
+        StrictValidationFailed: ``strict`` and the file has errors.
+    """
+    path = resolve_scenario(cfg.scenario)
+    if path is None:
+        raise ScenarioNotFound(f"scenario not found: {cfg.scenario} (neither a file nor a shipped scenario)")
+    text = path.read_text(encoding="utf-8", errors="replace")
+    sim = build_simulation(cfg, path, text)
+    if listener is not None:
+        sim.reporter.listeners.append(listener)
+    if cfg.strict:
+        errors = validate_scenario(text, str(path), sim.commands, sim.navdb.known, sim.find_file)
+        if errors:
+            raise StrictValidationFailed(errors)
+    out_dir = cfg.out_dir or default_out_dir(path)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    (out_dir / "scenario.scn").write_text(text, encoding="utf-8")
+    recorder = None
+    if cfg.log_period_s > 0:
+        recorder = TrajectoryRecorder(out_dir / "trajectories.csv", cfg.log_period_s)
+        recorder.attach(sim)
+    sim.load_scenario(path, text=text)
+    wall0 = time.perf_counter()
+    try:
+        sim.run(
+            until_s=cfg.until_s,
+            progress=(lambda s: progress(s, time.perf_counter() - wall0)) if progress else None,
+            progress_interval_s=10.0,
+        )
+    finally:
+        wall = time.perf_counter() - wall0
+        if recorder is not None:
+            recorder.close()
+    summary = make_summary(sim, cfg, path, wall)
+    for finish in sim.extensions.get("run_outputs", []):
+        finish(sim, out_dir, summary)
+    write_flights(out_dir / "flights.csv", iter_flights(sim))
+    (out_dir / "summary.json").write_text(json.dumps(summary, indent=2, sort_keys=False) + "\n")
+    with open(out_dir / "messages.log", "w", encoding="utf-8") as fh:
+        for msg in sim.reporter.messages:
+            fh.write(f"{msg.simt:10.2f} {msg}\n")
+    return RunResult(sim, out_dir, summary, wall)
+
+
+def make_summary(sim: Simulation, cfg: RunConfig, path: Path, wall_s: float) -> dict[str, Any]:
+    flights = list(iter_flights(sim))
+    simt = sim.simt
+    return {
+        "scenario": path.stem,
+        "scenario_file": str(path),
+        "aamsim_version": aamsim.__version__,
+        "python": platform.python_version(),
+        "seed": cfg.seed,
+        "dt_s": sim.settings.dt_s,
+        "until_s": cfg.until_s,
+        "sim_time_s": round(simt, 6),
+        "wall_time_s": round(wall_s, 4),
+        "speedup": round(simt / wall_s, 2) if wall_s > 0 else math.inf,
+        "aircraft_steps": sim.aircraft_steps,
+        "aircraft_steps_per_s": round(sim.aircraft_steps / wall_s, 1) if wall_s > 0 else None,
+        "flights_created": len(flights),
+        "flights_deleted": sum(1 for f in flights if not math.isnan(f.deleted_s)),
+        "flights_arrived": sum(1 for f in flights if f.arrived),
+        "aircraft_at_end": sim.traffic.n,
+        "errors": len(sim.reporter.errors()),
+    }

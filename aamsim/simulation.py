@@ -1,0 +1,501 @@
+"""The :class:`Simulation`: one object that owns a whole simulated world.
+
+It holds the clock (integer microseconds, so times are exact), the traffic,
+the command table and the queue of timed commands, the hooks, conditional
+commands, named waypoints, the random generator and every setting. Nothing
+lives in module globals: two simulations in one process are independent.
+
+A step follows BlueSky's order: the commands due now run, the performance
+envelope refreshes on its 1 s timer, the clock advances, then the traffic is
+updated by the Numba kernel. Between events the kernel advances many steps
+per call; events (a command due, a periodic hook, a waypoint reached, a
+conditional command firing) split the batches so that results are identical
+to stepping one by one.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Iterable
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from aamsim.errors import ArgumentError, CommandError, ScenarioSyntaxError, SourceRef
+from aamsim.geo import qdrdist
+from aamsim.hooks import Hooks
+from aamsim.messages import Reporter
+from aamsim.navdb import NavDatabase
+from aamsim.stack.context import LiveContext
+from aamsim.stack.parser import (
+    Command,
+    ParsedScenario,
+    TimedCommand,
+    parse_line,
+    parse_scenario,
+    resolve_command_form,
+    split_commands,
+)
+from aamsim.stack.queue import US_PER_S, CommandQueue, to_us
+from aamsim.stack.registry import CommandRegistry
+from aamsim.traffic import fields as f
+from aamsim.traffic.autopilot import pass_waypoint
+from aamsim.traffic.conditions import Conditions
+from aamsim.traffic.kernel import STATUS_CONDITION, STATUS_REACHED, advance
+from aamsim.traffic.performance import PerformanceTable
+from aamsim.traffic.traffic import FlightRecord, Traffic
+from aamsim.units import FT, KTS, NM, Speed
+
+
+@dataclass
+class SimSettings:
+    """Run-wide settings (stack commands change most of them)."""
+
+    dt_s: float = 0.05
+    perf_interval_s: float = 1.0
+    delete_on_arrival: bool = False
+    arrival_radius_m: float = 0.1 * NM
+    hold_speed_mps: float = 5.0 * KTS
+    airborne_alt_m: float = 10.0 * FT
+    mcre_area: tuple[float, float, float, float] = (-1.0, -1.0, 1.0, 1.0)  # lat0, lon0, lat1, lon1
+    # Conflict detection, as BlueSky's ASAS settings (used by aamsim.conflicts).
+    cd_method: str = "OFF"
+    zoner_m: float = 5.0 * NM
+    zonedh_m: float = 1000.0 * FT
+    dtlook_s: float = 300.0
+    cd_interval_s: float = 1.0
+    reso: str = "OFF"
+
+
+class Simulation:
+    """A simulated airspace: clock, traffic, command stack, hooks and plugins."""
+
+    STATE_INIT, STATE_OP, STATE_HOLD = "INIT", "OP", "HOLD"
+
+    def __init__(
+        self,
+        seed: int | None = None,
+        dt: float = 0.05,
+        performance: PerformanceTable | None = None,
+        use_bluesky_navdata: bool = True,
+        register_builtins: bool = True,
+    ):
+        self.settings = SimSettings(dt_s=dt)
+        self.seed = seed
+        self.rng = np.random.default_rng(seed)
+        self.simt_us = 0
+        self.state = self.STATE_INIT
+        self.traffic = Traffic()
+        self.commands = CommandRegistry()
+        self.queue = CommandQueue()
+        self.hooks = Hooks()
+        self.conditions = Conditions()
+        self.navdb = NavDatabase(use_bluesky_data=use_bluesky_navdata)
+        self.performance = performance or PerformanceTable()
+        self.reporter = Reporter()
+        self.flight_log: list[FlightRecord] = []
+        self.scenario_name = ""
+        self.scenario_path: Path | None = None
+        self.scenario_text = ""
+        self.search_path: list[Path] = []
+        self.plugins: dict[str, Any] = {}
+        self.extensions: dict[str, Any] = {}  # per-simulation state of services and plugins
+        self.aircraft_steps = 0
+        self.quit_requested = False
+        self._next_perf_us = 0
+        self._noted: set[str] = set()
+        self._source: SourceRef | None = None
+        self._scratch_cap = 0
+        self._alloc_scratch()
+        if register_builtins:
+            from aamsim.stack.commands import register_builtin_commands
+
+            register_builtin_commands(self.commands)
+
+    # ------------------------------------------------------------------ clock
+    @property
+    def simt(self) -> float:
+        """Simulation time [s]."""
+        return self.simt_us / US_PER_S
+
+    @property
+    def dt(self) -> float:
+        return self.settings.dt_s
+
+    @property
+    def dt_us(self) -> int:
+        return to_us(self.settings.dt_s)
+
+    def set_dt(self, dt_s: float) -> None:
+        if not (0.0 < dt_s <= 10.0) or to_us(dt_s) == 0:
+            raise CommandError(f"DT must be between 1 microsecond and 10 s, not {dt_s}")
+        self.settings.dt_s = dt_s
+
+    # --------------------------------------------------------------- messages
+    def report(self, kind: str, text: str, source: SourceRef | None = None) -> None:
+        self.reporter.emit(kind, text, source, self.simt)
+
+    def note_once(self, key: str, text: str, source: SourceRef | None = None) -> None:
+        """A note given only the first time ``key`` comes up."""
+        if key not in self._noted:
+            self._noted.add(key)
+            self.report("note", text, source)
+
+    # --------------------------------------------------------------- scenarios
+    def parse(self, text: str, path: str = "<scenario>", **kwargs: Any) -> ParsedScenario:
+        """Parse scenario text against this simulation's command table."""
+        return parse_scenario(text, path, is_command=self.commands.__contains__, **kwargs)
+
+    def load_scenario(self, path: str | Path, *, text: str | None = None) -> ParsedScenario:
+        """Queue a scenario file's commands (times are absolute). Errors are reported."""
+        path = Path(path)
+        if text is None:
+            text = path.read_text(encoding="utf-8", errors="replace")
+        parsed = self.parse(text, str(path))
+        self.scenario_name = self.scenario_name or path.stem
+        self.scenario_path = self.scenario_path or path
+        self.scenario_text = self.scenario_text or text
+        if path.parent not in self.search_path:
+            self.search_path.insert(0, path.parent)
+        for err in parsed.errors:
+            self.report("error", err.message, err.source)
+        self.queue.extend(parsed.commands)
+        return parsed
+
+    def load_text(self, text: str, name: str = "<scenario>") -> ParsedScenario:
+        """Queue scenario text (``HH:MM:SS>CMD`` lines)."""
+        parsed = self.parse(text, name)
+        for err in parsed.errors:
+            self.report("error", err.message, err.source)
+        self.queue.extend(parsed.commands)
+        return parsed
+
+    def find_file(self, name: str) -> Path | None:
+        """Resolve a scenario file name (PCALL, IC) against the search path."""
+        candidate = Path(name)
+        options = [candidate] if candidate.suffix else [candidate, candidate.with_suffix(".scn")]
+        for option in options:
+            if option.is_absolute() and option.exists():
+                return option
+            for folder in [*self.search_path, Path.cwd()]:
+                if (folder / option).exists():
+                    return folder / option
+            from aamsim.scenarios import packaged_scenario
+
+            packaged = packaged_scenario(str(option))
+            if packaged is not None:
+                return packaged
+        return None
+
+    # ---------------------------------------------------------------- commands
+    def stack(self, text: str, source: SourceRef | None = None) -> bool:
+        """Execute command text now (``;`` separates commands). True if all succeeded."""
+        ok = True
+        for part in split_commands(text):
+            try:
+                command = parse_line(part, source)
+            except ScenarioSyntaxError as exc:
+                self.report("error", exc.message, source)
+                ok = False
+                continue
+            ok = self.execute(command, source) and ok
+        return ok
+
+    def schedule(self, time_s: float, text: str, source: SourceRef | None = None) -> None:
+        """Queue command text for a sim time [s]."""
+        for part in split_commands(text):
+            try:
+                command = parse_line(part, source)
+            except ScenarioSyntaxError as exc:
+                self.report("error", exc.message, source)
+                continue
+            self.queue.push(TimedCommand(time_s, command, source or SourceRef()))
+
+    def execute(self, command: Command, source: SourceRef | None = None) -> bool:
+        """Run one command through the command table; report any error."""
+        command = resolve_command_form(command, self.commands.__contains__)
+        spec = self.commands.get(command.name)
+        if spec is None:
+            self.report("error", f"unknown command {command.name}", source)
+            return False
+        ctx = LiveContext(self)
+        try:
+            args = spec.bind(command.argtext, ctx)
+            self._source = source
+            result = spec.handler(self, *args)
+        except ArgumentError as exc:
+            self.report("error", f"{command.name}: {exc.message}", source)
+            return False
+        except CommandError as exc:
+            self.report("error", f"{command.name}: {exc.message}", source)
+            return False
+        if isinstance(result, str) and result:
+            self.report("echo", result, source)
+        return True
+
+    @property
+    def current_source(self) -> SourceRef | None:
+        """Source of the command being executed (for handlers that schedule more)."""
+        return self._source
+
+    # ---------------------------------------------------------------- aircraft
+    def create_aircraft(
+        self,
+        acid: str,
+        actype: str,
+        lat: float,
+        lon: float,
+        hdg: float = 0.0,
+        alt: float = 0.0,
+        spd: Speed | None = None,
+    ) -> int:
+        """Create an aircraft (SI units); returns its slot."""
+        acid = acid.upper()
+        if acid in self.traffic:
+            raise CommandError(f"aircraft {acid} already exists")
+        if not acid or any(c in acid for c in " ,;#>'\""):
+            raise CommandError(f'"{acid}" is not a valid callsign')
+        envelope, known = self.performance.lookup(actype)
+        if not known:
+            self.note_once(
+                f"type:{actype.upper()}",
+                f"unknown aircraft type {actype.upper()}: using the {envelope.type_code} envelope",
+                self.current_source,
+            )
+        i = self.traffic.create(acid, actype, envelope, lat, lon, hdg, alt, spd or Speed(0.0), self.simt)
+        if self.state == self.STATE_INIT:
+            self.state = self.STATE_OP
+        self._alloc_scratch()
+        self.hooks.created.call(self, i)
+        return i
+
+    def delete_aircraft(self, i: int, arrived: bool | None = None) -> FlightRecord:
+        """Delete the aircraft in slot ``i``; closes and logs its flight record.
+
+        ``arrived`` None means: arrived if within the arrival radius of its
+        destination (DEST, else the last waypoint of its route).
+        """
+        record = self.traffic.flights[i]
+        route = self.traffic.routes[i]
+        if not record.destination and len(route):
+            last = route.waypoints[-1]
+            record.destination = last.name
+            record.dest_lat, record.dest_lon = last.lat, last.lon
+        if arrived is None:
+            arrived = False
+            if not math.isnan(record.dest_lat):
+                _, dist = qdrdist(self.traffic.lat[i], self.traffic.lon[i], record.dest_lat, record.dest_lon)
+                arrived = dist <= self.settings.arrival_radius_m
+        record.arrived = bool(arrived)
+        record.deleted_s = self.simt
+        self.hooks.deleted.call(self, i, record)
+        self.traffic.delete(i)
+        self.flight_log.append(record)
+        return record
+
+    # ------------------------------------------------------------------ stepping
+    def _alloc_scratch(self) -> None:
+        cap = self.traffic.capacity
+        if cap != self._scratch_cap:
+            self._scratch_qdr = np.zeros(cap)
+            self._scratch_dist = np.zeros(cap)
+            self._reached = np.zeros(cap, dtype=np.bool_)
+            self._fresh = np.zeros(cap, dtype=np.bool_)
+            self._scratch_cap = cap
+
+    def _run_due_commands(self) -> None:
+        # Commands may queue more commands due now (SCHEDULE, PCALL, conditions).
+        while True:
+            due = self.queue.pop_due(self.simt_us)
+            if not due:
+                return
+            for cmd in due:
+                self.execute(cmd.command, cmd.source)
+
+    def _refresh_performance(self) -> None:
+        if self.simt_us >= self._next_perf_us:
+            n = self.traffic.n
+            self.traffic.F[f.AXMAX, :n] = self.traffic.F[f.AXMAX_TYPE, :n]
+            interval = to_us(self.settings.perf_interval_s)
+            while self._next_perf_us <= self.simt_us:
+                self._next_perf_us += interval
+
+    def _boundary(self) -> None:
+        """Everything that happens at the start of a step, at time simt."""
+        self.hooks.post_step.call_due(self.simt_us, self.dt_us, self)
+        self._run_due_commands()
+        self._refresh_performance()
+        self.hooks.pre_step.call_due(self.simt_us, self.dt_us, self)
+
+    def _steps_to_next_event(self, end_us: int) -> int:
+        now = self.simt_us
+        dt_us = self.dt_us
+        if self.hooks.post_step.every_step() or self.hooks.pre_step.every_step():
+            return 1
+        candidates = [end_us, self._next_perf_us]
+        for t in (self.queue.next_due_us(), self.hooks.post_step.next_due_us(), self.hooks.pre_step.next_due_us()):
+            if t is not None:
+                candidates.append(t)
+        nxt = min(t for t in candidates if t > now) if any(t > now for t in candidates) else now + dt_us
+        return max(1, -(-(nxt - now) // dt_us))
+
+    def _advance_steps(self, nsteps: int) -> None:
+        """Advance the traffic ``nsteps`` steps, handling events inside the batch."""
+        done = 0
+        check_first = True
+        dt = self.settings.dt_s
+        dt_us = self.dt_us
+        while done < nsteps:
+            traffic = self.traffic
+            n = traffic.n
+            cond = self.conditions.arrays(traffic) if len(self.conditions) else _NO_CONDITIONS
+            k, status = advance(
+                traffic.F,
+                traffic.B,
+                n,
+                dt,
+                nsteps - done,
+                check_first,
+                self.settings.hold_speed_mps,
+                self.settings.airborne_alt_m,
+                self._scratch_qdr,
+                self._scratch_dist,
+                self._fresh,
+                self._reached,
+                *cond,
+            )
+            done += k
+            self.simt_us += k * dt_us
+            self.aircraft_steps += k * n
+            check_first = True
+            if len(self.conditions) and k:
+                fired = self.conditions.update_after(cond[3], cond[6])
+                for c in fired:
+                    self.schedule(self.simt, c.command, c.source)
+                if fired:
+                    return
+            if status == STATUS_REACHED:
+                stop_after_step = self._pass_waypoints()
+                check_first = False  # finish this step without testing again
+                if stop_after_step:
+                    nsteps = done + 1
+            elif status == STATUS_CONDITION:
+                return
+
+    def _pass_waypoints(self) -> bool:
+        """Start the next leg of every aircraft flagged by the kernel.
+
+        Returns True when waypoint commands were queued or aircraft deleted,
+        so that the batch ends after the current step.
+        """
+        traffic = self.traffic
+        reached = np.flatnonzero(self._reached[: traffic.n])
+        side_effects = False
+        # Highest slot first: deleting swaps the last aircraft into the freed slot.
+        for i in reached[::-1]:
+            i = int(i)
+            self._fresh[i] = False  # its leg changed: guidance must be recomputed
+            commands, was_last = pass_waypoint(traffic, i)
+            acid = traffic.ids[i]
+            for text in commands:
+                self.schedule(self.simt + self.dt, text, SourceRef(f"AT {acid}", 0))
+                side_effects = True
+            if was_last and self.settings.delete_on_arrival:
+                last = traffic.n - 1
+                self.delete_aircraft(i, arrived=True)
+                # The aircraft from the last slot now sits in slot i.
+                self._fresh[i] = self._fresh[last] if i != last else False
+                self._scratch_qdr[i] = self._scratch_qdr[last]
+                self._scratch_dist[i] = self._scratch_dist[last]
+                side_effects = True
+        return side_effects
+
+    def step(self) -> None:
+        """Advance exactly one time step."""
+        self.run_until(self.simt + self.dt)
+
+    def run_until(self, t_s: float) -> None:
+        """Advance until sim time ``t_s`` (a step boundary at or after it)."""
+        end_us = to_us(t_s)
+        while True:
+            self._boundary()
+            if self.state == self.STATE_HOLD or self.quit_requested or self.simt_us >= end_us:
+                return
+            self._advance_steps(self._steps_to_next_event(end_us))
+
+    def run(self, until_s: float | None = None, progress: Callable[[Simulation], None] | None = None,
+            progress_interval_s: float = 60.0) -> None:
+        """Run until ``until_s`` or until nothing is left to happen.
+
+        Nothing is left when no command is pending, no conditional command
+        waits and no aircraft flies (or every remaining aircraft has finished
+        its route, so that it would fly straight on forever).
+        """
+        chunk = progress_interval_s
+        while True:
+            target = self.simt + chunk
+            if until_s is not None:
+                target = min(target, until_s)
+            self.run_until(target)
+            if progress is not None:
+                progress(self)
+            if self.state == self.STATE_HOLD:
+                self.note_once("hold", "HOLD: aamsim run has no operator to resume it; continuing")
+                self.state = self.STATE_OP
+            if self.quit_requested or (until_s is not None and self.simt_us >= to_us(until_s)):
+                return
+            if until_s is None and self.is_quiescent():
+                return
+
+    def is_quiescent(self) -> bool:
+        """True when the scenario can produce no further change worth simulating."""
+        if len(self.queue) or len(self.conditions):
+            return False
+        if self.traffic.n == 0:
+            return True
+        n = self.traffic.n
+        # Aircraft still following a route or changing speed/altitude keep the run going.
+        return not (self.traffic.B[f.B_SWLNAV, :n].any() or self.traffic.B[f.B_SWVNAV, :n].any())
+
+    def reset(self) -> None:
+        """RESET: clear traffic, pending commands and time; keep plugins and hooks."""
+        for i in range(self.traffic.n - 1, -1, -1):
+            self.delete_aircraft(i, arrived=False)
+        self.queue.clear()
+        self.conditions.clear()
+        self.navdb.clear()
+        self.simt_us = 0
+        self._next_perf_us = 0
+        self.state = self.STATE_INIT
+        dt = self.settings.dt_s
+        self.settings = SimSettings(dt_s=dt)
+        self.hooks.post_step.restart(0)
+        self.hooks.pre_step.restart(0)
+        self.hooks.reset.call(self)
+
+    def reseed(self, seed: int | None) -> None:
+        self.seed = seed
+        self.rng = np.random.default_rng(seed)
+
+
+_NO_CONDITIONS = (
+    np.empty(0, dtype=np.int64),
+    np.empty(0, dtype=np.int64),
+    np.empty(0),
+    np.empty(0),
+    np.empty(0),
+    np.empty(0),
+    np.empty(0, dtype=np.bool_),
+)
+
+
+def iter_flights(sim: Simulation) -> Iterable[FlightRecord]:
+    """Closed flights followed by the open ones (still flying)."""
+    yield from sim.flight_log
+    for i, rec in enumerate(sim.traffic.flights):
+        rec.distance_m = float(sim.traffic.F[f.DISTFLOWN, i])
+        rec.airborne_s = float(sim.traffic.F[f.AIRBORNE_S, i])
+        rec.slow_s = float(sim.traffic.F[f.SLOW_S, i])
+        yield rec

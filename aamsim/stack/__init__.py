@@ -1,0 +1,1 @@
+"""The scenario language: tokenizer, parser, argument types, command table."""

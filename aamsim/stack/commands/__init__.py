@@ -1,0 +1,13 @@
+"""Built-in stack commands, registered per simulation by :func:`register_builtin_commands`."""
+
+from __future__ import annotations
+
+from aamsim.stack.commands import asas_cmds, display_cmds, plugin_cmds, route_cmds, sim_cmds, traffic_cmds
+from aamsim.stack.registry import CommandRegistry
+
+MODULES = (traffic_cmds, route_cmds, sim_cmds, asas_cmds, plugin_cmds, display_cmds)
+
+
+def register_builtin_commands(registry: CommandRegistry) -> None:
+    for module in MODULES:
+        registry.add_all(module.COMMANDS)

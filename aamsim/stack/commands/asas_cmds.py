@@ -1,0 +1,88 @@
+"""Conflict-detection settings, as BlueSky's ASAS commands (used by aamsim.conflicts)."""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+from aamsim.errors import CommandError
+from aamsim.stack.argtypes import Number, RestOfLine, Seconds, Text
+from aamsim.stack.registry import command, raw_arguments
+from aamsim.units import FT, NM
+
+if TYPE_CHECKING:
+    from aamsim.simulation import Simulation
+
+CD_METHODS = {"ON": "STATEBASED", "OFF": "OFF", "STATEBASED": "STATEBASED", "CSTATEBASED": "STATEBASED"}
+
+
+@command("ASAS", aliases=("CDMETHOD",), group="conflicts")
+def asas(sim: Simulation, method: Text = "") -> str | None:
+    """ASAS [ON/OFF/STATEBASED]: switch state-based conflict detection (CDMETHOD is the same command)."""
+    if not method:
+        return f"conflict detection: {sim.settings.cd_method}"
+    if method not in CD_METHODS:
+        raise CommandError(f"unknown conflict detection method {method} (ON, OFF, STATEBASED)")
+    sim.settings.cd_method = CD_METHODS[method]
+    return None
+
+
+@command("ZONER", aliases=("PZR", "RPZ", "PZRADIUS"), group="conflicts")
+def zoner(sim: Simulation, radius_nm: Number | None = None) -> str | None:
+    """ZONER [radius]: horizontal protected-zone radius [NM] (default 5; 450 m is 0.243)."""
+    if radius_nm is None:
+        return f"PZ radius {sim.settings.zoner_m / NM:g} NM ({sim.settings.zoner_m:.1f} m)"
+    if radius_nm <= 0:
+        raise CommandError("the protected-zone radius must be positive")
+    sim.settings.zoner_m = radius_nm * NM
+    return None
+
+
+@command("ZONEDH", aliases=("PZDH", "DHPZ", "PZHEIGHT"), group="conflicts")
+def zonedh(sim: Simulation, height_ft: Number | None = None) -> str | None:
+    """ZONEDH [height]: vertical protected-zone half-height [ft] (default 1000)."""
+    if height_ft is None:
+        return f"PZ half-height {sim.settings.zonedh_m / FT:g} ft"
+    if height_ft <= 0:
+        raise CommandError("the protected-zone height must be positive")
+    sim.settings.zonedh_m = height_ft * FT
+    return None
+
+
+@command("DTLOOK", group="conflicts")
+def dtlook(sim: Simulation, time_s: Seconds | None = None) -> str | None:
+    """DTLOOK [time]: conflict-detection look-ahead time [s] (default 300)."""
+    if time_s is None:
+        return f"look-ahead {sim.settings.dtlook_s:g} s"
+    if time_s <= 0:
+        raise CommandError("the look-ahead time must be positive")
+    sim.settings.dtlook_s = time_s
+    return None
+
+
+@command("RESO", group="conflicts")
+def reso(sim: Simulation, method: Text = "") -> str | None:
+    """RESO [OFF/method]: conflict resolution method. It is stored; aamsim resolves no conflicts itself
+    (an agent or a plugin does)."""
+    if not method:
+        return f"conflict resolution: {sim.settings.reso}"
+    sim.settings.reso = method
+    if method != "OFF":
+        sim.note_once("RESO", f"RESO {method} stored; aamsim applies no built-in resolution", sim.current_source)
+    return None
+
+
+def _accepted_setting(name: str):
+    @command(name, group="conflicts")
+    @raw_arguments
+    def handler(sim: Simulation, argtext: RestOfLine) -> None:
+        sim.note_once(name, f"{name} is accepted and ignored: aamsim has no built-in conflict resolution",
+                      sim.current_source)
+
+    handler.__doc__ = f"{name} ...: BlueSky resolution setting, accepted and ignored (no built-in resolution)."
+    return handler
+
+
+COMMANDS = (asas, zoner, zonedh, dtlook, reso) + tuple(
+    _accepted_setting(n) for n in ("RMETHH", "RMETHV", "RFACH", "RFACV", "RSZONER", "RSZONEDH", "PRIORULES", "NORESO",
+                                   "RESOOFF", "DTNOLOOK", "CDSPEEDCHANGE")
+)

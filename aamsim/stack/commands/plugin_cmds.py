@@ -1,0 +1,32 @@
+"""PLUGINS LIST / LOAD, as in BlueSky."""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+from aamsim.errors import CommandError
+from aamsim.stack.argtypes import Text
+from aamsim.stack.registry import command
+
+if TYPE_CHECKING:
+    from aamsim.simulation import Simulation
+
+
+@command("PLUGINS", aliases=("PLUGIN", "PLUG-IN", "PLUG-INS"), group="simulation")
+def plugins(sim: Simulation, action: Text = "LIST", name: Text = "") -> str | None:
+    """PLUGINS [LIST | LOAD name]: list the available plugins or load one."""
+    from aamsim import plugins as loader
+
+    if action == "LIST":
+        names = sorted(loader.available())
+        loaded = sorted(sim.plugins)
+        return f"available plugins: {', '.join(names) or '-'}\nloaded: {', '.join(loaded) or '-'}"
+    if action == "LOAD":
+        if not name:
+            raise CommandError("PLUGINS LOAD needs a plugin name")
+        loader.load_plugin(sim, name)
+        return f"plugin {name} loaded"
+    raise CommandError(f"PLUGINS {action}: use LIST or LOAD name")
+
+
+COMMANDS = (plugins,)

@@ -1,0 +1,467 @@
+"""Flight-plan commands: ADDWPT, DEST, ORIG, DELWPT, DIRECT, LNAV, VNAV, AT, RTA."""
+
+from __future__ import annotations
+
+import math
+from typing import TYPE_CHECKING, Any
+
+from aamsim.errors import ArgumentError, CommandError
+from aamsim.stack.argtypes import (
+    ACID,
+    ALT,
+    LATLON,
+    SPD,
+    WPINROUTE,
+    AcIndex,
+    OnOff,
+    PositionValue,
+    RestOfLine,
+    RouteWaypoint,
+    Seconds,
+    SpeedArg,
+    Position,
+)
+from aamsim.stack.context import LiveContext
+from aamsim.stack.registry import command, raw_arguments, static_validator
+from aamsim.stack.tokens import next_arg
+from aamsim.traffic import fields as f
+from aamsim.traffic.autopilot import activate_waypoint, compute_vnav, nearest_active_index
+from aamsim.traffic.route import Waypoint, WaypointKind
+from aamsim.units import FT, KTS, UnitParseError, parse_altitude, parse_speed
+
+if TYPE_CHECKING:
+    from aamsim.simulation import Simulation
+
+_UNSUPPORTED_MODES = {
+    "FLYTURN",
+    "TURNRAD",
+    "TURNRADIUS",
+    "TURNSPD",
+    "TURNSPEED",
+    "TURNBANK",
+    "TURNPHI",
+    "TURNHDG",
+    "TURNHDGR",
+    "TURNHDGRATE",
+    "TAKEOFF",
+}
+
+
+def add_waypoint(
+    sim: Simulation,
+    i: int,
+    name: str,
+    kind: WaypointKind,
+    lat: float,
+    lon: float,
+    alt: float = math.nan,
+    spd: float = math.nan,
+    spd_mach: bool = False,
+    after: str = "",
+    before: str = "",
+) -> int:
+    """Insert a waypoint in aircraft ``i``'s route the way BlueSky's FMS does.
+
+    ORIG goes first and DEST last (replacing an earlier one); other
+    waypoints go after ``after`` / before ``before`` when given, else just
+    before the destination. The active waypoint is then re-activated, which
+    also switches LNAV on. Returns the new waypoint's index.
+    """
+    traffic = sim.traffic
+    route = traffic.routes[i]
+    lat = (lat + 90.0) % 180.0 - 90.0 if abs(lat) > 90.0 else lat
+    lon = (lon + 180.0) % 360.0 - 180.0
+    if kind in (WaypointKind.ORIG, WaypointKind.DEST):
+        if kind is WaypointKind.DEST and math.isnan(alt):
+            alt = 0.0
+        wp = Waypoint(name, kind, lat, lon, alt, spd, spd_mach, route.flyby_mode)
+        slot = 0 if kind is WaypointKind.ORIG else len(route) - 1
+        if len(route) and route.waypoints[slot].kind is kind:
+            route.waypoints[slot] = wp
+        elif kind is WaypointKind.ORIG:
+            route.insert(0, wp)
+            if route.iactwp >= 0:
+                route.iactwp += 1
+        else:
+            route.insert(len(route), wp)
+            if route.iactwp < 0 and len(route) == 1:
+                route.iactwp = 0
+        index = 0 if kind is WaypointKind.ORIG else len(route) - 1
+    else:
+        digits = 3 if kind is WaypointKind.LATLON else 2
+        wpname = route.unique_name(name, digits, {traffic.ids[i]})
+        wp = Waypoint(wpname, kind, lat, lon, alt, spd, spd_mach, route.flyby_mode)
+        if after and route.find(after) >= 0:
+            index = route.find(after) + 1
+            route.insert(index, wp)
+            if route.iactwp >= index:
+                route.iactwp += 1
+        elif before and route.find(before) >= 0:
+            index = route.find(before)
+            route.insert(index, wp)
+        else:
+            index = len(route) - 1 if route.has_dest else len(route)
+            route.insert(index, wp)
+    route.plan()
+    if route.iactwp < 0:
+        route.iactwp = 0
+    if 0 <= route.iactwp < len(route):
+        activate_waypoint(traffic, i, route.iactwp)
+    return index
+
+
+def _position_name(pos: Position, text: str) -> str:
+    return pos.name if pos.name else text
+
+
+def check_addwpt(argtext: str, ctx: Any) -> None:
+    """Static check of ADDWPT arguments (``--strict``)."""
+    _, rest = ACID.parse(argtext, ctx)
+    first, after_first = next_arg(rest)
+    mode = first.upper().replace("-", "")
+    if mode in ("FLYBY", "FLYOVER") and not after_first.strip():
+        return
+    if mode in _UNSUPPORTED_MODES:
+        raise CommandError(f"{mode} is not supported by aamsim (see docs/bluesky-differences.md)")
+    try:
+        _, rest = LATLON.parse(rest, ctx)
+    except ArgumentError as exc:
+        raise ArgumentError(f"waypoint: {exc.message}") from None
+    token, rest = next_arg(rest)
+    if token:
+        ALT.convert(token, ctx)
+    token, rest = next_arg(rest)
+    if token:
+        SPD.convert(token, ctx)
+    _, rest = next_arg(rest)
+    _, rest = next_arg(rest)
+    if rest.strip():
+        raise ArgumentError(f'unexpected extra argument(s) "{rest.strip()}"')
+
+
+@command("ADDWPT", group="route")
+@raw_arguments
+@static_validator(check_addwpt)
+def addwpt(sim: Simulation, argtext: RestOfLine) -> None:
+    """ADDWPT acid, (wpname/lat,lon), [alt, spd, afterwp, beforewp]: add a waypoint to a route.
+
+    Alt (ft/FLnnn) and speed (kts/Mach) are constraints at the waypoint,
+    obeyed with VNAV on. ``ADDWPT acid FLYBY`` / ``FLYOVER`` sets how the
+    waypoints added next are flown. The first waypoint switches LNAV on.
+    """
+    ctx = LiveContext(sim)
+    i, rest = ACID.parse(argtext, ctx)
+    traffic = sim.traffic
+    route = traffic.routes[i]
+    first, after_first = next_arg(rest)
+    mode = first.upper().replace("-", "")
+    if mode in ("FLYBY", "FLYOVER") and not after_first.strip():
+        route.flyby_mode = mode == "FLYBY"
+        return
+    if mode in _UNSUPPORTED_MODES:
+        raise CommandError(f"{mode} is not supported by aamsim (see docs/bluesky-differences.md)")
+    # Named waypoints are looked up nearest the route's last point (or the aircraft).
+    if len(route):
+        ref = route.waypoints[-2] if route.has_dest and len(route) > 1 else route.waypoints[-1]
+        ctx.note_reference(ref.lat, ref.lon)
+    try:
+        pos, rest = LATLON.parse(rest, ctx)
+    except ArgumentError as exc:
+        raise ArgumentError(f"waypoint: {exc.message}") from None
+    alt = math.nan
+    spd = math.nan
+    spd_mach = False
+    token, rest = next_arg(rest)
+    if token:
+        alt = ALT.convert(token, ctx)
+    token, rest = next_arg(rest)
+    if token:
+        speed = SPD.convert(token, ctx)
+        spd, spd_mach = speed.value, speed.is_mach
+    ctx.last_acidx = i
+    after, rest = next_arg(rest)
+    before, rest = next_arg(rest)
+    if after:
+        after = WPINROUTE.convert(after, ctx)
+    if before:
+        before = WPINROUTE.convert(before, ctx)
+    if rest.strip():
+        raise ArgumentError(f'unexpected extra argument(s) "{rest.strip()}"')
+    if pos.kind == "latlon":
+        name, kind = traffic.ids[i], WaypointKind.LATLON
+    else:
+        name, kind = pos.name, WaypointKind.NAV
+    add_waypoint(sim, i, name, kind, pos.lat, pos.lon, alt, spd, spd_mach, after, before)
+    # The first real waypoint becomes the active one.
+    real = [w for w in route.waypoints if w.kind not in (WaypointKind.ORIG, WaypointKind.DEST)]
+    if len(real) == 1:
+        activate_waypoint(traffic, i, 1 if route.has_orig else 0)
+
+
+@command("DEST", group="route")
+def dest(sim: Simulation, acid: AcIndex, pos: PositionValue | None = None, spd: SpeedArg | None = None) -> str | None:
+    """DEST acid, [wpt/lat,lon, spd]: set the destination (the route's last waypoint, at altitude 0).
+
+    When it is the only waypoint (besides an origin) it becomes active and
+    LNAV and VNAV switch on.
+    """
+    traffic = sim.traffic
+    record = traffic.flights[acid]
+    if pos is None:
+        return f"DEST {traffic.ids[acid]}: {record.destination or '-'}"
+    name = pos.name or f"{pos.lat:.6f},{pos.lon:.6f}"
+    route = traffic.routes[acid]
+    index = add_waypoint(
+        sim, acid, name, WaypointKind.DEST, pos.lat, pos.lon, 0.0,
+        spd.value if spd else math.nan, spd.is_mach if spd else False,
+    )
+    record.destination = name
+    record.dest_lat, record.dest_lon = pos.lat, pos.lon
+    if index == 0 or (record.origin and len(route) == 2):
+        traffic.B[f.B_SWLNAV, acid] = True
+        traffic.B[f.B_SWVNAV, acid] = True
+        activate_waypoint(traffic, acid, index)
+    return None
+
+
+@command("ORIG", group="route")
+def orig(sim: Simulation, acid: AcIndex, pos: PositionValue | None = None) -> str | None:
+    """ORIG acid, [wpt/lat,lon]: set the origin (inserted first in the route, as in BlueSky)."""
+    traffic = sim.traffic
+    record = traffic.flights[acid]
+    if pos is None:
+        return f"ORIG {traffic.ids[acid]}: {record.origin or '-'}"
+    name = pos.name or f"{pos.lat:.6f},{pos.lon:.6f}"
+    add_waypoint(sim, acid, name, WaypointKind.ORIG, pos.lat, pos.lon, math.nan, float(traffic.cas[acid]))
+    record.origin = name
+    return None
+
+
+@command("DELWPT", aliases=("DELWP",), group="route")
+def delwpt(sim: Simulation, acid: AcIndex, wpname: RouteWaypoint) -> None:
+    """DELWPT acid, wpname: delete a waypoint from the route (``*``: the whole route)."""
+    if wpname == "*":
+        delrte(sim, acid)
+        return
+    traffic = sim.traffic
+    route = traffic.routes[acid]
+    index = route.find(wpname)
+    if route.iactwp == index and index != len(route) - 1:
+        activate_waypoint(traffic, acid, index + 1)
+    route.delete(index)
+    route.plan()
+    if not len(route):
+        traffic.B[f.B_SWLNAV, acid] = False
+        traffic.B[f.B_SWVNAV, acid] = False
+        traffic.B[f.B_SWVNAVSPD, acid] = False
+
+
+@command("DELRTE", aliases=("DELROUTE",), group="route")
+def delrte(sim: Simulation, acid: AcIndex) -> None:
+    """DELRTE acid: delete the whole route; LNAV and VNAV off."""
+    traffic = sim.traffic
+    route = traffic.routes[acid]
+    route.waypoints.clear()
+    route.iactwp = -1
+    route.flyby_mode = True
+    traffic.B[f.B_SWLNAV, acid] = False
+    traffic.B[f.B_SWVNAV, acid] = False
+    traffic.B[f.B_SWVNAVSPD, acid] = False
+
+
+@command("DIRECT", aliases=("DIRECTTO", "DIRTO"), group="route")
+def direct(sim: Simulation, acid: AcIndex, wpname: RouteWaypoint) -> None:
+    """DIRECT acid, wpname: fly straight to a waypoint of the route (LNAV on)."""
+    route = sim.traffic.routes[acid]
+    if wpname == "*":
+        raise CommandError("DIRECT needs a waypoint name")
+    activate_waypoint(sim.traffic, acid, route.find(wpname))
+
+
+@command("LNAV", group="route")
+def lnav(sim: Simulation, acid: AcIndex, on: OnOff | None = None) -> str | None:
+    """LNAV acid, [ON/OFF]: lateral navigation along the route."""
+    traffic = sim.traffic
+    callsign = traffic.ids[acid]
+    if on is None:
+        return f"{callsign}: LNAV is {'ON' if traffic.B[f.B_SWLNAV, acid] else 'OFF'}"
+    if on:
+        route = traffic.routes[acid]
+        if not len(route):
+            raise CommandError(f"LNAV {callsign}: no waypoints or destination specified")
+        if not traffic.B[f.B_SWLNAV, acid]:
+            activate_waypoint(traffic, acid, nearest_active_index(traffic, acid))
+    else:
+        traffic.B[f.B_SWLNAV, acid] = False
+    return None
+
+
+@command("VNAV", group="route")
+def vnav(sim: Simulation, acid: AcIndex, on: OnOff | None = None) -> str | None:
+    """VNAV acid, [ON/OFF]: vertical navigation (route altitude and speed constraints); needs LNAV."""
+    traffic = sim.traffic
+    F, B = traffic.F, traffic.B
+    callsign = traffic.ids[acid]
+    if on is None:
+        return f"{callsign}: VNAV is {'ON' if B[f.B_SWVNAV, acid] else 'OFF'}"
+    if on:
+        if not B[f.B_SWLNAV, acid]:
+            raise CommandError(f"{callsign}: VNAV ON requires LNAV to be ON")
+        route = traffic.routes[acid]
+        if not len(route):
+            raise CommandError(f"VNAV {callsign}: no waypoints or destination specified")
+        B[f.B_SWVNAV, acid] = True
+        B[f.B_SWVNAVSPD, acid] = True
+        route.plan()
+        wp = route.waypoints[route.iactwp]
+        compute_vnav(traffic, acid, wp.toalt, wp.xtoalt)
+        F[f.WP_NEXTALTCO, acid] = wp.toalt
+    else:
+        B[f.B_SWVNAV, acid] = False
+        B[f.B_SWVNAVSPD, acid] = False
+    return None
+
+
+@command("SWTOC", group="route")
+def swtoc(sim: Simulation, acid: AcIndex, on: OnOff | None = None) -> str | None:
+    """SWTOC acid, [ON/OFF]: climb as early as possible (ON) or on a constant gradient (OFF)."""
+    if on is None:
+        return f"{sim.traffic.ids[acid]}: SWTOC is {'ON' if sim.traffic.B[f.B_SWTOC, acid] else 'OFF'}"
+    sim.traffic.B[f.B_SWTOC, acid] = on
+    return None
+
+
+@command("SWTOD", group="route")
+def swtod(sim: Simulation, acid: AcIndex, on: OnOff | None = None) -> str | None:
+    """SWTOD acid, [ON/OFF]: descend as late as possible (ON) or on a constant gradient (OFF)."""
+    if on is None:
+        return f"{sim.traffic.ids[acid]}: SWTOD is {'ON' if sim.traffic.B[f.B_SWTOD, acid] else 'OFF'}"
+    sim.traffic.B[f.B_SWTOD, acid] = on
+    return None
+
+
+def _first_param_is_acid(sim: Simulation, text: str) -> bool:
+    name, _ = next_arg(text)
+    spec = sim.commands.get(name)
+    return bool(spec and spec.params and spec.params[0].argtype is ACID) or bool(
+        spec and spec.raw and spec.name in ("ADDWPT",)
+    )
+
+
+def check_at(argtext: str, ctx: Any) -> None:
+    """Static check of AT arguments (``--strict``); a DO command is checked as a command."""
+    _, rest = ACID.parse(argtext, ctx)
+    _, rest = next_arg(rest)  # waypoint: routes exist only while simulating
+    what, rest = next_arg(rest)
+    what = what.upper()
+    try:
+        if not what:
+            return
+        if "/" in what and not rest.strip():
+            alt_txt, spd_txt = what.split("/", 1)
+            if alt_txt and alt_txt.count("-") <= 1:
+                parse_altitude(alt_txt)
+            if spd_txt and spd_txt.count("-") <= 1:
+                parse_speed(spd_txt)
+        elif what == "ALT" and rest.strip():
+            parse_altitude(next_arg(rest)[0])
+        elif what in ("SPD", "SPEED") and rest.strip():
+            parse_speed(next_arg(rest)[0])
+        elif what in ("DO", "STACK"):
+            if rest.strip() and hasattr(ctx, "check_nested"):
+                ctx.check_nested(rest.strip())
+        elif what not in ("DEL", "DELETE", "CLR", "CLEAR", "ALT", "SPD", "SPEED"):
+            raise CommandError(f"AT: unknown keyword {what}")
+    except UnitParseError as exc:
+        raise ArgumentError(str(exc)) from None
+
+
+@command("AT", group="route")
+@raw_arguments
+@static_validator(check_at)
+def at(sim: Simulation, argtext: RestOfLine) -> str | None:
+    """AT acid, wpname, [ALT alt | SPD spd | alt/spd | DO cmd | DEL ALT/SPD/BOTH/ALL]: waypoint constraints and commands.
+
+    ``DO`` (or ``STACK``) stores a command run when the waypoint is passed;
+    the callsign is added to it when the command expects one first.
+    """
+    ctx = LiveContext(sim)
+    i, rest = ACID.parse(argtext, ctx)
+    wpname, rest = WPINROUTE.parse(rest, ctx)
+    traffic = sim.traffic
+    route = traffic.routes[i]
+    acid = traffic.ids[i]
+    wp = route.waypoints[route.find(wpname)]
+    what, rest = next_arg(rest)
+    what = what.upper()
+    if not what or what in ("ALT", "SPD", "SPEED", "DO", "STACK") and not rest.strip():
+        alt_txt = "-----" if math.isnan(wp.alt) else f"{wp.alt / FT:.0f}"
+        if math.isnan(wp.spd):
+            spd_txt = "---"
+        else:
+            spd_txt = f"M{wp.spd:.3f}" if wp.spd_mach else f"{wp.spd / KTS:.0f}"
+        lines = [f"{wp.name}: {alt_txt}/{spd_txt}"] + [f"DO {c}" for c in wp.stack]
+        return "\n".join(lines)
+    try:
+        if "/" in what and not rest.strip():
+            alt_txt, spd_txt = what.split("/", 1)
+            wp.alt = math.nan if alt_txt.count("-") > 1 or not alt_txt else parse_altitude(alt_txt)
+            if spd_txt.count("-") > 1 or not spd_txt:
+                wp.spd, wp.spd_mach = math.nan, False
+            else:
+                speed = parse_speed(spd_txt)
+                wp.spd, wp.spd_mach = speed.value, speed.is_mach
+        elif what == "ALT":
+            wp.alt = parse_altitude(next_arg(rest)[0])
+        elif what in ("SPD", "SPEED"):
+            speed = parse_speed(next_arg(rest)[0])
+            wp.spd, wp.spd_mach = speed.value, speed.is_mach
+        elif what in ("DO", "STACK"):
+            text = rest.strip()
+            first, _ = next_arg(text)
+            if first.upper() not in traffic and _first_param_is_acid(sim, text):
+                name, args = next_arg(text)
+                text = f"{name} {acid} {args}".strip()
+            wp.stack.append(text)
+        elif what in ("DEL", "DELETE", "CLR", "CLEAR"):
+            which = next_arg(rest)[0].upper()
+            if which in ("SPD", "SPEED", "BOTH", "ALL"):
+                wp.spd, wp.spd_mach = math.nan, False
+            if which in ("ALT", "BOTH", "ALL"):
+                wp.alt = math.nan
+            if which == "ALL":
+                wp.stack.clear()
+        else:
+            raise CommandError(f"AT {acid} {wpname}: unknown keyword {what}")
+    except UnitParseError as exc:
+        raise ArgumentError(str(exc)) from None
+    route.plan()
+    if 0 <= route.iactwp < len(route):
+        activate_waypoint(traffic, i, route.iactwp)
+    return None
+
+
+@command("RTA", group="route")
+def rta(sim: Simulation, acid: AcIndex, wpname: RouteWaypoint, time_s: Seconds) -> None:
+    """RTA acid, wpname, time: required time of arrival at a waypoint (book-keeping for delay metrics)."""
+    route = sim.traffic.routes[acid]
+    index = route.find(wpname)
+    route.waypoints[index].rta_s = time_s
+    if index == len(route) - 1:
+        sim.traffic.flights[acid].scheduled_arrival_s = time_s
+
+
+@command("LISTRTE", group="route")
+def listrte(sim: Simulation, acid: AcIndex) -> str:
+    """LISTRTE acid: show the route (name, position, constraints; * marks the active waypoint)."""
+    route = sim.traffic.routes[acid]
+    lines = [f"Route of {sim.traffic.ids[acid]}:"]
+    for k, wp in enumerate(route.waypoints):
+        alt = "-----" if math.isnan(wp.alt) else f"{wp.alt / FT:.0f}"
+        spd = "---" if math.isnan(wp.spd) else (f"M{wp.spd:.3f}" if wp.spd_mach else f"{wp.spd / KTS:.0f}")
+        mark = "*" if k == route.iactwp else " "
+        lines.append(f"{mark}{wp.name:<12} {wp.lat:10.5f} {wp.lon:11.5f} {alt:>6}/{spd}")
+    return "\n".join(lines)
+
+
+COMMANDS = (addwpt, dest, orig, delwpt, delrte, direct, lnav, vnav, swtoc, swtod, at, rta, listrte)

@@ -1,0 +1,284 @@
+"""Simulation control: time step, scheduling, scenario files, conditions, messages."""
+
+from __future__ import annotations
+
+import math
+from typing import TYPE_CHECKING, Any
+
+from aamsim.errors import CommandError, SourceRef
+from aamsim.geo import qdrdist
+from aamsim.stack.argtypes import (
+    AcIndex,
+    Altitude,
+    Count,
+    Number,
+    OnOff,
+    PositionValue,
+    RestOfLine,
+    Seconds,
+    SpeedArg,
+    Text,
+    Word,
+)
+from aamsim.stack.parser import TimedCommand
+from aamsim.stack.registry import command, raw_arguments, static_validator
+from aamsim.stack.tokens import split_args
+from aamsim.traffic.conditions import Condition
+from aamsim.traffic.kernel import COND_ALT, COND_DIST, COND_SPD
+from aamsim.units import NM
+
+if TYPE_CHECKING:
+    from aamsim.simulation import Simulation
+
+
+@command("DT", group="simulation")
+def dt(sim: Simulation, first: Word = "", second: Word = "") -> str | None:
+    """DT [dt] or DT ASAS dt: show or set the time step [s] (default 0.05), or the conflict-detection interval."""
+    if not first:
+        return f"time step {sim.settings.dt_s:g} s, conflict detection every {sim.settings.cd_interval_s:g} s"
+    try:
+        if second:
+            if first.upper() != "ASAS":
+                raise CommandError(f"DT {first}: the only timer that can be set is ASAS")
+            value = float(second)
+            if value <= 0:
+                raise CommandError("the ASAS interval must be positive")
+            sim.settings.cd_interval_s = value
+            return None
+        sim.set_dt(float(first))
+    except ValueError:
+        raise CommandError(f'"{first if not second else second}" is not a time step in seconds') from None
+    return None
+
+
+@command("FF", aliases=("FWD",), group="simulation")
+def ff(sim: Simulation, duration: Seconds | None = None) -> None:
+    """FF [time]: fast-forward. aamsim always runs as fast as it can, so this changes nothing."""
+    sim.note_once("FF", "FF has no effect: aamsim always runs as fast as possible", sim.current_source)
+
+
+@command("HOLD", aliases=("PAUSE",), group="simulation")
+def hold(sim: Simulation) -> None:
+    """HOLD: pause the simulation (a server or environment resumes it with OP)."""
+    sim.state = sim.STATE_HOLD
+
+
+@command("OP", aliases=("RUN", "START", "CONTINUE"), group="simulation")
+def op(sim: Simulation) -> None:
+    """OP: run (or resume after HOLD)."""
+    sim.state = sim.STATE_OP
+
+
+@command("RESET", group="simulation")
+def reset(sim: Simulation) -> None:
+    """RESET: delete all traffic, clear pending commands and set the clock to 0."""
+    sim.reset()
+
+
+@command("IC", aliases=("LOAD", "OPEN"), group="simulation")
+def ic(sim: Simulation, filename: RestOfLine) -> None:
+    """IC filename: reset, then load a scenario file (``IC IC`` reloads the current one)."""
+    name = filename.strip()
+    if not name:
+        raise CommandError("IC needs a scenario file name")
+    if name.upper() == "IC":
+        if sim.scenario_path is None:
+            raise CommandError("IC IC: no scenario was loaded before")
+        path = sim.scenario_path
+    else:
+        found = sim.find_file(name)
+        if found is None:
+            raise CommandError(f"scenario file not found: {name}")
+        path = found
+    sim.reset()
+    sim.scenario_name = path.stem
+    sim.scenario_path = path
+    sim.scenario_text = path.read_text(encoding="utf-8", errors="replace")
+    sim.load_scenario(path, text=sim.scenario_text)
+
+
+def check_pcall(argtext: str, ctx: Any) -> None:
+    """Static check of PCALL (``--strict``): the file must exist."""
+    tokens = [t for t in split_args(argtext) if t != ""]
+    if not tokens:
+        raise CommandError("PCALL needs a scenario file name")
+    finder = getattr(ctx, "find_file", None)
+    if finder is None:
+        return
+    if finder(tokens[0]) is None and not (len(tokens) > 1 and finder(tokens[1]) is not None):
+        raise CommandError(f"PCALL: file not found: {tokens[0]}")
+
+
+@command("PCALL", aliases=("CALL",), group="simulation")
+@raw_arguments
+@static_validator(check_pcall)
+def pcall(sim: Simulation, argtext: RestOfLine) -> None:
+    """PCALL filename, [REL/ABS], [args...]: merge another scenario file into this one.
+
+    Times are relative to now (REL, the default) or absolute (ABS); ``%0``,
+    ``%1``, ... in the file are replaced by the arguments.
+    """
+    tokens = [t for t in split_args(argtext) if t != ""]
+    if not tokens:
+        raise CommandError("PCALL needs a scenario file name")
+    if len(tokens) > 1 and tokens[0].upper() in sim.traffic:
+        # PCALL acid file args: the callsign becomes %0.
+        tokens = [tokens[1], tokens[0].upper(), *tokens[2:]]
+    name, args = tokens[0], tokens[1:]
+    relative = True
+    if args and args[0].upper() in ("REL", "ABS"):
+        relative = args[0].upper() == "REL"
+        args = args[1:]
+    path = sim.find_file(name)
+    if path is None:
+        raise CommandError(f"PCALL: file not found: {name}")
+    offset = sim.simt if relative else 0.0
+    parsed = sim.parse(path.read_text(encoding="utf-8", errors="replace"), str(path),
+                       time_offset_s=offset, substitutions=args)
+    for err in parsed.errors:
+        sim.report("error", err.message, err.source)
+    for cmd in parsed.commands:
+        # Commands whose time has passed run now, in file order.
+        sim.queue.push(cmd if cmd.time_s >= sim.simt else TimedCommand(sim.simt, cmd.command, cmd.source))
+
+
+@command("SCHEDULE", group="simulation", nested=True)
+def schedule(sim: Simulation, time_s: Seconds, text: RestOfLine) -> None:
+    """SCHEDULE time, command: run a command at an absolute sim time ([[HH:]MM:]SS)."""
+    if not text:
+        raise CommandError("SCHEDULE needs a command")
+    sim.schedule(max(time_s, sim.simt), text, sim.current_source)
+
+
+@command("DELAY", group="simulation", nested=True)
+def delay(sim: Simulation, time_s: Seconds, text: RestOfLine) -> None:
+    """DELAY time, command: run a command after a delay ([[HH:]MM:]SS)."""
+    if not text:
+        raise CommandError("DELAY needs a command")
+    sim.schedule(sim.simt + time_s, text, sim.current_source)
+
+
+@command("ECHO", aliases=("PRINT",), group="simulation")
+def echo(sim: Simulation, text: RestOfLine = "") -> str:
+    """ECHO text: print a message."""
+    return text or " "
+
+
+@command("SEED", group="simulation")
+def seed(sim: Simulation, value: Count) -> None:
+    """SEED value: seed the random generator (MCRE and every seeded model)."""
+    sim.reseed(value)
+
+
+@command("SCEN", aliases=("SCENARIO",), group="simulation")
+def scen(sim: Simulation, name: RestOfLine) -> None:
+    """SCEN name: name the scenario."""
+    sim.scenario_name = name.strip() or sim.scenario_name
+
+
+@command("QUIT", aliases=("EXIT", "STOP", "CLOSE", "END"), group="simulation")
+def quit_(sim: Simulation) -> None:
+    """QUIT: end the run now."""
+    sim.queue.clear()
+    sim.conditions.clear()
+    sim.quit_requested = True
+
+
+@command("DEFWPT", group="route")
+def defwpt(sim: Simulation, name: Text, pos: PositionValue, wptype: Text = "") -> None:
+    """DEFWPT name, lat, lon, [type]: define a named waypoint for this run (type DEL deletes it)."""
+    if wptype in ("DEL", "DELETE"):
+        if not sim.navdb.delete(name):
+            raise CommandError(f"no user waypoint {name}")
+        return
+    sim.navdb.define(name, pos.lat, pos.lon)
+
+
+@command("ATALT", group="conditional", nested=True)
+def atalt(sim: Simulation, acid: AcIndex, altitude: Altitude, text: RestOfLine) -> None:
+    """ATALT acid, alt, command: run a command when the aircraft crosses an altitude."""
+    if not text:
+        raise CommandError("ATALT needs a command")
+    actual = float(sim.traffic.alt[acid])
+    sim.conditions.add(Condition(sim.traffic.ids[acid], COND_ALT, altitude, altitude - actual, text,
+                                 sim.current_source or SourceRef()))
+
+
+@command("ATSPD", group="conditional", nested=True)
+def atspd(sim: Simulation, acid: AcIndex, speed: SpeedArg, text: RestOfLine) -> None:
+    """ATSPD acid, spd, command: run a command when the aircraft's CAS crosses a speed."""
+    if not text:
+        raise CommandError("ATSPD needs a command")
+    if speed.is_mach:
+        raise CommandError("ATSPD takes a CAS in kts, not a Mach number")
+    actual = float(sim.traffic.cas[acid])
+    sim.conditions.add(Condition(sim.traffic.ids[acid], COND_SPD, speed.value, speed.value - actual, text,
+                                 sim.current_source or SourceRef()))
+
+
+@command("ATDIST", group="conditional", nested=True)
+def atdist(sim: Simulation, acid: AcIndex, pos: PositionValue, dist_nm: Number, text: RestOfLine) -> None:
+    """ATDIST acid, lat, lon, dist, command: run a command when the aircraft comes within dist [NM] of a position."""
+    if not text:
+        raise CommandError("ATDIST needs a command")
+    if dist_nm < 0 or not math.isfinite(dist_nm):
+        raise CommandError(f"ATDIST distance must be positive, not {dist_nm:g}")
+    target = dist_nm * NM
+    _, actual = qdrdist(sim.traffic.lat[acid], sim.traffic.lon[acid], pos.lat, pos.lon)
+    sim.conditions.add(Condition(sim.traffic.ids[acid], COND_DIST, target, target - actual, text,
+                                 sim.current_source or SourceRef(), pos.lat, pos.lon))
+
+
+@command("AUTODELETE", group="simulation")
+def autodelete(sim: Simulation, on: OnOff | None = None) -> str | None:
+    """AUTODELETE [ON/OFF]: aircraft delete themselves on passing the last waypoint of their route (aamsim extension)."""
+    if on is None:
+        return f"AUTODELETE is {'ON' if sim.settings.delete_on_arrival else 'OFF'}"
+    sim.settings.delete_on_arrival = on
+    return None
+
+
+@command("ARRIVALRADIUS", group="simulation")
+def arrivalradius(sim: Simulation, radius_nm: Number | None = None) -> str | None:
+    """ARRIVALRADIUS [nm]: a deleted flight counts as arrived within this distance of its destination (default 0.1)."""
+    if radius_nm is None:
+        return f"arrival radius {sim.settings.arrival_radius_m / NM:g} NM"
+    if radius_nm < 0:
+        raise CommandError("the arrival radius cannot be negative")
+    sim.settings.arrival_radius_m = radius_nm * NM
+    return None
+
+
+@command("HELP", aliases=("?",), group="simulation")
+def help_(sim: Simulation, name: Text = "") -> str:
+    """HELP [command]: list the commands, or show one command's usage and help."""
+    if not name:
+        return "Commands: " + ", ".join(spec.name for spec in sim.commands.specs())
+    spec = sim.commands.get(name)
+    if spec is None:
+        raise CommandError(f"unknown command {name}")
+    return f"{spec.usage}\n{spec.help}"
+
+
+COMMANDS = (
+    dt,
+    ff,
+    hold,
+    op,
+    reset,
+    ic,
+    pcall,
+    schedule,
+    delay,
+    echo,
+    seed,
+    scen,
+    quit_,
+    defwpt,
+    atalt,
+    atspd,
+    atdist,
+    autodelete,
+    arrivalradius,
+    help_,
+)

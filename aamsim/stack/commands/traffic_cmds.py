@@ -1,0 +1,232 @@
+"""Aircraft commands: create, delete, move, and autopilot selections."""
+
+from __future__ import annotations
+
+import math
+from typing import TYPE_CHECKING
+
+from aamsim import aero
+from aamsim.errors import CommandError
+from aamsim.stack.argtypes import (
+    AcIndex,
+    Altitude,
+    Count,
+    Heading,
+    Number,
+    OnOff,
+    PositionValue,
+    SpeedArg,
+    Text,
+    VSpeed,
+    Word,
+)
+from aamsim.stack.registry import command
+from aamsim.traffic import fields as f
+from aamsim.units import FPM, FT, KTS, Speed
+
+if TYPE_CHECKING:
+    from aamsim.simulation import Simulation
+
+
+@command("CRE", aliases=("CREATE",), group="traffic")
+def cre(
+    sim: Simulation,
+    acid: Text,
+    actype: Text,
+    pos: PositionValue,
+    hdg: Heading | None = None,
+    alt: Altitude = 0.0,
+    spd: SpeedArg | None = None,
+) -> None:
+    """CRE acid, type, lat, lon, [hdg, alt, spd]: create an aircraft.
+
+    Heading in degrees (default 0), altitude in ft or FLnnn (default 0),
+    speed in kts CAS or Mach (default 0). An existing callsign is an error.
+    """
+    sim.create_aircraft(acid, actype, pos.lat, pos.lon, 0.0 if hdg is None else hdg, alt, spd or Speed(0.0))
+
+
+@command("MCRE", group="traffic")
+def mcre(
+    sim: Simulation,
+    count: Count,
+    actype: Text = "",
+    alt: Altitude | None = None,
+    spd: SpeedArg | None = None,
+    dest: Text = "",
+) -> None:
+    """MCRE n, [type, alt, spd, dest]: create n random aircraft (seeded by SEED / --seed).
+
+    Positions are uniform in the MCRE area (default +-1 deg around 0,0, as
+    BlueSky headless), headings uniform, altitude 2000-39000 ft and speed
+    250-450 kts unless given. Callsigns are two random letters and a number.
+    """
+    if count <= 0 or count > 100_000:
+        raise CommandError(f"MCRE needs 1..100000 aircraft, not {count}")
+    rng = sim.rng
+    lat0, lon0, lat1, lon1 = sim.settings.mcre_area
+    actype = actype or "B744"
+    if actype in ("*",):
+        actype = "B744"
+    prefix = chr(int(rng.integers(65, 91))) + chr(int(rng.integers(65, 91)))
+    number = 0
+    for _ in range(count):
+        while f"{prefix}{number:05d}" in sim.traffic:
+            number += 1
+        acid = f"{prefix}{number:05d}"
+        number += 1
+        lat = float(rng.uniform(lat0, lat1))
+        lon = float(rng.uniform(lon0, lon1))
+        hdg = float(rng.integers(1, 360))
+        a = alt if alt is not None else float(rng.integers(2000, 39000)) * FT
+        s = spd if spd is not None else Speed(float(rng.integers(250, 450)) * KTS)
+        i = sim.create_aircraft(acid, actype, lat, lon, hdg, a, s)
+        if dest:
+            sim.stack(f"DEST {acid} {dest}", sim.current_source)
+        _ = i
+
+
+@command("DEL", aliases=("DELETE",), group="traffic")
+def delete(sim: Simulation, *targets: Word) -> None:
+    """DEL acid, [acid, ...]: delete aircraft. ``DEL *`` deletes all of them."""
+    if not targets:
+        raise CommandError("DEL needs a callsign (or * for all aircraft)")
+    names = [t.upper() for t in targets if t]
+    if "*" in names:
+        for i in range(sim.traffic.n - 1, -1, -1):
+            sim.delete_aircraft(i)
+        return
+    missing = [name for name in names if name not in sim.traffic]
+    for name in names:
+        i = sim.traffic.find(name)
+        if i is not None:
+            sim.delete_aircraft(i)
+    if missing:
+        hint = " (DEL * deletes all aircraft)" if "ALL" in missing else ""
+        raise CommandError(f"no aircraft {', '.join(missing)}{hint}")
+
+
+@command("MOVE", group="traffic")
+def move(
+    sim: Simulation,
+    acid: AcIndex,
+    pos: PositionValue,
+    alt: Altitude | None = None,
+    hdg: Heading | None = None,
+    spd: SpeedArg | None = None,
+    vspd: VSpeed | None = None,
+) -> None:
+    """MOVE acid, lat, lon, [alt, hdg, spd, vspd]: put an aircraft somewhere else."""
+    F, B = sim.traffic.F, sim.traffic.B
+    F[f.LAT, acid] = pos.lat
+    F[f.LON, acid] = pos.lon
+    F[f.COSLAT, acid] = math.cos(math.radians(pos.lat))
+    if alt is not None:
+        F[f.ALT, acid] = alt
+        F[f.SELALT, acid] = alt
+    if hdg is not None:
+        F[f.HDG, acid] = hdg
+        F[f.AP_TRK, acid] = hdg
+    if spd is not None:
+        h = F[f.ALT, acid]
+        tas = aero.mach2tas(spd.value, h) if spd.is_mach else aero.cas2tas(spd.value, h)
+        F[f.TAS, acid] = float(tas)
+        F[f.SELSPD, acid] = spd.value
+        B[f.B_SELSPD_MACH, acid] = spd.is_mach
+    if vspd is not None:
+        F[f.VS, acid] = vspd
+        B[f.B_SWVNAV, acid] = False
+
+
+@command("SPD", aliases=("SPEED",), group="autopilot")
+def spd(sim: Simulation, acid: AcIndex, speed: SpeedArg) -> None:
+    """SPD acid, spd: select a speed (kts CAS, or Mach); VNAV speed control off."""
+    sim.traffic.F[f.SELSPD, acid] = speed.value
+    sim.traffic.B[f.B_SELSPD_MACH, acid] = speed.is_mach
+    sim.traffic.B[f.B_SWVNAVSPD, acid] = False
+
+
+@command("ALT", aliases=("ALTITUDE",), group="autopilot")
+def alt(sim: Simulation, acid: AcIndex, altitude: Altitude, vspd: VSpeed | None = None) -> None:
+    """ALT acid, alt, [vspd]: select an altitude (ft or FLnnn), optionally a vertical speed (fpm); VNAV off.
+
+    Without a vertical speed, a previously selected one pointing the other way
+    is dropped in favour of the default 1500 fpm.
+    """
+    F, B = sim.traffic.F, sim.traffic.B
+    F[f.SELALT, acid] = altitude
+    B[f.B_SWVNAV, acid] = False
+    if vspd:
+        F[f.SELVS, acid] = vspd
+    else:
+        selvs = F[f.SELVS, acid]
+        if selvs * (altitude - F[f.ALT, acid]) < 0.0 and abs(selvs) > 0.01:
+            F[f.SELVS, acid] = 0.0
+
+
+@command("VS", aliases=("VSPD",), group="autopilot")
+def vs(sim: Simulation, acid: AcIndex, vspd: VSpeed) -> None:
+    """VS acid, vspd: select a vertical speed (fpm), used while the selected altitude differs; VNAV off."""
+    sim.traffic.F[f.SELVS, acid] = vspd
+    sim.traffic.B[f.B_SWVNAV, acid] = False
+
+
+@command("HDG", aliases=("HEADING", "TURN"), group="autopilot")
+def hdg(sim: Simulation, acid: AcIndex, heading: Heading) -> None:
+    """HDG acid, hdg: fly a heading (degrees true); LNAV off."""
+    sim.traffic.F[f.AP_TRK, acid] = heading
+    sim.traffic.B[f.B_SWLNAV, acid] = False
+
+
+@command("BANK", aliases=("BANKLIM",), group="autopilot")
+def bank(sim: Simulation, acid: AcIndex, bank_deg: Number | None = None) -> str | None:
+    """BANK acid, [bank]: set (or show) the bank angle used in turns [deg]."""
+    if bank_deg is None:
+        return f"{sim.traffic.ids[acid]} bank angle {math.degrees(sim.traffic.F[f.BANKDEF, acid]):.1f} deg"
+    if not 0.0 < bank_deg < 90.0:
+        raise CommandError(f"bank angle must be between 0 and 90 deg, not {bank_deg:g}")
+    sim.traffic.F[f.BANKDEF, acid] = math.radians(bank_deg)
+    return None
+
+
+@command("POS", group="traffic")
+def pos(sim: Simulation, name: Text) -> str:
+    """POS acid/waypoint: show an aircraft's state or a waypoint's position."""
+    i = sim.traffic.find(name)
+    if i is not None:
+        F, B = sim.traffic.F, sim.traffic.B
+        route = sim.traffic.routes[i]
+        active = route.waypoints[route.iactwp].name if 0 <= route.iactwp < len(route) else "-"
+        return (
+            f"{name} {sim.traffic.types[i]} lat {F[f.LAT, i]:.6f} lon {F[f.LON, i]:.6f} "
+            f"alt {F[f.ALT, i] / FT:.0f} ft hdg {F[f.HDG, i]:.1f} CAS {F[f.CAS, i] / KTS:.1f} kts "
+            f"TAS {F[f.TAS, i] / KTS:.1f} kts VS {F[f.VS, i] / FPM:.0f} fpm "
+            f"LNAV {'ON' if B[f.B_SWLNAV, i] else 'OFF'} VNAV {'ON' if B[f.B_SWVNAV, i] else 'OFF'} "
+            f"active waypoint {active}"
+        )
+    found = sim.navdb.lookup(name)
+    if found is None:
+        raise CommandError(f"{name} is not a command, an aircraft or a known waypoint")
+    return f"{name} at lat {found[0]:.6f} lon {found[1]:.6f}"
+
+
+@command("CASMACHTHR", group="autopilot")
+def casmachthr(sim: Simulation, threshold: Number | None = None) -> str:
+    """CASMACHTHR [threshold]: accepted for BlueSky compatibility; it has no effect.
+
+    aamsim keeps CAS and Mach apart (``M.78`` or 0.1 < value < 1 is Mach,
+    anything else knots), so no speed threshold can turn a slow drone into a
+    Mach number.
+    """
+    return "CASMACHTHR has no effect in aamsim: CAS and Mach are never confused"
+
+
+@command("NOISE", group="traffic")
+def noise(sim: Simulation, on: OnOff | None = None) -> str:
+    """NOISE [ON/OFF]: turbulence and surveillance noise (aamsim has none; ON is refused)."""
+    if on:
+        raise CommandError("NOISE ON is not supported: aamsim models no turbulence or ADS-B noise")
+    return "NOISE is OFF"
+
+
+COMMANDS = (cre, mcre, delete, move, spd, alt, vs, hdg, bank, pos, casmachthr, noise)

@@ -1,0 +1,210 @@
+"""Scenario text -> timed commands. Pure functions: no simulation state.
+
+A scenario line is ``HH:MM:SS.hh>COMMAND args[; COMMAND args ...]``, with
+``#`` comments, blank lines and ``\\`` continuations. Lines are returned in
+time order (a stable sort, as BlueSky does). Every problem becomes a
+:class:`~aamsim.errors.ScenarioSyntaxError` carrying the file and line; a bad
+line never hides the good ones.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Iterable
+from dataclasses import dataclass, field
+
+from aamsim.errors import ScenarioSyntaxError, SourceRef
+from aamsim.stack.tokens import next_arg
+from aamsim.units import UnitParseError, format_time
+
+_FORBIDDEN_IN_NAME = set("'\";#>")
+
+
+@dataclass(frozen=True)
+class Command:
+    """One stack command: its name (upper case) and its raw argument text."""
+
+    name: str
+    argtext: str = ""
+
+    def __str__(self) -> str:
+        return f"{self.name} {self.argtext}" if self.argtext else self.name
+
+
+@dataclass(frozen=True)
+class TimedCommand:
+    """A command with the sim time [s] at which it is due and where it came from."""
+
+    time_s: float
+    command: Command
+    source: SourceRef = field(default_factory=SourceRef)
+
+    def __str__(self) -> str:
+        return f"{format_time(self.time_s)}>{self.command}"
+
+
+@dataclass
+class ParsedScenario:
+    """Result of parsing a scenario: commands in time order plus every error found."""
+
+    commands: list[TimedCommand]
+    errors: list[ScenarioSyntaxError]
+
+
+def parse_line(text: str, source: SourceRef | None = None) -> Command:
+    """Parse one command (no time stamp, no ``;``) into a :class:`Command`.
+
+    Raises:
+        ScenarioSyntaxError: empty text or a command word that cannot be a name.
+    """
+    if not isinstance(text, str):
+        raise ScenarioSyntaxError("command text must be a string", source)
+    stripped = text.strip()
+    if not stripped:
+        raise ScenarioSyntaxError("empty command", source)
+    if any(c in stripped for c in "\n\r"):
+        raise ScenarioSyntaxError("a command must be on one line", source)
+    name, rest = next_arg(stripped)
+    if not name or any(c in _FORBIDDEN_IN_NAME for c in name) or stripped[0] in "'\",":
+        raise ScenarioSyntaxError(f'"{stripped.split()[0]}" is not a command name', source, 1)
+    return Command(name.upper(), rest.strip())
+
+
+def format_command(command: Command) -> str:
+    """Inverse of :func:`parse_line`."""
+    return str(command)
+
+
+def parse_timestamp(text: str, source: SourceRef | None = None) -> float:
+    """Read the ``HH:MM:SS.hh`` time stamp of a scenario line [s].
+
+    BlueSky requires three colon-separated fields; so do we, so that every
+    file accepted here also runs there.
+    """
+    parts = text.strip().split(":")
+    if len(parts) != 3:
+        raise ScenarioSyntaxError(f'bad time "{text.strip()}": expected HH:MM:SS.hh', source)
+    try:
+        hours = int(parts[0])
+        minutes = int(parts[1])
+        seconds = float(parts[2])
+    except ValueError:
+        raise ScenarioSyntaxError(f'bad time "{text.strip()}": expected HH:MM:SS.hh', source) from None
+    if hours < 0 or minutes < 0 or not (0.0 <= seconds < float("inf")):
+        raise ScenarioSyntaxError(f'bad time "{text.strip()}": negative or not finite', source)
+    return hours * 3600.0 + minutes * 60.0 + seconds
+
+
+def split_commands(text: str) -> list[str]:
+    """Split ``CMD1 args; CMD2 args`` into its commands (outside quotes)."""
+    parts: list[str] = []
+    current: list[str] = []
+    quote = ""
+    for ch in text:
+        if quote:
+            if ch == quote:
+                quote = ""
+            current.append(ch)
+        elif ch in "'\"":
+            quote = ch
+            current.append(ch)
+        elif ch == ";":
+            parts.append("".join(current))
+            current = []
+        else:
+            current.append(ch)
+    parts.append("".join(current))
+    return [p.strip() for p in parts if p.strip()]
+
+
+def resolve_command_form(command: Command, is_command: Callable[[str], bool]) -> Command:
+    """Rewrite BlueSky's ``ACID CMD args`` form to ``CMD ACID args``.
+
+    A line whose first word is not a command but whose second word is, names
+    the aircraft first. A lone unknown word is a position query (``POS``).
+    Otherwise the command is returned unchanged (an unknown name is reported
+    by the caller).
+    """
+    if is_command(command.name):
+        return command
+    second, rest = next_arg(command.argtext)
+    if second and is_command(second.upper()):
+        argtext = f"{command.name} {rest}".strip()
+        return Command(second.upper(), argtext)
+    if not command.argtext and is_command("POS"):
+        return Command("POS", command.name)
+    return command
+
+
+def iter_logical_lines(text: str) -> Iterable[tuple[int, str]]:
+    """Yield ``(line_number, text)`` with comments removed and continuations joined.
+
+    The number is the line where the logical line starts.
+    """
+    pending = ""
+    pending_line = 0
+    for number, raw in enumerate(text.splitlines(), start=1):
+        line = raw.split("#", 1)[0].strip()
+        if not line and not pending:
+            continue
+        if not pending:
+            pending_line = number
+        if line.endswith("\\"):
+            pending += line[:-1].strip() + " "
+            continue
+        yield pending_line, (pending + line).strip()
+        pending = ""
+    if pending.strip():
+        yield pending_line, pending.strip()
+
+
+def parse_scenario(
+    text: str,
+    path: str = "<scenario>",
+    is_command: Callable[[str], bool] | None = None,
+    time_offset_s: float = 0.0,
+    substitutions: list[str] | None = None,
+) -> ParsedScenario:
+    """Parse scenario text into time-ordered commands and a list of errors.
+
+    Args:
+        text: the file contents.
+        path: file name used in error locations.
+        is_command: predicate for known command names; when given, unknown
+            commands are reported here and the ``ACID CMD`` form is resolved.
+        time_offset_s: added to every time stamp (PCALL relative times).
+        substitutions: PCALL arguments replacing ``%0``, ``%1``, ...
+
+    Returns:
+        A :class:`ParsedScenario`; ``commands`` is stably sorted by time.
+    """
+    commands: list[TimedCommand] = []
+    errors: list[ScenarioSyntaxError] = []
+    for number, line in iter_logical_lines(text):
+        source = SourceRef(path, number)
+        if substitutions:
+            # Highest index first so that %1 does not eat the start of %10.
+            for i in range(len(substitutions) - 1, -1, -1):
+                line = line.replace(f"%{i}", substitutions[i])
+        if ">" not in line:
+            errors.append(ScenarioSyntaxError(f'no ">" after the time stamp in "{line}"', source))
+            continue
+        stamp, body = line.split(">", 1)
+        try:
+            t = parse_timestamp(stamp, source) + time_offset_s
+        except (ScenarioSyntaxError, UnitParseError) as exc:
+            errors.append(exc if isinstance(exc, ScenarioSyntaxError) else ScenarioSyntaxError(str(exc), source))
+            continue
+        for part in split_commands(body):
+            try:
+                command = parse_line(part, source)
+            except ScenarioSyntaxError as exc:
+                errors.append(exc)
+                continue
+            if is_command is not None:
+                command = resolve_command_form(command, is_command)
+                if not is_command(command.name):
+                    errors.append(ScenarioSyntaxError(f"unknown command {command.name}", source))
+                    continue
+            commands.append(TimedCommand(t, command, source))
+    commands.sort(key=lambda c: c.time_s)
+    return ParsedScenario(commands, errors)

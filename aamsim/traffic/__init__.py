@@ -1,0 +1,1 @@
+"""Aircraft state, performance envelopes, routes, autopilot and the step kernel."""

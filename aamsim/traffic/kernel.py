@@ -1,0 +1,480 @@
+"""The per-step traffic update, compiled with Numba.
+
+One call advances every aircraft by up to ``nsteps`` time steps, in BlueSky's
+order within a step:
+
+1. LNAV: has the aircraft reached its active waypoint? If any has, the call
+   returns *before* the step so that Python can start the next leg
+   (:func:`aamsim.traffic.autopilot.pass_waypoint`) and then resume the same step;
+2. autopilot: track to the waypoint, VNAV altitude/vertical speed, speed
+   constraints, selected speed -> TAS;
+3. performance limits on the commanded speed, vertical speed and altitude;
+4. kinematics: speed ramps at ``axmax``, heading turns at g*tan(bank)/V,
+   vertical speed ramps at 300 fpm/s, then the flat-earth Euler position step;
+5. conditional commands (ATALT/ATSPD/ATDIST): if one fires, the call returns
+   after the step so that Python runs its command before the next one.
+
+Aircraft are independent within a step, so the loop is a plain scalar loop
+over slots with no allocation. Atmospheric quantities and heading sines are
+cached per aircraft and recomputed only when altitude or heading change.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+from aamsim.aero import P0, R_AIR, RHO0, T0, T_STRAT, LAPSE, GAMMA
+from aamsim.geo import WGS84_A, WGS84_B, qdrdist_scalar
+from aamsim.traffic.fields import (
+    ALT,
+    B_C_SPD_MACH,
+    C_APTAS_OUT,
+    C_BANK,
+    C_CAS_OUT,
+    C_SPD_IN,
+    C_TANBANK,
+    C_TAS_IN,
+    C_WPCOS,
+    C_WPLAT,
+    C_WPSIN,
+    AP_ALT,
+    AP_TAS,
+    AP_TRK,
+    AP_VS,
+    AIRBORNE_S,
+    AX,
+    AXMAX,
+    BANKDEF,
+    B_ROTOR,
+    B_SELSPD_MACH,
+    B_SWALTSEL,
+    B_SWHDGSEL,
+    B_SWLNAV,
+    B_SWTOD,
+    B_SWVNAV,
+    B_SWVNAVSPD,
+    B_SWVNAVVS,
+    B_WP_FLYBY,
+    C_A,
+    C_ALT,
+    C_COSHDG,
+    C_HDG,
+    C_P,
+    C_RHO,
+    C_SINHDG,
+    CAS,
+    COSLAT,
+    DIST2VS,
+    DIST2WP,
+    DISTFLOWN,
+    GS,
+    GSEAST,
+    GSNORTH,
+    HDG,
+    HMAX,
+    LAT,
+    LON,
+    MACH,
+    MMO,
+    QDR2WP,
+    SELALT,
+    SELSPD,
+    SELVS,
+    SLOW_S,
+    TAS,
+    TRK,
+    TURNPHI,
+    VMAX,
+    VMIN,
+    VNAVVS,
+    VS,
+    VSDEF,
+    VSMAX,
+    VSMIN,
+    WP_CURLEGDIR,
+    WP_LAT,
+    WP_LON,
+    WP_NEXTALTCO,
+    WP_NEXTSPD,
+    WP_SPD,
+    WP_SPDCON,
+    WP_TURNDIST,
+    WP_VS,
+)
+from aamsim.units import FPM, G0, NM, R_EARTH
+
+STATUS_DONE = 0
+STATUS_REACHED = 1  # returned before a step: reached[] marks aircraft at their waypoint
+STATUS_CONDITION = 2  # returned after a step: fired[] marks conditions that triggered
+
+COND_ALT = 0
+COND_SPD = 1
+COND_DIST = 2
+
+_VS_ACCEL = 300.0 * FPM  # m/s^2, vertical speed ramp
+_EPS = 0.01
+_A2 = WGS84_A * WGS84_A
+_B2 = WGS84_B * WGS84_B
+_A4 = _A2 * _A2
+_B4 = _B2 * _B2
+
+
+@njit(cache=True, inline="always")
+def wrap360(x: float) -> float:
+    """``x % 360.0`` with Python semantics; cheap in the common in-range case."""
+    if 0.0 <= x < 360.0:
+        return x
+    if -360.0 <= x < 0.0:
+        return x + 360.0
+    if 360.0 <= x < 720.0:
+        return x - 360.0
+    return x % 360.0
+
+
+@njit(cache=True, inline="always")
+def wrap180(x: float) -> float:
+    """Angle difference wrapped to [-180, 180) degrees (``(x + 180) % 360 - 180``)."""
+    return wrap360(x + 180.0) - 180.0
+
+
+@njit(cache=True, inline="always")
+def _atmosphere(F: np.ndarray, i: int, alt: float) -> tuple[float, float, float]:
+    """(rho, p, speed of sound) at the aircraft's altitude, cached per aircraft."""
+    if F[C_ALT, i] != alt:
+        t = max(T0 + LAPSE * alt, T_STRAT)
+        rho = RHO0 * (t / T0) ** 4.256848030018761 * math.exp(-max(0.0, alt - 11000.0) / 6341.552161)
+        F[C_RHO, i] = rho
+        F[C_P, i] = rho * R_AIR * t
+        F[C_A, i] = math.sqrt(GAMMA * R_AIR * t)
+        F[C_ALT, i] = alt
+        # Speed conversions depend on altitude: drop their caches.
+        F[C_TAS_IN, i] = math.nan
+        F[C_SPD_IN, i] = math.nan
+    return F[C_RHO, i], F[C_P, i], F[C_A, i]
+
+
+@njit(cache=True, inline="always")
+def _cas2tas(cas: float, rho: float, p: float) -> float:
+    qdyn = P0 * ((1.0 + RHO0 * cas * cas / (7.0 * P0)) ** 3.5 - 1.0)
+    tas = math.sqrt(7.0 * p / rho * ((1.0 + qdyn / p) ** (2.0 / 7.0) - 1.0))
+    return -tas if cas < 0.0 else tas
+
+
+@njit(cache=True, inline="always")
+def _tas2cas(tas: float, rho: float, p: float) -> float:
+    qdyn = p * ((1.0 + rho * tas * tas / (7.0 * p)) ** 3.5 - 1.0)
+    cas = math.sqrt(7.0 * P0 / RHO0 * ((qdyn / P0 + 1.0) ** (2.0 / 7.0) - 1.0))
+    return -cas if tas < 0.0 else cas
+
+
+@njit(cache=True)
+def _atmos_at(h: float) -> tuple[float, float, float]:
+    t = max(T0 + LAPSE * h, T_STRAT)
+    rho = RHO0 * (t / T0) ** 4.256848030018761 * math.exp(-max(0.0, h - 11000.0) / 6341.552161)
+    return rho, rho * R_AIR * t, math.sqrt(GAMMA * R_AIR * t)
+
+
+@njit(cache=True, inline="always")
+def guidance(F: np.ndarray, i: int) -> tuple[float, float]:
+    """Bearing [deg, -180..180] and distance [m] to the active waypoint.
+
+    The same great circle on the local WGS-84 radius as
+    :func:`aamsim.geo.qdrdist_scalar`, reusing cos(lat) from the position
+    update and the waypoint's sine and cosine, cached per leg; the radius is
+    computed from those products instead of new trigonometry.
+    """
+    lat1 = F[LAT, i]
+    lat2 = F[WP_LAT, i]
+    if F[C_WPLAT, i] != lat2:
+        la2 = math.radians(lat2)
+        F[C_WPSIN, i] = math.sin(la2)
+        F[C_WPCOS, i] = math.cos(la2)
+        F[C_WPLAT, i] = lat2
+    s2 = F[C_WPSIN, i]
+    c2 = F[C_WPCOS, i]
+    s1 = math.sin(math.radians(lat1))
+    c1 = F[COSLAT, i]
+    if lat1 * lat2 >= 0.0:
+        # sin^2 of the mean latitude from the two points' sines and cosines
+        smean2 = 0.5 * (1.0 - (c1 * c2 - s1 * s2))
+        cmean2 = 1.0 - smean2
+        r = math.sqrt((_A4 * cmean2 + _B4 * smean2) / (_A2 * cmean2 + _B2 * smean2))
+    else:
+        return qdrdist_scalar(lat1, F[LON, i], lat2, F[WP_LON, i])
+    dlon = math.radians(F[WP_LON, i]) - math.radians(F[LON, i])
+    cdl = math.cos(dlon)
+    sdl = math.sin(dlon)
+    cosarg = c1 * c2 * cdl + s1 * s2
+    if cosarg > 1.0:
+        cosarg = 1.0
+    elif cosarg < -1.0:
+        cosarg = -1.0
+    dist = r * math.acos(cosarg)
+    qdr = math.degrees(math.atan2(sdl * c2, c1 * s2 - s1 * c2 * cdl))
+    return qdr, dist
+
+
+@njit(cache=True, inline="always")
+def _reached(F: np.ndarray, B: np.ndarray, i: int, qdr: float, dist: float) -> bool:
+    """BlueSky's waypoint-passing test for an aircraft flying LNAV."""
+    gs = F[GS, i]
+    close = dist / max(0.0001, abs(gs)) < 4.0
+    too_close_to_turn = close and abs(wrap180(wrap360(F[TRK, i]) - wrap360(qdr))) > 90.0
+    away_or_passed = too_close_to_turn or abs(wrap180(qdr - F[WP_CURLEGDIR, i])) > 90.0
+    turndist = F[WP_TURNDIST, i] if B[B_WP_FLYBY, i] else 0.0
+    return away_or_passed or dist < turndist
+
+
+@njit(cache=True)
+def _step_aircraft(
+    F: np.ndarray,
+    B: np.ndarray,
+    i: int,
+    dt: float,
+    qdr: float,
+    dist: float,
+    have_qdr: bool,
+    hold_speed: float,
+    airborne_alt: float,
+) -> None:
+    alt = F[ALT, i]
+    tas = F[TAS, i]
+    swlnav = B[B_SWLNAV, i]
+    swvnav = B[B_SWVNAV, i]
+    rho, p, a = _atmosphere(F, i, alt)
+
+    # ---------------------------------------------------------------- autopilot
+    if swlnav or swvnav:
+        if not have_qdr:
+            qdr, dist = guidance(F, i)
+        F[QDR2WP, i] = wrap360(qdr)
+        F[DIST2WP, i] = dist
+    dist2wp = F[DIST2WP, i]
+    turndist = F[WP_TURNDIST, i]
+    nextaltco = F[WP_NEXTALTCO, i]
+    swvnavvs = False
+    if swvnav:
+        if swlnav:
+            if nextaltco == nextaltco:  # not NaN
+                if alt > nextaltco:
+                    swvnavvs = dist2wp < F[DIST2VS, i] + turndist or not B[B_SWTOD, i]
+                elif alt < nextaltco:
+                    swvnavvs = True
+        else:
+            swvnavvs = dist2wp <= max(0.1 * NM, turndist)
+    B[B_SWVNAVVS, i] = swvnavvs
+    if swvnavvs:
+        F[VNAVVS, i] = F[WP_VS, i]
+        ap_vs = F[WP_VS, i]
+        ap_alt = nextaltco
+        F[SELALT, i] = nextaltco
+    else:
+        selvs = F[SELVS, i]
+        ap_vs = selvs if abs(selvs) > 0.1 else F[VSDEF, i]
+        ap_alt = F[SELALT, i]
+    if swlnav:
+        F[AP_TRK, i] = F[QDR2WP, i]
+
+    # Speed: an upcoming speed constraint is anticipated by the distance
+    # needed to reach it; otherwise the constraint of the current leg holds.
+    nextspd = F[WP_NEXTSPD, i]
+    use_next = False
+    if swlnav and swvnav and B[B_SWVNAVSPD, i] and nextspd == nextspd:
+        nexttas = _cas2tas(nextspd, rho, p)
+        dx_accel = 0.5 * abs(nexttas * nexttas - tas * tas) / max(0.001, abs(F[AXMAX, i]))
+        use_next = dist2wp < dx_accel
+    if use_next:
+        F[SELSPD, i] = nextspd
+        B[B_SELSPD_MACH, i] = False
+    elif B[B_SWVNAVSPD, i] and F[WP_SPDCON, i] == F[WP_SPDCON, i]:
+        F[SELSPD, i] = F[WP_SPD, i]
+        B[B_SELSPD_MACH, i] = False
+    selspd = F[SELSPD, i]
+    mach = B[B_SELSPD_MACH, i]
+    if F[C_SPD_IN, i] == selspd and B[B_C_SPD_MACH, i] == mach:
+        ap_tas = F[C_APTAS_OUT, i]
+    else:
+        ap_tas = selspd * a if mach else _cas2tas(selspd, rho, p)
+        F[C_SPD_IN, i] = selspd
+        B[B_C_SPD_MACH, i] = mach
+        F[C_APTAS_OUT, i] = ap_tas
+    F[AP_TAS, i] = ap_tas
+    F[AP_ALT, i] = ap_alt
+    F[AP_VS, i] = ap_vs
+
+    # ------------------------------------------------------ performance limits
+    des_hdg = wrap360(F[AP_TRK, i])
+    des_vs = abs(ap_vs)
+    des_alt = min(ap_alt, F[HMAX, i])
+    axmax = F[AXMAX, i]
+    if B[B_ROTOR, i]:
+        des_tas = min(max(ap_tas, F[VMIN, i]), F[VMAX, i])
+        des_vs = min(max(des_vs, F[VSMIN, i]), F[VSMAX, i])
+    else:
+        rho_h, p_h, a_h = _atmos_at(des_alt)
+        cas_i = _tas2cas(ap_tas, rho_h, p_h)
+        cas_l = min(max(cas_i, F[VMIN, i]), F[VMAX, i])
+        des_tas = _cas2tas(cas_l, rho_h, p_h)
+        if des_tas / a_h > F[MMO, i]:
+            des_tas = F[MMO, i] * a_h
+        if des_vs > F[VSMAX, i]:
+            des_vs = (1.0 - F[AX, i] / axmax) * F[VSMAX, i]
+
+    # -------------------------------------------------------------- kinematics
+    dspd = des_tas - tas
+    if abs(dspd) > abs(dt * axmax):
+        ax = axmax if dspd > 0.0 else -axmax
+        tas = tas + ax * dt
+    else:
+        ax = 0.0
+        tas = des_tas
+    F[AX, i] = ax
+    F[TAS, i] = tas
+    if F[C_TAS_IN, i] != tas:
+        F[C_CAS_OUT, i] = _tas2cas(tas, rho, p)
+        F[C_TAS_IN, i] = tas
+    F[CAS, i] = F[C_CAS_OUT, i]
+    F[MACH, i] = tas / a
+
+    hdg = F[HDG, i]
+    delhdg = wrap180(des_hdg - hdg)
+    if delhdg != 0.0:
+        phi = F[TURNPHI, i]
+        bank = phi if phi > _EPS * _EPS else F[BANKDEF, i]
+        if F[C_BANK, i] != bank:
+            F[C_TANBANK, i] = math.tan(bank)
+            F[C_BANK, i] = bank
+        turnrate = math.degrees(G0 * F[C_TANBANK, i] / max(tas, _EPS))
+        turning = abs(delhdg) > abs(dt * turnrate)
+    else:
+        turnrate = 0.0
+        turning = False
+    B[B_SWHDGSEL, i] = turning
+    if turning:
+        hdg = wrap360(hdg + dt * turnrate * (1.0 if delhdg > 0.0 else -1.0))
+    else:
+        hdg = des_hdg
+    F[HDG, i] = hdg
+
+    vs = F[VS, i]
+    delalt = des_alt - alt
+    altsel = abs(delalt) > 1.05 * max(abs(dt * des_vs), abs(dt * vs))
+    B[B_SWALTSEL, i] = altsel
+    if altsel:
+        target_vs = des_vs if delalt > 0.0 else -des_vs
+    else:
+        target_vs = 0.0
+    dvs = target_vs - vs
+    if abs(dvs) > _VS_ACCEL:
+        vs = vs + (_VS_ACCEL if dvs > 0.0 else -_VS_ACCEL) * dt
+    else:
+        vs = target_vs
+    if not math.isfinite(vs):
+        vs = 0.0
+    F[VS, i] = vs
+
+    # Ground speed equals TAS: aamsim has no wind.
+    if F[C_HDG, i] != hdg:
+        hrad = math.radians(hdg)
+        F[C_SINHDG, i] = math.sin(hrad)
+        F[C_COSHDG, i] = math.cos(hrad)
+        F[C_HDG, i] = hdg
+    gsn = tas * F[C_COSHDG, i]
+    gse = tas * F[C_SINHDG, i]
+    F[GSNORTH, i] = gsn
+    F[GSEAST, i] = gse
+    F[GS, i] = tas
+    F[TRK, i] = hdg
+
+    if altsel:
+        alt = round(alt + vs * dt, 6)
+    else:
+        alt = des_alt
+    F[ALT, i] = alt
+    if gsn != 0.0:
+        lat = F[LAT, i] + math.degrees(dt * gsn / R_EARTH)
+        F[LAT, i] = lat
+        F[COSLAT, i] = math.cos(math.radians(lat))
+    F[LON, i] = F[LON, i] + math.degrees(dt * gse / F[COSLAT, i] / R_EARTH)
+    F[DISTFLOWN, i] += tas * dt
+    if alt > airborne_alt:
+        F[AIRBORNE_S, i] += dt
+        if abs(tas) < hold_speed:
+            F[SLOW_S, i] += dt
+
+
+@njit(cache=True)
+def advance(
+    F: np.ndarray,
+    B: np.ndarray,
+    n: int,
+    dt: float,
+    nsteps: int,
+    check_first: bool,
+    hold_speed: float,
+    airborne_alt: float,
+    scratch_qdr: np.ndarray,
+    scratch_dist: np.ndarray,
+    fresh: np.ndarray,
+    reached: np.ndarray,
+    cond_ac: np.ndarray,
+    cond_type: np.ndarray,
+    cond_target: np.ndarray,
+    cond_lastdif: np.ndarray,
+    cond_lat: np.ndarray,
+    cond_lon: np.ndarray,
+    cond_fired: np.ndarray,
+) -> tuple[int, int]:
+    """Advance all ``n`` aircraft by up to ``nsteps`` steps of ``dt`` seconds.
+
+    ``fresh[i]`` tells that ``scratch_qdr/dist[i]`` hold this step's guidance
+    for aircraft ``i`` (the waypoint test computed them); Python clears it for
+    aircraft whose leg it changed before resuming.
+
+    Returns:
+        ``(steps_done, status)``, status one of ``STATUS_*``.
+    """
+    ncond = cond_ac.shape[0]
+    k = 0
+    while k < nsteps:
+        if check_first or k > 0:
+            any_reached = False
+            for i in range(n):
+                reached[i] = False
+                if B[B_SWLNAV, i]:
+                    q, d = guidance(F, i)
+                    scratch_qdr[i] = q
+                    scratch_dist[i] = d
+                    fresh[i] = True
+                    if _reached(F, B, i, q, d):
+                        reached[i] = True
+                        any_reached = True
+                else:
+                    fresh[i] = False
+            if any_reached:
+                return k, STATUS_REACHED
+        for i in range(n):
+            _step_aircraft(F, B, i, dt, scratch_qdr[i], scratch_dist[i], fresh[i], hold_speed, airborne_alt)
+        k += 1
+        if ncond > 0:
+            fired_any = False
+            for c in range(ncond):
+                i = cond_ac[c]
+                kind = cond_type[c]
+                if kind == COND_ALT:
+                    actual = F[ALT, i]
+                elif kind == COND_SPD:
+                    actual = F[CAS, i]
+                else:
+                    actual = qdrdist_scalar(F[LAT, i], F[LON, i], cond_lat[c], cond_lon[c])[1]
+                dif = cond_target[c] - actual
+                if dif * cond_lastdif[c] <= 0.0:
+                    cond_fired[c] = True
+                    fired_any = True
+                cond_lastdif[c] = dif
+            if fired_any:
+                return k, STATUS_CONDITION
+    return k, STATUS_DONE

@@ -1,0 +1,138 @@
+"""Flight plans: the ordered waypoints of one aircraft.
+
+A route is edited by stack commands (ADDWPT, DEST, ORIG, DELWPT, AT ...)
+between steps, so it is plain Python data; only the active leg lives in the
+traffic arrays where the step kernel reads it. Altitude and speed
+constraints are NaN when absent. :meth:`Route.plan` derives, for each
+waypoint, the next altitude constraint along the route and the distance to it
+(the "ruler" VNAV uses to place top of climb and descent).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from enum import Enum
+
+from aamsim.geo import qdrdist
+
+
+class WaypointKind(Enum):
+    LATLON = "latlon"
+    NAV = "nav"
+    ORIG = "orig"
+    DEST = "dest"
+
+
+@dataclass
+class Waypoint:
+    """One waypoint; alt/spd are constraints at it (NaN: none)."""
+
+    name: str
+    kind: WaypointKind
+    lat: float
+    lon: float
+    alt: float = math.nan  # m
+    spd: float = math.nan  # CAS m/s, or Mach when spd_mach
+    spd_mach: bool = False
+    flyby: bool = True
+    rta_s: float = math.nan  # required time of arrival [s], book-keeping
+    stack: list[str] = field(default_factory=list)
+    # Derived by Route.plan():
+    toalt: float = math.nan  # m, next altitude constraint from here on
+    xtoalt: float = 0.0  # m, distance from here to that constraint
+    dist_to: float = 0.0  # m, length of the leg ending here
+
+
+@dataclass
+class Route:
+    """Waypoints of one aircraft and the index of the active one (-1: none)."""
+
+    acid: str
+    waypoints: list[Waypoint] = field(default_factory=list)
+    iactwp: int = -1
+    flyby_mode: bool = True  # FLYBY/FLYOVER mode for waypoints added from now on
+
+    def __len__(self) -> int:
+        return len(self.waypoints)
+
+    @property
+    def names(self) -> list[str]:
+        return [w.name for w in self.waypoints]
+
+    def find(self, name: str) -> int:
+        """Index of a waypoint by name, or -1."""
+        name = name.upper()
+        for i, w in enumerate(self.waypoints):
+            if w.name == name:
+                return i
+        return -1
+
+    @property
+    def has_dest(self) -> bool:
+        return bool(self.waypoints) and self.waypoints[-1].kind is WaypointKind.DEST
+
+    @property
+    def has_orig(self) -> bool:
+        return bool(self.waypoints) and self.waypoints[0].kind is WaypointKind.ORIG
+
+    def unique_name(self, base: str, digits: int, taken_callsigns: set[str] | frozenset[str] = frozenset()) -> str:
+        """A waypoint name not yet in the route: ``base`` or ``base`` + counter.
+
+        Lat/lon waypoints are named after the callsign with a three-digit
+        counter (``KL204001``), as in BlueSky; a repeated navaid gets a two-digit one.
+        """
+        names = set(self.names)
+        if base not in names and base not in taken_callsigns:
+            return base
+        counter = 1
+        while True:
+            candidate = f"{base}{counter:0{digits}d}"
+            if candidate not in names:
+                return candidate
+            counter += 1
+
+    def insert(self, index: int, wp: Waypoint) -> None:
+        self.waypoints.insert(index, wp)
+
+    def delete(self, index: int) -> None:
+        del self.waypoints[index]
+        if self.iactwp > index:
+            self.iactwp = max(0, self.iactwp - 1)
+        self.iactwp = min(self.iactwp, len(self.waypoints) - 1)
+
+    def next_leg_qdr(self) -> float:
+        """Direction [deg] of the leg after the active waypoint (NaN if none)."""
+        i = self.iactwp
+        if -1 < i < len(self.waypoints) - 1:
+            a, b = self.waypoints[i], self.waypoints[i + 1]
+            return qdrdist(a.lat, a.lon, b.lat, b.lon)[0]
+        return math.nan
+
+    def plan(self) -> None:
+        """Recompute leg lengths and, per waypoint, the next altitude constraint.
+
+        Walking backwards from the destination: a waypoint with an altitude
+        constraint (the destination counts, at its altitude) resets the ruler;
+        others add their outgoing leg to the distance to the next constraint.
+        """
+        wps = self.waypoints
+        for i in range(1, len(wps)):
+            wps[i].dist_to = qdrdist(wps[i - 1].lat, wps[i - 1].lon, wps[i].lat, wps[i].lon)[1]
+        if wps:
+            wps[0].dist_to = 0.0
+        toalt = math.nan
+        xtoalt = 0.0
+        last = len(wps) - 1
+        for i in range(last, -1, -1):
+            wp = wps[i]
+            if wp.kind is WaypointKind.DEST:
+                toalt, xtoalt = (wp.alt if not math.isnan(wp.alt) else 0.0), 0.0
+            elif not math.isnan(wp.alt):
+                toalt, xtoalt = wp.alt, 0.0
+            elif i != last:
+                xtoalt += wps[i + 1].dist_to
+            else:
+                xtoalt = 0.0
+            wp.toalt = toalt
+            wp.xtoalt = xtoalt

@@ -1,0 +1,232 @@
+"""Aircraft state as a struct of arrays, indexed by slot.
+
+``F[field, slot]`` holds the float state and ``B[field, slot]`` the switches
+(see :mod:`aamsim.traffic.fields`); slots ``0..n-1`` are live. Creating an
+aircraft appends a slot (the arrays double when full); deleting one moves
+the last aircraft into the freed slot, so both are O(1) in the number of
+aircraft. The callsign -> slot map is the only way to find an aircraft:
+slots move, callsigns do not.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterator
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from aamsim import aero
+from aamsim.errors import UnknownAircraft
+from aamsim.traffic import fields as f
+from aamsim.traffic.performance import Envelope
+from aamsim.traffic.route import Route
+from aamsim.units import FPM, Speed
+
+PERF_DEFAULT_AXMAX = 2.0  # m/s^2 until the first performance refresh (BlueSky's PerfBase default)
+# Distance to the active waypoint before guidance first runs. BlueSky starts it
+# at -999 m and VNAV plans a leg activated in the creation step with it; kept
+# so that such scenarios climb exactly as in BlueSky.
+INITIAL_GUIDANCE_DISTANCE = -999.0
+
+
+@dataclass
+class FlightRecord:
+    """Book-keeping of one flight, closed when the aircraft is deleted."""
+
+    acid: str
+    actype: str
+    created_s: float
+    origin: str = ""
+    destination: str = ""
+    dest_lat: float = math.nan
+    dest_lon: float = math.nan
+    scheduled_arrival_s: float = math.nan
+    deleted_s: float = math.nan
+    arrived: bool = False
+    distance_m: float = 0.0
+    airborne_s: float = 0.0
+    slow_s: float = 0.0
+    advisories: int = 0
+
+
+@dataclass
+class Traffic:
+    """All aircraft of one simulation."""
+
+    capacity: int = 64
+    n: int = 0
+    F: np.ndarray = field(init=False, repr=False)
+    B: np.ndarray = field(init=False, repr=False)
+    ids: list[str] = field(default_factory=list)
+    types: list[str] = field(default_factory=list)
+    routes: list[Route] = field(default_factory=list)
+    flights: list[FlightRecord] = field(default_factory=list)
+    _index: dict[str, int] = field(default_factory=dict, repr=False)
+
+    def __post_init__(self) -> None:
+        self.F = np.zeros((f.N_FLOAT, self.capacity))
+        self.B = np.zeros((f.N_BOOL, self.capacity), dtype=np.bool_)
+
+    # ------------------------------------------------------------------ access
+    def __len__(self) -> int:
+        return self.n
+
+    def __contains__(self, acid: object) -> bool:
+        return isinstance(acid, str) and acid.upper() in self._index
+
+    def index(self, acid: str) -> int:
+        """Slot of a callsign; raises :class:`UnknownAircraft`."""
+        try:
+            return self._index[acid.upper()]
+        except KeyError:
+            raise UnknownAircraft(acid.upper()) from None
+
+    def find(self, acid: str) -> int | None:
+        """Slot of a callsign, or None."""
+        return self._index.get(acid.upper())
+
+    def field(self, row: int) -> np.ndarray:
+        """Writable view of one float field over the live slots."""
+        return self.F[row, : self.n]
+
+    def flag(self, row: int) -> np.ndarray:
+        """Writable view of one boolean field over the live slots."""
+        return self.B[row, : self.n]
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(list(self.ids))
+
+    # Named views of the fields users read most.
+    lat = property(lambda self: self.F[f.LAT, : self.n])
+    lon = property(lambda self: self.F[f.LON, : self.n])
+    alt = property(lambda self: self.F[f.ALT, : self.n])
+    hdg = property(lambda self: self.F[f.HDG, : self.n])
+    trk = property(lambda self: self.F[f.TRK, : self.n])
+    tas = property(lambda self: self.F[f.TAS, : self.n])
+    cas = property(lambda self: self.F[f.CAS, : self.n])
+    gs = property(lambda self: self.F[f.GS, : self.n])
+    gsnorth = property(lambda self: self.F[f.GSNORTH, : self.n])
+    gseast = property(lambda self: self.F[f.GSEAST, : self.n])
+    vs = property(lambda self: self.F[f.VS, : self.n])
+    ax = property(lambda self: self.F[f.AX, : self.n])
+
+    # --------------------------------------------------------------- lifecycle
+    def _grow(self) -> None:
+        new_cap = self.capacity * 2
+        F = np.zeros((f.N_FLOAT, new_cap))
+        B = np.zeros((f.N_BOOL, new_cap), dtype=np.bool_)
+        F[:, : self.n] = self.F[:, : self.n]
+        B[:, : self.n] = self.B[:, : self.n]
+        self.F, self.B, self.capacity = F, B, new_cap
+
+    def create(
+        self,
+        acid: str,
+        actype: str,
+        envelope: Envelope,
+        lat: float,
+        lon: float,
+        hdg: float,
+        alt: float,
+        spd: Speed,
+        simt: float,
+    ) -> int:
+        """Add one aircraft; returns its slot. The caller checks the callsign is free."""
+        acid = acid.upper()
+        if self.n == self.capacity:
+            self._grow()
+        i = self.n
+        self.n += 1
+        F, B = self.F, self.B
+        F[:, i] = 0.0
+        B[:, i] = False
+        lon = (lon + 180.0) % 360.0 - 180.0 if abs(lon) > 180.0 else lon
+        if spd.is_mach:
+            tas = float(aero.mach2tas(spd.value, alt))
+            cas = float(aero.tas2cas(tas, alt))
+        else:
+            cas = spd.value
+            tas = float(aero.cas2tas(cas, alt))
+        hdg = hdg % 360.0
+        F[f.LAT, i] = lat
+        F[f.LON, i] = lon
+        F[f.ALT, i] = alt
+        F[f.HDG, i] = hdg
+        F[f.TRK, i] = hdg
+        F[f.TAS, i] = tas
+        F[f.CAS, i] = cas
+        F[f.MACH, i] = float(aero.tas2mach(tas, alt))
+        F[f.GS, i] = tas
+        F[f.GSNORTH, i] = tas * math.cos(math.radians(hdg))
+        F[f.GSEAST, i] = tas * math.sin(math.radians(hdg))
+        F[f.COSLAT, i] = math.cos(math.radians(lat))
+        F[f.CREATED_S, i] = simt
+        # Autopilot holds what it was created with (BlueSky: selspd = CAS).
+        F[f.SELSPD, i] = cas
+        F[f.SELALT, i] = alt
+        F[f.AP_TRK, i] = hdg
+        F[f.AP_TAS, i] = tas
+        F[f.AP_ALT, i] = alt
+        F[f.BANKDEF, i] = envelope.bank_rad
+        F[f.VSDEF, i] = 1500.0 * FPM
+        F[f.DIST2VS, i] = -math.inf
+        F[f.DIST2WP, i] = INITIAL_GUIDANCE_DISTANCE
+        # Envelope; axmax takes the type's value at the next performance refresh.
+        F[f.VMIN, i] = envelope.vmin_mps
+        F[f.VMAX, i] = envelope.vmax_mps
+        F[f.VSMIN, i] = envelope.vsmin_mps
+        F[f.VSMAX, i] = envelope.vsmax_mps
+        F[f.HMAX, i] = envelope.hmax_m
+        F[f.AXMAX_TYPE, i] = envelope.axmax_mps2
+        F[f.AXMAX, i] = PERF_DEFAULT_AXMAX if envelope.rotor else envelope.axmax_mps2
+        F[f.MMO, i] = envelope.mmo
+        B[f.B_ROTOR, i] = envelope.rotor
+        # No active leg yet.
+        for row in (f.WP_NEXTALTCO, f.WP_NEXTSPD, f.WP_SPD, f.WP_SPDCON, f.WP_NEXTQDR, f.WP_CURLEGDIR):
+            F[row, i] = math.nan
+        F[f.WP_TURNDIST, i] = 1.0
+        B[f.B_WP_FLYBY, i] = True
+        B[f.B_SWTOC, i] = True
+        B[f.B_SWTOD, i] = True
+        # Caches start invalid.
+        for row in (f.C_ALT, f.C_HDG, f.C_TAS_IN, f.C_SPD_IN, f.C_WPLAT, f.C_BANK):
+            F[row, i] = math.nan
+        self.ids.append(acid)
+        self.types.append(actype.upper())
+        self.routes.append(Route(acid))
+        self.flights.append(FlightRecord(acid, actype.upper(), simt))
+        self._index[acid] = i
+        return i
+
+    def delete(self, i: int) -> FlightRecord:
+        """Remove the aircraft in slot ``i``; the last aircraft takes its slot.
+
+        Returns the aircraft's flight record (not yet closed: the caller sets
+        deletion time and arrival).
+        """
+        if not 0 <= i < self.n:
+            raise IndexError(f"no aircraft in slot {i}")
+        last = self.n - 1
+        record = self.flights[i]
+        record.distance_m = float(self.F[f.DISTFLOWN, i])
+        record.airborne_s = float(self.F[f.AIRBORNE_S, i])
+        record.slow_s = float(self.F[f.SLOW_S, i])
+        del self._index[self.ids[i]]
+        if i != last:
+            self.F[:, i] = self.F[:, last]
+            self.B[:, i] = self.B[:, last]
+            for seq in (self.ids, self.types, self.routes, self.flights):
+                seq[i] = seq[last]  # type: ignore[index]
+            self._index[self.ids[i]] = i
+        for seq in (self.ids, self.types, self.routes, self.flights):
+            seq.pop()  # type: ignore[attr-defined]
+        self.n -= 1
+        return record
+
+    def clear(self) -> list[FlightRecord]:
+        """Delete every aircraft; returns their flight records."""
+        records = []
+        while self.n:
+            records.append(self.delete(self.n - 1))
+        return records

@@ -1,0 +1,247 @@
+"""Unit constants and the text <-> SI conversions used at the stack boundary.
+
+Everything inside the simulator is SI (m, m/s, s) with angles in degrees.
+Aviation units appear only here, in the scenario language and in reports.
+The constants are the ones BlueSky uses, so that converted values agree to
+the last bit with a BlueSky run of the same scenario.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from dataclasses import dataclass
+
+FT = 0.3048  # m per foot
+KTS = 0.514444  # m/s per knot (BlueSky's rounded value)
+NM = 1852.0  # m per nautical mile
+FPM = FT / 60.0  # m/s per foot per minute
+G0 = 9.80665  # m/s^2
+R_EARTH = 6371000.0  # m, mean radius used by the flat-earth position update
+
+
+class UnitParseError(ValueError):
+    """A token could not be read as the quantity it should be."""
+
+
+@dataclass(frozen=True)
+class Speed:
+    """A commanded airspeed: either a CAS in m/s or a Mach number.
+
+    BlueSky encodes both in one float and treats any value between 0.1 and
+    2.0 as a Mach number, which turns a 3 kt drone into a Mach 1.5 one. We keep
+    the kind explicit instead.
+    """
+
+    value: float
+    is_mach: bool = False
+
+    def __str__(self) -> str:
+        if self.is_mach:
+            return f"M{self.value:g}"
+        return f"{self.value / KTS:g}"
+
+
+def parse_altitude(text: str) -> float:
+    """Read an altitude: feet, or a flight level ``FLnnn``.
+
+    Args:
+        text: e.g. ``"1500"``, ``"FL350"``, ``"-20"``.
+
+    Returns:
+        Altitude in metres.
+    """
+    t = text.strip().upper()
+    if t.startswith("FL") and len(t) >= 4:
+        try:
+            return 100.0 * int(t[2:]) * FT
+        except ValueError:
+            pass
+    else:
+        try:
+            value = float(t)
+        except ValueError:
+            pass
+        else:
+            if math.isfinite(value):
+                return value * FT
+    raise UnitParseError(f'"{text}" is not an altitude (feet or FLnnn)')
+
+
+def format_altitude(alt_m: float) -> str:
+    """Inverse of :func:`parse_altitude` (feet, full precision)."""
+    return repr(alt_m / FT)
+
+
+_MACH_RE = re.compile(r"^M(0?\.\d+|\d+(\.\d*)?)$")
+
+
+def parse_speed(text: str) -> Speed:
+    """Read a speed the way BlueSky does: knots CAS, or Mach.
+
+    ``M.78``, ``M0.78``, ``M78`` (read as 0.78 like BlueSky's ``M78``) and a
+    bare number strictly between 0.1 and 1.0 are Mach numbers; anything else is
+    knots CAS.
+
+    Returns:
+        A :class:`Speed` holding m/s CAS or a Mach number.
+    """
+    t = text.strip().upper()
+    if t.startswith("M"):
+        m = _MACH_RE.match(t)
+        if not m:
+            raise UnitParseError(f'"{text}" is not a speed (kts CAS or Mach)')
+        body = m.group(1)
+        mach = float(body)
+        if "." not in body:  # M78 means Mach 0.78
+            mach = float("0." + body)
+        return Speed(mach, is_mach=True)
+    try:
+        value = float(t)
+    except ValueError:
+        raise UnitParseError(f'"{text}" is not a speed (kts CAS or Mach)') from None
+    if not math.isfinite(value):
+        raise UnitParseError(f'"{text}" is not a finite speed')
+    if 0.1 < value < 1.0:
+        return Speed(value, is_mach=True)
+    return Speed(value * KTS, is_mach=False)
+
+
+def format_speed(speed: Speed) -> str:
+    """Inverse of :func:`parse_speed`."""
+    if speed.is_mach:
+        return "M" + repr(speed.value)
+    return repr(speed.value / KTS)
+
+
+def parse_vspeed(text: str) -> float:
+    """Read a vertical speed in feet per minute; returns m/s."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise UnitParseError(f'"{text}" is not a vertical speed (fpm)') from None
+    if not math.isfinite(value):
+        raise UnitParseError(f'"{text}" is not a finite vertical speed')
+    return value * FPM
+
+
+def parse_heading(text: str) -> float:
+    """Read a heading in degrees (``090``, ``270T``); returns degrees in [0, 360).
+
+    Magnetic headings (``M`` suffix) need a declination model; aamsim has
+    none, so they are refused rather than silently treated as true.
+    """
+    t = text.strip().upper()
+    if t.endswith("M") and len(t) > 1:
+        raise UnitParseError(f'"{text}": magnetic headings are not supported, give a true heading')
+    if t.endswith("T") and len(t) > 1:
+        t = t[:-1]
+    try:
+        value = float(t)
+    except ValueError:
+        raise UnitParseError(f'"{text}" is not a heading in degrees') from None
+    if not math.isfinite(value):
+        raise UnitParseError(f'"{text}" is not a finite heading')
+    return value % 360.0
+
+
+def parse_time(text: str) -> float:
+    """Read a duration or clock time ``[[HH:]MM:]SS[.hh]``; returns seconds."""
+    parts = text.strip().split(":")
+    if not 1 <= len(parts) <= 3 or any(p.strip() == "" for p in parts[-1:]):
+        raise UnitParseError(f'"{text}" is not a time ([[HH:]MM:]SS.hh)')
+    try:
+        seconds = float(parts[-1])
+        if len(parts) > 1 and parts[-2]:
+            seconds += 60.0 * int(parts[-2])
+        if len(parts) > 2 and parts[-3]:
+            seconds += 3600.0 * int(parts[-3])
+    except ValueError:
+        raise UnitParseError(f'"{text}" is not a time ([[HH:]MM:]SS.hh)') from None
+    if not math.isfinite(seconds) or seconds < 0:
+        raise UnitParseError(f'"{text}" is not a time ([[HH:]MM:]SS.hh)')
+    return seconds
+
+
+def format_time(seconds: float) -> str:
+    """Seconds -> ``HH:MM:SS.hh`` (the scenario-file clock format)."""
+    centis = int(round(seconds * 100))
+    hours, rem = divmod(centis, 360000)
+    minutes, rem = divmod(rem, 6000)
+    secs, hundredths = divmod(rem, 100)
+    return f"{hours:02d}:{minutes:02d}:{secs:02d}.{hundredths:02d}"
+
+
+def parse_bool(text: str) -> bool:
+    """ON/OFF, TRUE/FALSE, YES/NO, 1/0 (case-insensitive)."""
+    t = text.strip().lower()
+    if t in ("on", "true", "yes", "y", "1"):
+        return True
+    if t in ("off", "false", "no", "n", "0"):
+        return False
+    raise UnitParseError(f'"{text}" is not ON/OFF')
+
+
+def _dms_to_degrees(body: str, original: str) -> float:
+    """``52'14'13.5`` -> decimal degrees (sign handled by the caller)."""
+    fields = [f for f in body.replace('"', "'").replace("\u00b0", "'").split("'") if f]
+    if not fields or len(fields) > 3:
+        raise UnitParseError(f'"{original}" is not a latitude/longitude')
+    value = 0.0
+    scale = 1.0
+    for field in fields:
+        try:
+            part = abs(float(field))
+        except ValueError:
+            raise UnitParseError(f'"{original}" is not a latitude/longitude') from None
+        value += part / scale
+        scale *= 60.0
+    return value
+
+
+def _parse_angle(text: str, positive: str, negative: str, limit: float, what: str) -> float:
+    t = text.strip().upper()
+    sign = 1.0
+    if t[:1] in (positive, negative):
+        sign = -1.0 if t[0] == negative else 1.0
+        t = t[1:]
+    if t.startswith("-"):
+        sign, t = -sign, t[1:]
+    elif t.startswith("+"):
+        t = t[1:]
+    if not t:
+        raise UnitParseError(f'"{text}" is not a {what}')
+    if any(c in t for c in "'\"\u00b0"):
+        value = _dms_to_degrees(t, text)
+    else:
+        try:
+            value = float(t)
+        except ValueError:
+            raise UnitParseError(f'"{text}" is not a {what}') from None
+    value *= sign
+    if not math.isfinite(value) or abs(value) > limit:
+        raise UnitParseError(f'"{text}" is not a {what} (|value| <= {limit:g})')
+    return value
+
+
+def parse_latitude(text: str) -> float:
+    """Decimal degrees or ``N52'14'13.5"``; returns degrees (north positive)."""
+    return _parse_angle(text, "N", "S", 90.0, "latitude")
+
+
+def parse_longitude(text: str) -> float:
+    """Decimal degrees or ``E004'23'10"``; returns degrees (east positive)."""
+    return _parse_angle(text, "E", "W", 180.0, "longitude")
+
+
+def looks_like_latitude(text: str) -> bool:
+    """True when the token reads as a latitude (so it pairs with the next token).
+
+    Mirrors BlueSky's test: strip one leading N/S and the DMS marks, and see
+    whether a number remains.
+    """
+    t = text.strip().upper().strip("+-").replace('"', "").replace("'", "").replace("\u00b0", "")
+    t = t.replace(".", "")
+    if len(t) > 1 and t[0] in "NS":
+        t = t[1:]
+    return t.isdigit()

@@ -1,0 +1,90 @@
+"""Simulation object: determinism, independence, batching, events."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from aamsim import Simulation
+from aamsim.scenarios import packaged_scenario
+
+from conftest import errors_of
+
+
+def run_demo(per_step_hook: bool = False, seed: int = 7) -> Simulation:
+    sim = Simulation(seed=seed, use_bluesky_navdata=False)
+    if per_step_hook:
+        sim.hooks.post_step.add(lambda s: None, interval_s=0.0, name="every-step")
+    sim.load_scenario(packaged_scenario("demo.scn"))
+    sim.run_until(400.0)
+    return sim
+
+
+def state(sim):
+    n = sim.traffic.n
+    return sim.traffic.ids[:], sim.traffic.F[:, :n].copy(), sim.traffic.B[:, :n].copy()
+
+
+def test_batched_stepping_is_bit_identical_to_single_steps():
+    a, b = run_demo(False), run_demo(True)
+    ids_a, F_a, B_a = state(a)
+    ids_b, F_b, B_b = state(b)
+    assert ids_a == ids_b
+    assert np.array_equal(F_a, F_b, equal_nan=True)
+    assert np.array_equal(B_a, B_b)
+
+
+def test_same_seed_same_result_and_mcre_is_seeded():
+    def go(seed):
+        sim = Simulation(seed=seed, use_bluesky_navdata=False)
+        sim.load_text("00:00:00.00>MCRE 20 EC35 1500 100\n")
+        sim.run_until(30.0)
+        return state(sim)
+    a, b, c = go(3), go(3), go(4)
+    assert a[0] == b[0] and np.array_equal(a[1], b[1], equal_nan=True)
+    assert a[0] != c[0] or not np.array_equal(a[1], c[1], equal_nan=True)
+
+
+def test_two_simulations_in_one_process_are_independent():
+    s1 = Simulation(seed=1, use_bluesky_navdata=False)
+    s2 = Simulation(seed=1, use_bluesky_navdata=False)
+    s1.stack("CRE A EC35 0 0 90 1000 100")
+    s1.stack("DEFWPT P1 1 1")
+    s1.stack("ASAS ON")
+    assert s2.traffic.n == 0 and not s2.navdb.known("P1") and s2.settings.cd_method == "OFF"
+    s2.stack("CRE A EC35 10 10 0 1000 50")
+    s1.run_until(10.0)
+    assert s2.simt == 0.0 and s2.traffic.lat[0] == 10.0
+    assert s1.traffic.lat[0] == pytest.approx(0.0)
+
+
+def test_create_delete_keeps_callsign_map_consistent(sim):
+    for k in range(50):
+        sim.stack(f"CRE A{k} EC35 0 {k * 0.01} 90 1000 100")
+    sim.stack("DEL A0 A10 A49 A25")
+    assert sim.traffic.n == 46
+    for k in range(50):
+        acid = f"A{k}"
+        if k in (0, 10, 25, 49):
+            assert acid not in sim.traffic
+        else:
+            i = sim.traffic.index(acid)
+            assert sim.traffic.lon[i] == pytest.approx(k * 0.01)
+    assert [r.acid for r in sim.flight_log] == ["A0", "A10", "A49", "A25"]
+
+
+def test_duplicate_callsign_is_an_error_and_run_goes_on(sim):
+    sim.load_text("00:00:00.00>CRE A EC35 0 0 90 1000 100\n00:00:01.00>CRE A EC35 1 1 0 1000 100\n"
+                  "00:00:02.00>ECHO still running\n")
+    sim.run_until(3.0)
+    errs = errors_of(sim)
+    assert len(errs) == 1 and "A already exists" in errs[0] and errs[0].startswith("<scenario>:2:")
+    assert sim.traffic.lat[0] != 1.0
+    assert any(m.text == "still running" for m in sim.reporter.messages)
+
+
+def test_quiescent_when_everything_is_done(sim):
+    sim.load_text("00:00:00.00>CRE A EC35 0 0 90 1000 100\n00:00:00.00>ADDWPT A 0 0.01\n")
+    sim.run()
+    # The aircraft passed its only waypoint and flies on without a route: nothing left to happen.
+    assert sim.traffic.n == 1 and sim.simt <= 60.0  # checked every 60 s of sim time
