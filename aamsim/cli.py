@@ -22,6 +22,21 @@ def _time_option(value: str | None) -> float | None:
         raise click.BadParameter(str(exc)) from None
 
 
+def _volume(name: str, text: str) -> Any:
+    from aamsim.conflicts.service import SeparationVolume
+
+    parts = [p for p in text.split(",") if p.strip()]
+    try:
+        values = [float(p) for p in parts]
+    except ValueError:
+        raise click.BadParameter(f'"{text}": expected RADIUS or RADIUS,HALF_HEIGHT in metres',
+                                 param_hint=f"--{name}") from None
+    if len(values) not in (1, 2) or any(v <= 0 for v in values):
+        raise click.BadParameter(f'"{text}": expected RADIUS or RADIUS,HALF_HEIGHT, positive metres',
+                                 param_hint=f"--{name}")
+    return SeparationVolume(name, values[0], values[1] if len(values) == 2 else None)
+
+
 class _Progress:
     """A tqdm bar on a terminal; otherwise a line every 10 s of wall time."""
 
@@ -75,8 +90,13 @@ def main() -> None:
 @click.option("--delete-on-arrival", is_flag=True, help="Aircraft delete themselves at the end of their route.")
 @click.option("--metrics", default="safety,operational", show_default=True,
               help="Metric groups to report (comma separated).")
+@click.option("--nmac", default="150", show_default=True,
+              help="NMAC volume [m]: RADIUS (sphere, 3-D) or RADIUS,HALF_HEIGHT (cylinder).")
+@click.option("--lowc", default="450", show_default=True,
+              help="LoWC volume [m]: RADIUS (sphere, 3-D) or RADIUS,HALF_HEIGHT (cylinder).")
 def run(scenario: str, until: str | None, out_dir: Path | None, dt: float, seed: int | None, strict: bool,
-        quiet: bool, log_period: float, plugins: tuple[str, ...], delete_on_arrival: bool, metrics: str) -> None:
+        quiet: bool, log_period: float, plugins: tuple[str, ...], delete_on_arrival: bool, metrics: str,
+        nmac: str, lowc: str) -> None:
     """Simulate SCENARIO headless, as fast as possible, and write a run directory.
 
     SCENARIO is a path, or the name of a scenario shipped with aamsim
@@ -91,7 +111,19 @@ def run(scenario: str, until: str | None, out_dir: Path | None, dt: float, seed:
         raise click.BadParameter("--log-period cannot be negative")
     until_s = _time_option(until)
     groups = tuple(g.strip() for g in metrics.split(",") if g.strip())
-    cfg = RunConfig(scenario, out_dir, until_s, dt, seed, strict, log_period, plugins, delete_on_arrival, groups)
+    from aamsim.metrics.service import metrics_of  # noqa: F401  (registry of known groups)
+    from aamsim.metrics.standard import register_standard_metrics
+    from aamsim.metrics.registry import MetricRegistry
+
+    known = MetricRegistry()
+    register_standard_metrics(known)
+    unknown = [g for g in groups if g not in known.groups]
+    if unknown:
+        raise click.BadParameter(f"unknown metric group(s) {', '.join(unknown)}; known: "
+                                 f"{', '.join(sorted(known.groups))}", param_hint="--metrics")
+    volumes = (_volume("nmac", nmac), _volume("lowc", lowc))
+    cfg = RunConfig(scenario, out_dir, until_s, dt, seed, strict, log_period, plugins, delete_on_arrival, groups,
+                    volumes)
 
     def listener(msg: Any) -> None:
         if msg.kind in ("error", "warning"):
@@ -127,6 +159,45 @@ def run(scenario: str, until: str | None, out_dir: Path | None, dt: float, seed:
             f"(speed-up {s['speedup']:.0f}x, {s['aircraft_steps_per_s'] or 0:,.0f} aircraft-steps/s)\n"
             f"errors: {s['errors']}; results in {result.out_dir}"
         )
+        if "safety" in s:
+            sf = s["safety"]
+            click.echo(f"safety: {sf['nmac_events']} NMAC, {sf['lowc_events']} LoWC events, "
+                       f"min separation {sf['min_separation_m'] if sf['min_separation_m'] is not None else '-'} m")
+
+
+@main.command()
+@click.argument("runs", nargs=-1, required=True, type=click.Path(exists=True))
+@click.option("--baseline", "baselines", multiple=True, type=click.Path(exists=True),
+              help="Baseline run directory (repeatable); default: the last RUNS argument.")
+@click.option("--out", "out_path", type=click.Path(dir_okay=False, path_type=Path), default=None,
+              help="Write the comparison as JSON here (default: comparison.json in the first run directory).")
+def compare(runs: tuple[str, ...], baselines: tuple[str, ...], out_path: Path | None) -> None:
+    """Risk ratio and LoWC ratio of RUN(s) against the unequipped BASELINE run(s).
+
+    aamsim compare RUN_DIR BASELINE_RUN_DIR compares two runs; folders of runs
+    (e.g. 100 evaluation episodes) are paired by seed and reported as mean +- std.
+    """
+    import json
+
+    from aamsim.metrics.compare import ComparisonError, compare_runs, expand_runs, format_ratio
+
+    run_args = list(runs)
+    base_args = list(baselines)
+    if not base_args:
+        if len(run_args) < 2:
+            raise click.UsageError("give RUN_DIR BASELINE_RUN_DIR, or --baseline")
+        base_args = [run_args.pop()]
+    try:
+        comparison = compare_runs(expand_runs(run_args), expand_runs(base_args))
+    except ComparisonError as exc:
+        click.echo(f"error: {exc}", err=True)
+        sys.exit(2)
+    click.echo(f"scenario {comparison.scenario}, {comparison.runs} run(s) paired by seed")
+    click.echo(f"risk ratio (NMAC): {format_ratio(comparison.risk_ratio)}")
+    click.echo(f"LoWC ratio:        {format_ratio(comparison.lowc_ratio)}")
+    target = out_path or (Path(run_args[0]) / "comparison.json")
+    target.write_text(json.dumps(comparison.to_dict(), indent=2) + "\n")
+    click.echo(f"written to {target}")
 
 
 @main.command()

@@ -9,6 +9,7 @@ the ``finish`` callbacks in ``sim.extensions["run_outputs"]``.
 
 from __future__ import annotations
 
+import hashlib
 import json
 import math
 import platform
@@ -54,6 +55,7 @@ class RunConfig:
     plugins: tuple[str, ...] = ()
     delete_on_arrival: bool = False
     metrics: tuple[str, ...] = ("safety", "operational")
+    volumes: tuple[Any, ...] = ()  # SeparationVolume overrides (default: the paper's NMAC/LoWC)
 
 
 @dataclass
@@ -150,6 +152,7 @@ def make_summary(sim: Simulation, cfg: RunConfig, path: Path, wall_s: float) -> 
     return {
         "scenario": path.stem,
         "scenario_file": str(path),
+        "scenario_sha256": hashlib.sha256(sim.scenario_text.encode("utf-8")).hexdigest(),
         "aamsim_version": aamsim.__version__,
         "python": platform.python_version(),
         "seed": cfg.seed,

@@ -217,6 +217,10 @@ class Simulation:
         """Run one command through the command table; report any error."""
         command = resolve_command_form(command, self.commands.__contains__)
         spec = self.commands.get(command.name)
+        if spec is None and not command.argtext and (command.name in self.traffic or self.navdb.known(command.name)):
+            # A bare callsign or waypoint name is a position query, as in BlueSky.
+            command = Command("POS", command.name)
+            spec = self.commands.get("POS")
         if spec is None:
             self.report("error", f"unknown command {command.name}", source)
             return False

@@ -120,9 +120,9 @@ def resolve_command_form(command: Command, is_command: Callable[[str], bool]) ->
     """Rewrite BlueSky's ``ACID CMD args`` form to ``CMD ACID args``.
 
     A line whose first word is not a command but whose second word is, names
-    the aircraft first. A lone unknown word is a position query (``POS``).
-    Otherwise the command is returned unchanged (an unknown name is reported
-    by the caller).
+    the aircraft first. Otherwise the command is returned unchanged: an
+    unknown name is reported by the caller, except a lone word, which may be a
+    callsign (a position query) known only while simulating.
     """
     if is_command(command.name):
         return command
@@ -130,8 +130,6 @@ def resolve_command_form(command: Command, is_command: Callable[[str], bool]) ->
     if second and is_command(second.upper()):
         argtext = f"{command.name} {rest}".strip()
         return Command(second.upper(), argtext)
-    if not command.argtext and is_command("POS"):
-        return Command("POS", command.name)
     return command
 
 
@@ -202,7 +200,7 @@ def parse_scenario(
                 continue
             if is_command is not None:
                 command = resolve_command_form(command, is_command)
-                if not is_command(command.name):
+                if not is_command(command.name) and command.argtext:
                     errors.append(ScenarioSyntaxError(f"unknown command {command.name}", source))
                     continue
             commands.append(TimedCommand(t, command, source))

@@ -32,8 +32,9 @@ class _Checker(StaticContext):
         command = resolve_command_form(command, lambda n: n in self.registry or n in self.callsigns)
         spec = self.registry.get(command.name)
         if spec is None:
-            if command.name in self.callsigns and not command.argtext:
-                return
+            if not command.argtext and (command.name in self.callsigns or command.name in self.waypoints
+                                        or (callable(self.navdb_known) and self.navdb_known(command.name))):
+                return  # a position query
             raise CommandError(f"unknown command {command.name}")
         self.last_acidx = -1
         if spec.raw:

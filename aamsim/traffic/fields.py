@@ -101,6 +101,7 @@ BOOL_FIELDS = (
     "wp_flyby",
     "wp_lastwp",
     "c_spd_mach",  # Mach flag of the selected speed the TAS cache belongs to
+    "has_moved",  # has flown at or above the holding-speed threshold (so slow time counts as holding)
 )
 
 N_FLOAT = len(FLOAT_FIELDS)
@@ -143,7 +144,8 @@ C_TAS_IN, C_CAS_OUT, C_SPD_IN, C_APTAS_OUT, C_WPLAT, C_WPSIN, C_WPCOS, C_BANK, C
     B_WP_FLYBY,
     B_WP_LASTWP,
     B_C_SPD_MACH,
-) = range(13)
+    B_HAS_MOVED,
+) = range(14)
 
 assert N_FLOAT == 68 and FLOAT_FIELDS[C_TANBANK] == "c_tanbank"
-assert N_BOOL == 13 and BOOL_FIELDS[B_C_SPD_MACH] == "c_spd_mach"
+assert N_BOOL == 14 and BOOL_FIELDS[B_HAS_MOVED] == "has_moved"

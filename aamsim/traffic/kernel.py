@@ -31,6 +31,7 @@ from aamsim.geo import WGS84_A, WGS84_B, qdrdist_scalar
 from aamsim.traffic.fields import (
     ALT,
     B_C_SPD_MACH,
+    B_HAS_MOVED,
     C_APTAS_OUT,
     C_BANK,
     C_CAS_OUT,
@@ -400,9 +401,13 @@ def _step_aircraft(
         F[COSLAT, i] = math.cos(math.radians(lat))
     F[LON, i] = F[LON, i] + math.degrees(dt * gse / F[COSLAT, i] / R_EARTH)
     F[DISTFLOWN, i] += tas * dt
+    # Airborne holding: slow after having flown (the initial spin-up after a
+    # creation at 0 kt is not holding).
+    if abs(tas) >= hold_speed:
+        B[B_HAS_MOVED, i] = True
     if alt > airborne_alt:
         F[AIRBORNE_S, i] += dt
-        if abs(tas) < hold_speed:
+        if abs(tas) < hold_speed and B[B_HAS_MOVED, i]:
             F[SLOW_S, i] += dt
 
 

@@ -59,6 +59,26 @@ def dtlook(sim: Simulation, time_s: Seconds | None = None) -> str | None:
     return None
 
 
+@command("SEPVOLUME", aliases=("LOSVOLUME",), group="conflicts")
+def sepvolume(sim: Simulation, name: Text = "", radius_m: Number | None = None,
+              half_height_m: Number | None = None) -> str | None:
+    """SEPVOLUME [NMAC/LOWC/name, radius, [half_height]]: a loss-of-separation volume [m].
+
+    Radius alone: a sphere on 3-D slant distance (the paper's NMAC 150 m and
+    LoWC 450 m); with a half-height: a cylinder, as detect-and-avoid standards
+    define them. Without arguments, list the volumes.
+    """
+    from aamsim.conflicts.service import SeparationVolume, conflicts_of
+
+    service = conflicts_of(sim)
+    if not name:
+        return "\n".join(v.describe() for v in service.volumes)
+    if radius_m is None or radius_m <= 0 or (half_height_m is not None and half_height_m <= 0):
+        raise CommandError("SEPVOLUME needs a positive radius [m] (and, for a cylinder, a positive half-height [m])")
+    service.set_volume(SeparationVolume(name.lower(), radius_m, half_height_m))
+    return None
+
+
 @command("RESO", group="conflicts")
 def reso(sim: Simulation, method: Text = "") -> str | None:
     """RESO [OFF/method]: conflict resolution method. It is stored; aamsim resolves no conflicts itself
@@ -82,7 +102,7 @@ def _accepted_setting(name: str):
     return handler
 
 
-COMMANDS = (asas, zoner, zonedh, dtlook, reso) + tuple(
+COMMANDS = (asas, zoner, zonedh, dtlook, sepvolume, reso) + tuple(
     _accepted_setting(n) for n in ("RMETHH", "RMETHV", "RFACH", "RFACV", "RSZONER", "RSZONEDH", "PRIORULES", "NORESO",
                                    "RESOOFF", "DTNOLOOK", "CDSPEEDCHANGE")
 )

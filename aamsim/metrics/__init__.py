@@ -1,0 +1,19 @@
+"""Standardised AAM metrics: safety (NMAC, LoWC, separation) and operational groups."""
+
+from aamsim.metrics.compare import Comparison, ComparisonError, compare_runs, expand_runs, load_run
+from aamsim.metrics.registry import MetricContext, MetricRegistry
+from aamsim.metrics.service import MetricsService, metrics_of, record_advisory, write_conflicts_csv
+
+__all__ = [
+    "Comparison",
+    "ComparisonError",
+    "MetricContext",
+    "MetricRegistry",
+    "MetricsService",
+    "compare_runs",
+    "expand_runs",
+    "load_run",
+    "metrics_of",
+    "record_advisory",
+    "write_conflicts_csv",
+]

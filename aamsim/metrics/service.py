@@ -1,0 +1,88 @@
+"""Metrics of a simulation: computes the registered metric groups and writes conflicts.csv."""
+
+from __future__ import annotations
+
+import csv
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+from aamsim.conflicts.service import conflicts_of
+from aamsim.metrics.registry import MetricContext, MetricRegistry
+from aamsim.metrics.standard import register_standard_metrics
+
+if TYPE_CHECKING:
+    from aamsim.simulation import Simulation
+
+EXTENSION_KEY = "metrics"
+DEFAULT_GROUPS = ("safety", "operational")
+CONFLICT_COLUMNS = ["volume", "ac1", "ac2", "start_s", "end_s", "min_dist_m", "t_min_s",
+                    "lat1", "lon1", "alt1_m", "lat2", "lon2", "alt2_m"]
+
+
+def _standard_registry() -> MetricRegistry:
+    reg = MetricRegistry()
+    register_standard_metrics(reg)
+    return reg
+
+
+@dataclass
+class MetricsService:
+    groups: tuple[str, ...] = DEFAULT_GROUPS
+    registry: MetricRegistry = field(default_factory=_standard_registry)
+
+    def attach(self, sim: Simulation) -> None:
+        sim.extensions[EXTENSION_KEY] = self
+        conflicts_of(sim)
+
+    def context(self, sim: Simulation) -> MetricContext:
+        from aamsim.simulation import iter_flights
+
+        service = conflicts_of(sim)
+        return MetricContext(
+            sim=sim,
+            flights=list(iter_flights(sim)),
+            events=list(service.events),
+            duration_s=sim.simt,
+            hold_speed_mps=sim.settings.hold_speed_mps,
+            min_separation_m=service.min_separation_m,
+            conflict_pairs=service.conflict_pairs_total,
+        )
+
+    def compute(self, sim: Simulation, groups: tuple[str, ...] | None = None) -> dict[str, dict[str, Any]]:
+        return self.registry.compute(groups or self.groups, self.context(sim))
+
+
+def metrics_of(sim: Simulation) -> MetricsService:
+    """The metrics service of a simulation (attached on first use)."""
+    service = sim.extensions.get(EXTENSION_KEY)
+    if service is None:
+        service = MetricsService()
+        service.attach(sim)
+    return service
+
+
+def record_advisory(sim: Simulation, acid: str, action: str) -> None:
+    """Count an advisory given to an aircraft; ``hold`` advisories are not alerts."""
+    if action.lower() == "hold":
+        return
+    i = sim.traffic.find(acid)
+    if i is not None:
+        sim.traffic.flights[i].advisories += 1
+
+
+def write_conflicts_csv(path: Path, sim: Simulation) -> int:
+    events = conflicts_of(sim).events
+
+    def num(x: float, d: int) -> str:
+        return "" if x is None or (isinstance(x, float) and not math.isfinite(x)) else f"{x:.{d}f}"
+
+    with open(path, "w", newline="") as fh:
+        writer = csv.writer(fh)
+        writer.writerow(CONFLICT_COLUMNS)
+        for e in sorted(events, key=lambda ev: (ev.start_s, ev.volume, ev.ac1, ev.ac2)):
+            writer.writerow([e.volume, e.ac1, e.ac2, num(e.start_s, 2), num(e.end_s, 2), num(e.min_dist_m, 2),
+                             num(e.t_min_s, 2), num(e.pos1[0], 7), num(e.pos1[1], 7), num(e.pos1[2], 2),
+                             num(e.pos2[0], 7), num(e.pos2[1], 7), num(e.pos2[2], 2)])
+    return len(events)

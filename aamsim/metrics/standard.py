@@ -1,0 +1,54 @@
+"""The standard AAM metrics (safety and operational), as defined in docs/metrics.md.
+
+Normalisations: "per flight" divides by the number of flights in the run
+(the paper's NMAC count normalised by the number of aircraft); "per flight
+hour" divides by the total airborne time of all flights.
+"""
+
+from __future__ import annotations
+
+import math
+
+from aamsim.metrics.registry import MetricContext, MetricRegistry
+
+
+def _per_flight(count: int, ctx: MetricContext) -> float | None:
+    return count / len(ctx.flights) if ctx.flights else None
+
+
+def _per_hour(count: float, ctx: MetricContext) -> float | None:
+    hours = ctx.flight_hours
+    return count / hours if hours > 0 else None
+
+
+def _mean(values: list[float]) -> float | None:
+    return sum(values) / len(values) if values else None
+
+
+def register_standard_metrics(reg: MetricRegistry) -> None:
+    # ------------------------------------------------------------------ safety
+    for vol in ("nmac", "lowc"):
+        reg.add("safety", f"{vol}_events", lambda c, v=vol: len(c.events_of(v)))
+        reg.add("safety", f"{vol}_per_flight", lambda c, v=vol: _per_flight(len(c.events_of(v)), c))
+        reg.add("safety", f"{vol}_per_flight_hour", lambda c, v=vol: _per_hour(len(c.events_of(v)), c))
+    reg.add("safety", "min_separation_m", lambda c: c.min_separation_m if math.isfinite(c.min_separation_m) else None)
+    reg.add("safety", "time_in_lowc_s", lambda c: sum(e.duration_s(c.duration_s) for e in c.events_of("lowc")))
+    reg.add("safety", "conflict_pairs", lambda c: c.conflict_pairs)
+    # ------------------------------------------------------------- operational
+    reg.add("operational", "flights", lambda c: len(c.flights))
+    reg.add("operational", "flights_completed", lambda c: c.count(lambda f: f.arrived))
+    reg.add("operational", "flight_hours", lambda c: c.flight_hours)
+    reg.add("operational", "alert_rate_per_flight_hour", lambda c: _per_hour(sum(f.advisories for f in c.flights), c))
+    reg.add("operational", "advisories", lambda c: sum(f.advisories for f in c.flights))
+    reg.add("operational", "airborne_holding_s", lambda c: sum(f.slow_s for f in c.flights))
+    reg.add("operational", "holding_flight_share", lambda c: _per_flight(c.count(lambda f: f.slow_s > 0), c))
+    reg.add("operational", "holding_speed_threshold_mps", lambda c: c.hold_speed_mps)
+    reg.add("operational", "mean_flight_time_s",
+            lambda c: _mean([f.deleted_s - f.created_s for f in c.flights if f.arrived]))
+    reg.add("operational", "mean_delay_s",
+            lambda c: _mean([f.deleted_s - f.scheduled_arrival_s for f in c.flights
+                             if f.arrived and not math.isnan(f.scheduled_arrival_s)]))
+    reg.add("operational", "distance_flown_m", lambda c: sum(f.distance_m for f in c.flights))
+    reg.add("operational", "mean_distance_m", lambda c: _mean([f.distance_m for f in c.flights]))
+    reg.add("operational", "throughput_per_hour",
+            lambda c: c.count(lambda f: f.arrived) / (c.duration_s / 3600.0) if c.duration_s > 0 else None)

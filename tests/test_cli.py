@@ -1,0 +1,153 @@
+"""End-to-end: the CLIs run as a user runs them (subprocesses)."""
+
+from __future__ import annotations
+
+import csv
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def aamsim(*args: str, cwd: Path | None = None) -> subprocess.CompletedProcess:
+    env = dict(os.environ, PYTHONPATH=str(ROOT))
+    return subprocess.run([sys.executable, "-m", "aamsim", *args], capture_output=True, text=True, env=env,
+                          cwd=cwd, timeout=600)
+
+
+def test_run_shipped_scenario_writes_run_directory(tmp_path):
+    out = tmp_path / "run"
+    proc = aamsim("run", "scn/demo.scn", "--out", str(out), "--seed", "3", cwd=tmp_path)
+    assert proc.returncode == 0, proc.stderr
+    for name in ("scenario.scn", "flights.csv", "trajectories.csv", "summary.json", "conflicts.csv", "messages.log"):
+        assert (out / name).exists(), name
+    assert "flights created" in proc.stdout and "speed-up" in proc.stdout
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["flights_created"] == 3 and summary["seed"] == 3
+    assert set(summary["safety"]) >= {"nmac_events", "lowc_events", "min_separation_m", "time_in_lowc_s",
+                                      "nmac_per_flight", "nmac_per_flight_hour"}
+    assert set(summary["operational"]) >= {"airborne_holding_s", "alert_rate_per_flight_hour", "flights_completed",
+                                           "throughput_per_hour", "distance_flown_m", "mean_delay_s"}
+    with open(out / "flights.csv") as fh:
+        rows = list(csv.DictReader(fh))
+    assert list(rows[0]) == ["id", "type", "created_s", "deleted_s", "arrived", "origin", "destination",
+                             "distance_m", "airborne_s"]
+    assert {r["id"] for r in rows} == {"UAM1", "UAM2", "UAM3"}
+    uam1 = next(r for r in rows if r["id"] == "UAM1")
+    assert uam1["arrived"] == "true" and uam1["destination"] == "WP_EAS"
+    with open(out / "trajectories.csv") as fh:
+        traj = list(csv.DictReader(fh))
+    assert list(traj[0]) == ["id", "simt", "lat", "lon", "alt_m", "tas_mps", "cas_mps", "gs_mps", "trk_deg", "vs_mps"]
+    times = sorted({float(r["simt"]) for r in traj})
+    assert times[0] == 0.0 and all(t == int(t) for t in times)
+    assert (out / "scenario.scn").read_text() == (ROOT / "aamsim/scn/demo.scn").read_text()
+
+
+def test_run_options_until_log_period_and_determinism(tmp_path):
+    a, b = tmp_path / "a", tmp_path / "b"
+    for out in (a, b):
+        proc = aamsim("run", str(ROOT / "aamsim/scn/demo.scn"), "--out", str(out), "--until", "00:02:00",
+                      "--log-period", "5", "--quiet", "--dt", "0.1")
+        assert proc.returncode == 0 and proc.stdout == ""
+    assert (a / "trajectories.csv").read_bytes() == (b / "trajectories.csv").read_bytes()
+    summary = json.loads((a / "summary.json").read_text())
+    assert summary["sim_time_s"] == 120.0 and summary["dt_s"] == 0.1
+    times = {float(r["simt"]) for r in csv.DictReader(open(a / "trajectories.csv"))}
+    assert times == {float(t) for t in range(0, 121, 5)}
+    proc = aamsim("run", str(ROOT / "aamsim/scn/demo.scn"), "--out", str(tmp_path / "c"), "--until", "30",
+                  "--log-period", "0", "--quiet")
+    assert proc.returncode == 0 and not (tmp_path / "c" / "trajectories.csv").exists()
+
+
+def test_bad_lines_are_reported_and_the_run_goes_on(tmp_path):
+    scn = tmp_path / "bad.scn"
+    scn.write_text("00:00:00.00>CRE A EC35 0 0 90 1000 100\n00:00:01.00>ALT A FLXX\n00:00:02.00>FROB\n"
+                   "0:0:3>ECHO reached the end\n")
+    proc = aamsim("run", str(scn), "--out", str(tmp_path / "r"), "--until", "10")
+    assert proc.returncode == 0
+    assert f"{scn}:2: error: ALT: altitude: \"FLXX\"" in proc.stderr
+    assert f"{scn}:3: error: unknown command FROB" in proc.stderr
+    assert "reached the end" in proc.stderr
+
+
+def test_strict_lists_all_errors_and_exits_2(tmp_path):
+    scn = tmp_path / "bad.scn"
+    scn.write_text("00:00:00.00>CRE A EC35 0 0 90 1000 100\n00:00:01.00>ALT A FLXX\n00:00:02.00>FROB\n"
+                   "00:00:03.00>HDG NOPE 90\n00:00:04.00>A ATALT 500 SPD A fast\n00:00:05.00>PCALL missing.scn\n"
+                   "0:0:6>ADDWPT A UNKNOWNWPT\n")
+    proc = aamsim("run", str(scn), "--strict", "--out", str(tmp_path / "r"))
+    assert proc.returncode == 2
+    for line in (2, 3, 4, 5, 6, 7):
+        assert f"{scn}:{line}:" in proc.stderr
+    assert "6 error(s)" in proc.stderr
+    assert not (tmp_path / "r").exists()
+    good = tmp_path / "good.scn"
+    good.write_text("00:00:00.00>CRE A EC35 0 0 90 1000 100\n00:00:01.00>A ATALT 500 SPD A 80\n")
+    assert aamsim("run", str(good), "--strict", "--until", "5", "--out", str(tmp_path / "g"),
+                  "--quiet").returncode == 0
+
+
+def test_missing_scenario_and_bad_options(tmp_path):
+    proc = aamsim("run", "no_such.scn")
+    assert proc.returncode == 2 and "scenario not found" in proc.stderr
+    assert aamsim("run", "demo", "--nmac", "abc").returncode == 2
+    assert aamsim("run", "demo", "--metrics", "safety,bogus").returncode == 2
+
+
+def test_commands_listing():
+    proc = aamsim("commands")
+    assert proc.returncode == 0
+    assert "ADDWPT acid, (wpname/lat,lon), [alt, spd, afterwp, beforewp]" in proc.stdout
+    assert "CRE acid:txt, actype:txt, pos:latlon, [hdg:hdg], [alt:alt], [spd:spd]" in proc.stdout
+    assert "PAN" in proc.stdout
+
+
+def _run(tmp, name, scn_text, seed):
+    scn = tmp / f"{name}.scn"
+    if not scn.exists():
+        scn.write_text(scn_text)
+    out = tmp / f"{name}-{seed}"
+    proc = aamsim("run", str(scn), "--out", str(out), "--seed", str(seed), "--quiet", "--log-period", "0")
+    assert proc.returncode == 0, proc.stderr
+    return out
+
+
+HEAD_ON = ("00:00:00.00>CRE A EC35 0 0 0 1000 100\n00:00:00.00>CRE B EC35 0.036 0 180 1000 100\n"
+           "00:00:00.00>CRE C EC35 0 0.02 0 1000 100\n00:00:00.00>CRE D EC35 0.036 0.02 180 1000 100\n"
+           "00:02:00.00>DEL *\n")
+
+
+def test_compare_risk_ratio_and_refusals(tmp_path):
+    base = _run(tmp_path, "enc", HEAD_ON, 1)
+    # "Equipped": the same scenario with one aircraft pair avoided by a speed change.
+    equipped_dir = tmp_path / "eq"
+    equipped_dir.mkdir()
+    eq = _run(equipped_dir, "enc", HEAD_ON, 1)
+    proc = aamsim("compare", str(eq), str(base))
+    assert proc.returncode == 0 and "risk ratio (NMAC): 1.0000" in proc.stdout
+    assert json.loads((eq / "comparison.json").read_text())["risk_ratio"]["mean"] == 1.0
+    other_seed = _run(tmp_path, "enc", HEAD_ON, 2)
+    proc = aamsim("compare", str(other_seed), str(base))
+    assert proc.returncode == 2 and "seed" in proc.stderr
+    other_scn = _run(tmp_path, "other", HEAD_ON.replace("0.02", "0.03"), 1)
+    proc = aamsim("compare", str(other_scn), str(base))
+    assert proc.returncode == 2 and "different scenarios" in proc.stderr
+
+
+def test_compare_many_runs_mean_and_std(tmp_path):
+    from aamsim.metrics.compare import RunMetrics, compare_runs
+
+    def rm(seed, nmac, lowc, tag):
+        return RunMetrics(f"{tag}{seed}", "s", "h", seed, nmac, lowc, {})
+    runs = [rm(1, 1, 5, "r"), rm(2, 0, 4, "r"), rm(3, 2, 6, "r")]
+    base = [rm(1, 4, 10, "b"), rm(2, 2, 8, "b"), rm(3, 4, 12, "b")]
+    cmp = compare_runs(runs, base)
+    assert cmp.risk_ratio.mean == pytest.approx((0.25 + 0.0 + 0.5) / 3)
+    assert cmp.risk_ratio.std == pytest.approx(0.2041241, rel=1e-6)
+    assert cmp.risk_ratio.pooled == pytest.approx(3 / 10)
+    assert cmp.lowc_ratio.mean == pytest.approx(0.5)
