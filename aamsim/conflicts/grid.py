@@ -51,6 +51,8 @@ def candidate_pairs(
         cy0[i] -= by
         cy1[i] -= by
         total += (cx1[i] - cx0[i] + 1) * (cy1[i] - cy0[i] + 1)
+    ny = cy1.max() + 1
+    ncells = (cx1.max() + 1) * ny
     keys = np.empty(total, dtype=np.int64)
     owner = np.empty(total, dtype=np.int64)
     k = 0
@@ -60,7 +62,22 @@ def candidate_pairs(
                 keys[k] = cx * _KEY_STRIDE + cy
                 owner[k] = i
                 k += 1
-    order = np.argsort(keys, kind="mergesort")
+    if ncells <= 4 * total + 1024:
+        # Dense grid: a counting sort by cell is linear (and stable).
+        dense = np.empty(total, dtype=np.int64)
+        for e in range(total):
+            dense[e] = (keys[e] // _KEY_STRIDE) * ny + keys[e] % _KEY_STRIDE
+        counts = np.zeros(ncells + 1, dtype=np.int64)
+        for e in range(total):
+            counts[dense[e] + 1] += 1
+        for c in range(ncells):
+            counts[c + 1] += counts[c]
+        order = np.empty(total, dtype=np.int64)
+        for e in range(total):
+            order[counts[dense[e]]] = e
+            counts[dense[e]] += 1
+    else:
+        order = np.argsort(keys, kind="mergesort")
     cap = 1024
     pi = np.empty(cap, dtype=np.int64)
     pj = np.empty(cap, dtype=np.int64)

@@ -198,3 +198,37 @@ def slant_distances(
         dz = alt[j] - alt[i]
         out[k] = math.sqrt(dx * dx + dy * dy + dz * dz)
     return out
+
+
+@njit(cache=True)
+def nearest_per_aircraft(n: int, pi: np.ndarray, pj: np.ndarray, d: np.ndarray,
+                         max_range: float) -> tuple[np.ndarray, np.ndarray]:
+    """Per aircraft, the smallest pair distance within ``max_range`` and the other aircraft (-1: none)."""
+    dist = np.full(n, np.inf)
+    idx = np.full(n, -1, dtype=np.int64)
+    for k in range(pi.shape[0]):
+        dd = d[k]
+        if dd > max_range:
+            continue
+        a = pi[k]
+        b = pj[k]
+        if dd < dist[a]:
+            dist[a] = dd
+            idx[a] = b
+        if dd < dist[b]:
+            dist[b] = dd
+            idx[b] = a
+    return dist, idx
+
+
+@njit(cache=True)
+def max_per_aircraft(n: int, pi: np.ndarray, pj: np.ndarray, values: np.ndarray) -> np.ndarray:
+    """Per aircraft, the largest value over its pairs (0 if none)."""
+    out = np.zeros(n)
+    for k in range(pi.shape[0]):
+        v = values[k]
+        if v > out[pi[k]]:
+            out[pi[k]] = v
+        if v > out[pj[k]]:
+            out[pj[k]] = v
+    return out

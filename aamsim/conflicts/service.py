@@ -27,7 +27,13 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from aamsim.conflicts.grid import candidate_pairs, local_frame
-from aamsim.conflicts.pairs import slant_distances, statebased, volume_encounters
+from aamsim.conflicts.pairs import (
+    max_per_aircraft,
+    nearest_per_aircraft,
+    slant_distances,
+    statebased,
+    volume_encounters,
+)
 from aamsim.traffic import fields as f
 from aamsim.units import R_EARTH
 
@@ -82,15 +88,27 @@ class SeparationEvent:
 
 @dataclass(frozen=True)
 class ConflictState:
-    """Result of one state-based detection (pairs i < j as callsigns)."""
+    """Result of one state-based detection: conflict pairs (slots i < j at detection time)."""
 
-    pairs: tuple[tuple[str, str], ...]
+    ids: tuple[str, ...]  # callsign per slot at detection time
+    pi: np.ndarray
+    pj: np.ndarray
     tcpa_s: np.ndarray
     dcpa_m: np.ndarray
     tinconf_s: np.ndarray
-    los_pairs: tuple[tuple[str, str], ...]
-    inconf: np.ndarray  # per traffic slot at the time of detection
+    los_pi: np.ndarray
+    los_pj: np.ndarray
+    inconf: np.ndarray  # per slot
     tcpamax_s: np.ndarray
+
+    @property
+    def pairs(self) -> tuple[tuple[str, str], ...]:
+        """Conflict pairs as callsigns (each unordered pair once; BlueSky lists both orders)."""
+        return tuple((self.ids[a], self.ids[b]) for a, b in zip(self.pi.tolist(), self.pj.tolist()))
+
+    @property
+    def los_pairs(self) -> tuple[tuple[str, str], ...]:
+        return tuple((self.ids[a], self.ids[b]) for a, b in zip(self.los_pi.tolist(), self.los_pj.tolist()))
 
 
 @dataclass
@@ -148,15 +166,18 @@ class ConflictService:
     """Per-simulation conflict detection, events and closest-intruder distances."""
 
     volumes: tuple[SeparationVolume, ...] = PAPER_VOLUMES
-    closest_range_m: float = 3000.0
+    closest_range_m: float = 1000.0  # closest-intruder distances and minimum separation below this range
     events: list[SeparationEvent] = field(default_factory=list)
     state: ConflictState | None = None
     conflict_pairs_total: int = 0  # new conflict pairs (i<j) over the run
     min_separation_m: float = math.inf
     closest_dist_m: dict[str, float] = field(default_factory=dict)
     _active: dict[tuple[str, str, str], SeparationEvent] = field(default_factory=dict)
-    _conflicts_now: set[tuple[str, str]] = field(default_factory=set)
-    _last_check_s: dict[str, float] = field(default_factory=dict)
+    _conflict_keys: np.ndarray = field(default_factory=lambda: np.empty(0, dtype=np.int64))
+    _serials: dict[str, int] = field(default_factory=dict)
+    _serial_ids: list[str] = field(default_factory=list)
+    _serial_array: np.ndarray = field(default_factory=lambda: np.empty(0, dtype=np.int64))
+    _last_check_s: float = -math.inf
 
     # ------------------------------------------------------------- lifecycle
     def attach(self, sim: Simulation) -> None:
@@ -167,9 +188,8 @@ class ConflictService:
 
     def on_reset(self, sim: Simulation) -> None:
         self.finish(sim)
-        self._active.clear()
-        self._conflicts_now.clear()
-        self._last_check_s.clear()
+        self._conflict_keys = np.empty(0, dtype=np.int64)
+        self._last_check_s = -math.inf
         self.state = None
         self.closest_dist_m.clear()
 
@@ -183,69 +203,75 @@ class ConflictService:
         raise KeyError(name)
 
     # ---------------------------------------------------------------- checks
-    def _lookback(self, sim: Simulation, s: _Snapshot) -> np.ndarray:
+    def _lookback(self, sim: Simulation, n: int) -> np.ndarray:
+        """Per aircraft, how far back the last interval reaches: to the last check or its creation."""
         now = sim.simt
-        created = sim.traffic.F[f.CREATED_S, : len(s.ids)]
-        last = np.array([self._last_check_s.get(a, -math.inf) for a in s.ids])
-        since = np.minimum(now - last, now - created)
-        return np.maximum(since, 0.0)
+        created = sim.traffic.F[f.CREATED_S, :n]
+        return np.maximum(np.minimum(now - self._last_check_s, now - created), 0.0)
 
     def check(self, sim: Simulation) -> None:
         """Run all detections on the current state (the post-step hook)."""
-        now = sim.simt
         s = _snapshot(sim)
         n = len(s.ids)
         if sim.settings.cd_method != "OFF":
             self._detect_conflicts(sim, s)
         elif self.state is not None:
             self.state = None
-            self._conflicts_now.clear()
-        lookback = self._lookback(sim, s)
-        self._track_events(now, s, lookback, np.arange(n))
-        self._closest(s)
-        for acid in s.ids:
-            self._last_check_s[acid] = now
+            self._conflict_keys = np.empty(0, dtype=np.int64)
+        lookback = self._lookback(sim, n)
+        radius = max([v.radius_m for v in self.volumes] + [self.closest_range_m])
+        pi, pj = search_pairs(s, -lookback, np.zeros(n), radius)
+        self._track_events(sim.simt, s, lookback, pi, pj, None)
+        self._closest(s, pi, pj)
+        self._last_check_s = sim.simt
 
     def _detect_conflicts(self, sim: Simulation, s: _Snapshot) -> None:
         st = sim.settings
         n = len(s.ids)
-        zeros = np.zeros(n)
-        horizon = np.full(n, st.dtlook_s)
-        pi, pj = search_pairs(s, zeros, horizon, st.zoner_m)
+        pi, pj = search_pairs(s, np.zeros(n), np.full(n, st.dtlook_s), st.zoner_m)
         conf, tcpa, dcpa, tin, _tout, los = statebased(s.lat, s.lon, s.alt, s.u, s.v, s.w, pi, pj,
                                                        st.zoner_m, st.zonedh_m, st.dtlook_s)
         ci, cj = pi[conf], pj[conf]
-        pairs = tuple((s.ids[a], s.ids[b]) for a, b in zip(ci, cj))
         inconf = np.zeros(n, dtype=bool)
         inconf[ci] = True
         inconf[cj] = True
-        tcpamax = np.zeros(n)
-        np.maximum.at(tcpamax, ci, tcpa[conf])
-        np.maximum.at(tcpamax, cj, tcpa[conf])
-        los_pairs = tuple((s.ids[a], s.ids[b]) for a, b in zip(pi[los], pj[los]))
-        self.state = ConflictState(pairs, tcpa[conf], dcpa[conf], tin[conf], los_pairs, inconf, tcpamax)
-        now_set = set(pairs)
-        self.conflict_pairs_total += len(now_set - self._conflicts_now)
-        self._conflicts_now = now_set
+        tcpamax = max_per_aircraft(n, ci, cj, tcpa[conf])
+        self.state = ConflictState(tuple(s.ids), ci, cj, tcpa[conf], dcpa[conf], tin[conf], pi[los], pj[los],
+                                   inconf, tcpamax)
+        # Count pairs that were not in conflict at the previous detection.
+        if s.ids != self._serial_ids:
+            self._serial_ids = list(s.ids)
+            self._serial_array = np.fromiter((self._serial(a) for a in s.ids), dtype=np.int64, count=n)
+        serial = self._serial_array
+        a, b = serial[ci], serial[cj]
+        keys = np.minimum(a, b) * (1 << 32) + np.maximum(a, b)
+        self.conflict_pairs_total += int(np.count_nonzero(~np.isin(keys, self._conflict_keys)))
+        self._conflict_keys = keys
 
-    def _track_events(self, now: float, s: _Snapshot, lookback: np.ndarray, subset: np.ndarray) -> None:
-        if not self.volumes:
-            return
-        n = len(s.ids)
-        radius = max(v.radius_m for v in self.volumes)
-        pi, pj = search_pairs(s, -lookback, np.zeros(n), radius)
-        if len(subset) < n:
-            keep = np.isin(pi, subset) | np.isin(pj, subset)
-            pi, pj = pi[keep], pj[keep]
+    def _serial(self, acid: str) -> int:
+        serial = self._serials.get(acid)
+        if serial is None:
+            serial = self._serials[acid] = len(self._serials)
+        return serial
+
+    def _track_events(self, now: float, s: _Snapshot, lookback: np.ndarray, pi: np.ndarray, pj: np.ndarray,
+                      only: str | None) -> None:
+        """Open, update and close events from the pairs' straight paths over their last interval.
+
+        ``only``: restrict to pairs with this callsign (the last check of a deleted aircraft).
+        """
         for vol in self.volumes:
             inside, t_in, t_out, dmin, t_min = volume_encounters(
                 s.lat, s.lon, s.alt, s.u, s.v, s.w, lookback, pi, pj, vol.cylinder, vol.radius_m,
                 vol.half_height_m if vol.cylinder else 0.0,
             )
             seen: set[tuple[str, str, str]] = set()
-            for k in np.flatnonzero(inside):
-                i, j = int(pi[k]), int(pj[k])
-                a, b = s.ids[i], s.ids[j]
+            ks = np.flatnonzero(inside)
+            ii, jj, tau = pi[ks], pj[ks], t_min[ks]
+            pos_i = _extrapolate(s, ii, tau)
+            pos_j = _extrapolate(s, jj, tau)
+            for n_k, k in enumerate(ks.tolist()):
+                a, b = s.ids[ii[n_k]], s.ids[jj[n_k]]
                 key = (vol.name, a, b) if a < b else (vol.name, b, a)
                 seen.add(key)
                 event = self._active.get(key)
@@ -255,45 +281,44 @@ class ConflictService:
                     self.events.append(event)
                 if dmin[k] < event.min_dist_m:
                     event.min_dist_m = float(dmin[k])
-                    tau = float(t_min[k])
-                    event.t_min_s = now + tau
-                    event.pos1 = _extrapolate(s, i, tau)
-                    event.pos2 = _extrapolate(s, j, tau)
+                    event.t_min_s = now + float(t_min[k])
+                    first, second = (pos_i, pos_j) if key[1] == a else (pos_j, pos_i)
+                    event.pos1 = tuple(float(x[n_k]) for x in first)
+                    event.pos2 = tuple(float(x[n_k]) for x in second)
                 if t_out[k] < -1e-9:  # left the volume before now
                     event.end_s = now + float(t_out[k])
                     del self._active[key]
-            # Active events of this volume not seen this interval have ended.
-            checked = set(s.ids[int(x)] for x in subset)
-            for key in [k for k in self._active if k[0] == vol.name and k not in seen]:
-                if key[1] in checked or key[2] in checked:
-                    event = self._active.pop(key)
-                    event.end_s = now - float(np.min(lookback)) if len(lookback) else now
+            # Open events of this volume not inside during this interval ended at the last check.
+            for key in [key for key in self._active if key[0] == vol.name and key not in seen]:
+                if only is None or only in key[1:]:
+                    self._active.pop(key).end_s = self._last_check_s if math.isfinite(self._last_check_s) else now
 
-    def _closest(self, s: _Snapshot) -> None:
-        n = len(s.ids)
-        dist = np.full(n, math.inf)
-        if n >= 2:
-            zeros = np.zeros(n)
-            pi, pj = search_pairs(s, zeros, zeros, self.closest_range_m)
-            d = slant_distances(s.lat, s.lon, s.alt, pi, pj)
-            np.minimum.at(dist, pi, d)
-            np.minimum.at(dist, pj, d)
+    def _closest(self, s: _Snapshot, pi: np.ndarray, pj: np.ndarray) -> None:
+        d = slant_distances(s.lat, s.lon, s.alt, pi, pj)
+        dist, _ = nearest_per_aircraft(len(s.ids), pi, pj, d, self.closest_range_m)
         self.closest_dist_m = dict(zip(s.ids, dist.tolist()))
-        finite = dist[np.isfinite(dist)]
-        if len(finite):
-            self.min_separation_m = min(self.min_separation_m, float(finite.min()))
+        if len(d):
+            self.min_separation_m = min(self.min_separation_m, float(d.min()))
         for ev in self._active.values():
             self.min_separation_m = min(self.min_separation_m, ev.min_dist_m)
 
     def on_deleted(self, sim: Simulation, slot: int, record: object) -> None:
         """Check the deleted aircraft's last interval before it disappears."""
         s = _snapshot(sim)
-        lookback = self._lookback(sim, s)
-        self._track_events(sim.simt, s, lookback, np.array([slot]))
+        n = len(s.ids)
+        lookback = self._lookback(sim, n)
+        radius = max(v.radius_m for v in self.volumes) if self.volumes else 0.0
+        others = np.array([k for k in range(n) if k != slot], dtype=np.int64)
+        pi = np.minimum(others, slot).astype(np.int64)
+        pj = np.maximum(others, slot).astype(np.int64)
+        if radius > 0 and n > 1:
+            d = slant_distances(s.lat, s.lon, s.alt, pi, pj)
+            reach = radius + 2.0 * float(np.max(np.hypot(s.u, s.v))) * float(np.max(lookback, initial=0.0)) + 1.0
+            near = d <= reach
+            self._track_events(sim.simt, s, lookback, pi[near], pj[near], s.ids[slot])
         acid = s.ids[slot]
         for key in [k for k in self._active if acid in k[1:]]:
             self._active.pop(key).end_s = sim.simt
-        self._last_check_s.pop(acid, None)
         self.closest_dist_m.pop(acid, None)
 
     def finish(self, sim: Simulation) -> None:
@@ -315,10 +340,11 @@ class ConflictService:
         return out
 
 
-def _extrapolate(s: _Snapshot, i: int, tau: float) -> tuple[float, float, float]:
-    lat = s.lat[i] + math.degrees(s.v[i] * tau / R_EARTH)
-    lon = s.lon[i] + math.degrees(s.u[i] * tau / (R_EARTH * max(1e-6, math.cos(math.radians(s.lat[i])))))
-    return float(lat), float(lon), float(s.alt[i] + s.w[i] * tau)
+def _extrapolate(s: _Snapshot, idx: np.ndarray, tau: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Positions (lat, lon, alt) of aircraft ``idx`` at ``tau`` seconds from now on their straight paths."""
+    lat = s.lat[idx] + np.degrees(s.v[idx] * tau / R_EARTH)
+    lon = s.lon[idx] + np.degrees(s.u[idx] * tau / (R_EARTH * np.maximum(1e-6, np.cos(np.radians(s.lat[idx])))))
+    return lat, lon, s.alt[idx] + s.w[idx] * tau
 
 
 def closest_intruders(sim: Simulation, max_range_m: float = 3000.0) -> tuple[np.ndarray, np.ndarray]:
@@ -328,20 +354,10 @@ def closest_intruders(sim: Simulation, max_range_m: float = 3000.0) -> tuple[np.
     """
     s = _snapshot(sim)
     n = len(s.ids)
-    dist = np.full(n, math.inf)
-    idx = np.full(n, -1, dtype=np.int64)
-    if n < 2:
-        return dist, idx
     zeros = np.zeros(n)
     pi, pj = search_pairs(s, zeros, zeros, max_range_m)
     d = slant_distances(s.lat, s.lon, s.alt, pi, pj)
-    ok = d <= max_range_m
-    for a, b, dd in zip(pi[ok], pj[ok], d[ok]):
-        if dd < dist[a]:
-            dist[a], idx[a] = dd, b
-        if dd < dist[b]:
-            dist[b], idx[b] = dd, a
-    return dist, idx
+    return nearest_per_aircraft(n, pi, pj, d, max_range_m)
 
 
 def conflicts_of(sim: Simulation) -> ConflictService:
