@@ -12,7 +12,7 @@ from hypothesis import strategies as st
 from aamsim import Simulation
 from aamsim.conflicts import SeparationVolume, closest_intruders, conflicts_of
 from aamsim.conflicts.pairs import slant_distances, statebased, volume_encounters
-from aamsim.conflicts.service import _snapshot, search_pairs
+from aamsim.conflicts.service import traffic_snapshot, search_pairs
 from aamsim.units import FT, NM
 
 DEG_PER_M = 1.0 / (6371000.0 * math.pi / 180.0)  # latitude degrees per metre (flat-earth sphere)
@@ -172,7 +172,7 @@ def _all_pairs(n):
 @given(traffic_strategy, st.floats(100, 3000), st.floats(0, 300))
 def test_grid_statebased_equals_brute_force(traffic, rpz, tlook):
     sim = _sim_with(traffic)
-    s = _snapshot(sim)
+    s = traffic_snapshot(sim)
     n = len(s.ids)
     ci, cj = search_pairs(s, np.zeros(n), np.full(n, tlook), rpz)
     ai, aj = _all_pairs(n)
@@ -186,7 +186,7 @@ def test_grid_statebased_equals_brute_force(traffic, rpz, tlook):
 @given(traffic_strategy, st.floats(50, 2000), st.floats(0, 5), st.booleans())
 def test_grid_volumes_and_closest_equal_brute_force(traffic, radius, lookback, cylinder):
     sim = _sim_with(traffic)
-    s = _snapshot(sim)
+    s = traffic_snapshot(sim)
     n = len(s.ids)
     back = np.full(n, lookback)
     ci, cj = search_pairs(s, -back, np.zeros(n), radius)

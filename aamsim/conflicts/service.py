@@ -112,7 +112,7 @@ class ConflictState:
 
 
 @dataclass
-class _Snapshot:
+class TrafficSnapshot:
     ids: list[str]
     lat: np.ndarray
     lon: np.ndarray
@@ -125,7 +125,7 @@ class _Snapshot:
     frame_err: float
 
 
-def _snapshot(sim: Simulation) -> _Snapshot:
+def traffic_snapshot(sim: Simulation) -> TrafficSnapshot:
     t = sim.traffic
     n = t.n
     F = t.F
@@ -134,11 +134,11 @@ def _snapshot(sim: Simulation) -> _Snapshot:
     lat = F[f.LAT, :n].copy()
     lon = F[f.LON, :n].copy()
     x, y, err = local_frame(lat, lon)
-    return _Snapshot(list(t.ids), lat, lon, F[f.ALT, :n].copy(), gs * np.sin(trk), gs * np.cos(trk),
+    return TrafficSnapshot(list(t.ids), lat, lon, F[f.ALT, :n].copy(), gs * np.sin(trk), gs * np.cos(trk),
                      F[f.VS, :n].copy(), x, y, err)
 
 
-def _boxes(s: _Snapshot, t0: np.ndarray, t1: np.ndarray, grow: float) -> tuple[np.ndarray, ...]:
+def _boxes(s: TrafficSnapshot, t0: np.ndarray, t1: np.ndarray, grow: float) -> tuple[np.ndarray, ...]:
     """Boxes around each aircraft's straight path between times t0 and t1 (relative to now)."""
     xa = s.x + s.u * t0
     xb = s.x + s.u * t1
@@ -148,7 +148,7 @@ def _boxes(s: _Snapshot, t0: np.ndarray, t1: np.ndarray, grow: float) -> tuple[n
             np.maximum(ya, yb) + grow)
 
 
-def search_pairs(s: _Snapshot, t0: np.ndarray, t1: np.ndarray, radius: float) -> tuple[np.ndarray, np.ndarray]:
+def search_pairs(s: TrafficSnapshot, t0: np.ndarray, t1: np.ndarray, radius: float) -> tuple[np.ndarray, np.ndarray]:
     """Candidate pairs whose straight paths over [t0, t1] come within ``radius`` (superset)."""
     n = len(s.ids)
     if n < 2:
@@ -211,7 +211,7 @@ class ConflictService:
 
     def check(self, sim: Simulation) -> None:
         """Run all detections on the current state (the post-step hook)."""
-        s = _snapshot(sim)
+        s = traffic_snapshot(sim)
         n = len(s.ids)
         if sim.settings.cd_method != "OFF":
             self._detect_conflicts(sim, s)
@@ -225,7 +225,7 @@ class ConflictService:
         self._closest(s, pi, pj)
         self._last_check_s = sim.simt
 
-    def _detect_conflicts(self, sim: Simulation, s: _Snapshot) -> None:
+    def _detect_conflicts(self, sim: Simulation, s: TrafficSnapshot) -> None:
         st = sim.settings
         n = len(s.ids)
         pi, pj = search_pairs(s, np.zeros(n), np.full(n, st.dtlook_s), st.zoner_m)
@@ -254,7 +254,7 @@ class ConflictService:
             serial = self._serials[acid] = len(self._serials)
         return serial
 
-    def _track_events(self, now: float, s: _Snapshot, lookback: np.ndarray, pi: np.ndarray, pj: np.ndarray,
+    def _track_events(self, now: float, s: TrafficSnapshot, lookback: np.ndarray, pi: np.ndarray, pj: np.ndarray,
                       only: str | None) -> None:
         """Open, update and close events from the pairs' straight paths over their last interval.
 
@@ -293,7 +293,7 @@ class ConflictService:
                 if only is None or only in key[1:]:
                     self._active.pop(key).end_s = self._last_check_s if math.isfinite(self._last_check_s) else now
 
-    def _closest(self, s: _Snapshot, pi: np.ndarray, pj: np.ndarray) -> None:
+    def _closest(self, s: TrafficSnapshot, pi: np.ndarray, pj: np.ndarray) -> None:
         d = slant_distances(s.lat, s.lon, s.alt, pi, pj)
         dist, _ = nearest_per_aircraft(len(s.ids), pi, pj, d, self.closest_range_m)
         self.closest_dist_m = dict(zip(s.ids, dist.tolist()))
@@ -304,7 +304,7 @@ class ConflictService:
 
     def on_deleted(self, sim: Simulation, slot: int, record: object) -> None:
         """Check the deleted aircraft's last interval before it disappears."""
-        s = _snapshot(sim)
+        s = traffic_snapshot(sim)
         n = len(s.ids)
         lookback = self._lookback(sim, n)
         radius = max(v.radius_m for v in self.volumes) if self.volumes else 0.0
@@ -340,7 +340,7 @@ class ConflictService:
         return out
 
 
-def _extrapolate(s: _Snapshot, idx: np.ndarray, tau: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def _extrapolate(s: TrafficSnapshot, idx: np.ndarray, tau: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Positions (lat, lon, alt) of aircraft ``idx`` at ``tau`` seconds from now on their straight paths."""
     lat = s.lat[idx] + np.degrees(s.v[idx] * tau / R_EARTH)
     lon = s.lon[idx] + np.degrees(s.u[idx] * tau / (R_EARTH * np.maximum(1e-6, np.cos(np.radians(s.lat[idx])))))
@@ -352,7 +352,7 @@ def closest_intruders(sim: Simulation, max_range_m: float = 3000.0) -> tuple[np.
 
     Beyond ``max_range_m`` the distance is ``inf`` and the slot -1.
     """
-    s = _snapshot(sim)
+    s = traffic_snapshot(sim)
     n = len(s.ids)
     zeros = np.zeros(n)
     pi, pj = search_pairs(s, zeros, zeros, max_range_m)

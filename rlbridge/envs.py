@@ -1,0 +1,197 @@
+"""Gymnasium and PettingZoo environments over an :class:`~rlbridge.core.EpisodeCore`.
+
+* :class:`AamParallelEnv` — PettingZoo ``ParallelEnv``: every airborne aircraft is an agent;
+* :class:`CorridorSAEnv` — Gymnasium ``Env`` (``aamgym/CorridorSA-v0``): one controlled
+  aircraft among traffic that follows a chosen policy (default: unequipped, no advisories).
+
+Both run in-process (``backend="local"``) or against a simulation server
+(``backend="zmq", address="tcp://host:port"``) with identical results.
+"""
+
+from __future__ import annotations
+
+import functools
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+from pettingzoo import ParallelEnv
+
+from rlbridge.core import EpisodeCore, StepResult
+from rlbridge.usecases.registry import make_usecase
+
+
+def make_backend(scenario: str | Path, usecase: str, params: dict[str, Any], backend: str,
+                 address: str | None, time_limit_s: float | None, dt: float, timeout_s: float) -> Any:
+    if backend == "local":
+        return EpisodeCore(scenario, usecase, params, time_limit_s=time_limit_s, dt=dt)
+    if backend == "zmq":
+        from rlbridge.client import RemoteEpisode
+
+        if not address:
+            raise ValueError('backend="zmq" needs address="tcp://host:port"')
+        return RemoteEpisode(address, scenario, usecase, params, time_limit_s=time_limit_s, dt=dt,
+                             timeout_s=timeout_s)
+    raise ValueError(f'backend must be "local" or "zmq", not {backend!r}')
+
+
+def _infos(result: StepResult, k: int) -> dict[str, Any]:
+    return {"nmac": bool(result.nmac[k]), "lowc": bool(result.lowc[k]), "simt": result.simt}
+
+
+class AamParallelEnv(ParallelEnv):
+    """PettingZoo parallel environment: agents are the airborne aircraft of a scenario.
+
+    Agents appear when created and leave (``terminations[a] = True``) when
+    deleted, e.g. on arrival; the episode ends when the scenario is done or at
+    ``time_limit_s`` (remaining agents truncated). Omitting an agent from the
+    actions gives it no advisory this step (it flies its flight plan: the
+    unequipped baseline omits everyone).
+    """
+
+    metadata = {"name": "aamgym_corridor_sa_v0", "render_modes": [], "is_parallelizable": True}
+
+    def __init__(
+        self,
+        scenario: str | Path = "nyc_train_100.scn",
+        usecase: str = "corridor_sa",
+        backend: str = "local",
+        address: str | None = None,
+        time_limit_s: float | None = None,
+        dt: float = 0.05,
+        timeout_s: float = 30.0,
+        **params: Any,
+    ):
+        super().__init__()
+        self._usecase = make_usecase(usecase, **params)
+        self.core = make_backend(scenario, usecase, params, backend, address, time_limit_s, dt, timeout_s)
+        self.possible_agents: list[str] = list(self.core.possible_agents)
+        self.agents: list[str] = []
+        self._seed_rng = np.random.default_rng()
+        self.last_result: StepResult | None = None
+
+    @functools.lru_cache(maxsize=None)
+    def observation_space(self, agent: str) -> gym.Space:
+        return self._usecase.observation_space()
+
+    @functools.lru_cache(maxsize=None)
+    def action_space(self, agent: str) -> gym.Space:
+        return self._usecase.action_space()
+
+    def reset(self, seed: int | None = None, options: dict[str, Any] | None = None):
+        if seed is not None:
+            self._seed_rng = np.random.default_rng(seed)
+        episode_seed = int(self._seed_rng.integers(2**31 - 1)) if seed is None else int(seed)
+        result = self.core.reset(episode_seed)
+        self.last_result = result
+        self.agents = list(result.alive)
+        obs = {a: result.obs.row(k) for k, a in enumerate(result.agents)}
+        infos = {a: _infos(result, k) for k, a in enumerate(result.agents)}
+        return obs, infos
+
+    def step(self, actions: dict[str, Any]):
+        result = self.core.step(actions)
+        self.last_result = result
+        obs, rewards, terms, truncs, infos = {}, {}, {}, {}, {}
+        for k, a in enumerate(result.agents):
+            obs[a] = result.obs.row(k)
+            rewards[a] = float(result.rewards[k])
+            terms[a] = bool(result.terminated[k])
+            truncs[a] = bool(result.truncated[k])
+            infos[a] = _infos(result, k)
+        self.agents = list(result.alive)
+        return obs, rewards, terms, truncs, infos
+
+    def metrics(self) -> dict[str, Any]:
+        """The episode's standard safety and operational metrics."""
+        return self.core.metrics()
+
+    def state(self) -> np.ndarray:
+        raise NotImplementedError("no global state vector is defined for this use case")
+
+    def close(self) -> None:
+        self.core.close()
+
+
+def parallel_env(scenario: str | Path = "nyc_train_100.scn", **kwargs: Any) -> AamParallelEnv:
+    """The corridor separation-assurance environment as a PettingZoo ``ParallelEnv``."""
+    return AamParallelEnv(scenario, **kwargs)
+
+
+TrafficPolicy = Callable[[str, Any], int | None]
+
+
+class CorridorSAEnv(gym.Env):
+    """Single-agent view: control one aircraft; the others follow ``traffic_policy``.
+
+    ``ego`` is the controlled callsign (default: the first aircraft the
+    scenario creates). The episode starts when the ego aircraft exists and
+    ends when it leaves (terminated) or the scenario ends (truncated).
+    ``traffic_policy(agent, obs) -> action or None`` drives the other aircraft;
+    None (the default) leaves them unequipped.
+    """
+
+    metadata = {"render_modes": []}
+
+    def __init__(
+        self,
+        scenario: str | Path = "nyc_train_100.scn",
+        ego: str | None = None,
+        traffic_policy: TrafficPolicy | None = None,
+        usecase: str = "corridor_sa",
+        backend: str = "local",
+        address: str | None = None,
+        time_limit_s: float | None = None,
+        dt: float = 0.05,
+        timeout_s: float = 30.0,
+        **params: Any,
+    ):
+        self._multi = AamParallelEnv(scenario, usecase, backend, address, time_limit_s, dt, timeout_s, **params)
+        if not self._multi.possible_agents:
+            raise ValueError(f"scenario {scenario} creates no aircraft")
+        self.ego = (ego or self._multi.possible_agents[0]).upper()
+        if self.ego not in self._multi.possible_agents:
+            raise ValueError(f"ego {self.ego} is not created by the scenario")
+        self.traffic_policy = traffic_policy
+        self.observation_space = self._multi.observation_space(self.ego)
+        self.action_space = self._multi.action_space(self.ego)
+        self._obs: dict[str, Any] = {}
+
+    def _traffic_actions(self) -> dict[str, Any]:
+        if self.traffic_policy is None:
+            return {}
+        out = {}
+        for a in self._multi.agents:
+            if a != self.ego and a in self._obs:
+                act = self.traffic_policy(a, self._obs[a])
+                if act is not None:
+                    out[a] = act
+        return out
+
+    def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
+        super().reset(seed=seed)
+        obs, infos = self._multi.reset(seed=seed)
+        self._obs = obs
+        while self.ego not in self._multi.agents:
+            if not self._multi.agents and self._multi.last_result is not None and self._multi.last_result.done:
+                raise RuntimeError(f"the scenario ended before {self.ego} was created")
+            obs, _, _, _, infos = self._multi.step(self._traffic_actions())
+            self._obs = obs
+        return obs[self.ego], infos.get(self.ego, {})
+
+    def step(self, action: Any):
+        actions = self._traffic_actions()
+        actions[self.ego] = int(action)
+        obs, rewards, terms, truncs, infos = self._multi.step(actions)
+        self._obs = obs
+        info = dict(infos.get(self.ego, {}))
+        if self.ego not in obs:  # cannot happen: the ego is reported until it leaves
+            raise RuntimeError(f"{self.ego} vanished from the episode")
+        terminated = terms[self.ego]
+        truncated = truncs[self.ego] or (not terminated and self.ego not in self._multi.agents)
+        return obs[self.ego], rewards[self.ego], terminated, truncated, info
+
+    def close(self) -> None:
+        self._multi.close()

@@ -1,0 +1,239 @@
+"""Separation assurance in AAM corridors (the AAM-Gym paper's use case).
+
+Every airborne aircraft is an agent. Every ``decision_interval_s`` it observes
+its own state and its closest intruders and picks a speed advisory:
+
+* action 0, decelerate: target speed 0 kts;
+* action 1, hold: keep the current speed (target = current CAS);
+* action 2, accelerate: target speed 150 kts;
+
+bounded by the aircraft's envelope (an EC135 caps at 139.9 kt TAS). The reward
+is R = R(s, h) + R(a) - Omega with, for the distance d to the closest intruder,
+R(s, h) = -1 if d < NMAC, -alpha + delta d if NMAC <= d < d_max, else 0, and
+R(a) = -psi for any advisory but hold. All defaults are the paper's table
+(docs/usecase-corridor.md lists them with the feature scaling).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import asdict, dataclass, fields
+from typing import TYPE_CHECKING, Any
+
+import gymnasium as gym
+import numpy as np
+
+from aamsim.conflicts import SeparationVolume, conflicts_of
+from aamsim.conflicts.pairs import slant_distances
+from aamsim.conflicts.service import traffic_snapshot, search_pairs
+from aamsim.metrics import record_advisory
+from aamsim.traffic import fields as f
+from aamsim.units import FT, KTS
+from rlbridge.observe import corridor_features, nearest_neighbours
+from rlbridge.usecases.registry import Observations
+
+if TYPE_CHECKING:
+    from aamsim import Simulation
+
+DECELERATE, HOLD, ACCELERATE = 0, 1, 2
+ACTION_NAMES = ("decelerate", "hold", "accelerate")
+
+
+@dataclass(frozen=True)
+class CorridorParams:
+    """Use-case parameters; defaults are the paper's (Table: use-case hyper-parameters)."""
+
+    nmac_m: float = 150.0
+    lowc_m: float = 450.0
+    speed_low_kts: float = 0.0  # "Desired speeds [0, Maintain, 150] knots"
+    speed_high_kts: float = 150.0
+    n_wpt: int = 2
+    n_intruders: int = 30
+    d_max_m: float = 3000.0
+    alpha: float = 1.0
+    delta: float = 0.0003
+    psi: float = 0.001
+    omega: float = 0.001
+    # Not given by the paper (documented choices):
+    decision_interval_s: float = 10.0
+    intruder_range_m: float = 10000.0
+    obs_format: str = "flat"  # "flat" vector or "dict" (ownship, intruders, mask) for attention models
+    alt_noise_ft: float = 0.0  # extra uniform altitude noise drawn per episode seed at creation
+    reward_interval_nmac: bool = True  # an NMAC during the interval counts even if over by the decision
+    # Feature scales (divisors): heading deg, altitude m, acceleration m/s^2, speed m/s, position m, d-alt m.
+    scale_hdg: float = 360.0
+    scale_alt: float = 1000.0
+    scale_acc: float = 3.5
+    scale_spd: float = 100.0
+    scale_pos: float = 5000.0
+    scale_dalt: float = 100.0
+
+    def __post_init__(self) -> None:
+        if self.obs_format not in ("flat", "dict"):
+            raise ValueError(f"obs_format must be 'flat' or 'dict', not {self.obs_format!r}")
+        for name in ("nmac_m", "lowc_m", "d_max_m", "decision_interval_s", "intruder_range_m"):
+            if not getattr(self, name) > 0:
+                raise ValueError(f"{name} must be positive")
+        if self.n_wpt < 0 or self.n_intruders < 0:
+            raise ValueError("n_wpt and n_intruders cannot be negative")
+
+    @classmethod
+    def from_dict(cls, params: dict[str, Any] | None) -> CorridorParams:
+        params = dict(params or {})
+        known = {fl.name for fl in fields(cls)}
+        unknown = sorted(set(params) - known)
+        if unknown:
+            raise ValueError(f"unknown use-case parameter(s) {', '.join(unknown)}; known: {', '.join(sorted(known))}")
+        return cls(**params)
+
+    def to_dict(self) -> dict[str, Any]:
+        return asdict(self)
+
+
+class CorridorSA:
+    """The corridor separation-assurance use case (``corridor_sa``)."""
+
+    name = "corridor_sa"
+
+    def __init__(self, **params: Any):
+        self.params = CorridorParams.from_dict(params)
+        p = self.params
+        self.own_dim = 5 + 2 * p.n_wpt
+        self.intruder_dim = 7 + 2 * p.n_wpt
+        self._scales = np.array([p.scale_hdg, p.scale_alt, p.scale_acc, p.scale_spd, p.scale_pos, p.scale_dalt])
+        big = np.float32(1e6)
+        if p.obs_format == "flat":
+            dim = self.own_dim + p.n_intruders * self.intruder_dim
+            self._obs_space: gym.Space = gym.spaces.Box(-big, big, shape=(dim,), dtype=np.float32)
+        else:
+            self._obs_space = gym.spaces.Dict({
+                "ownship": gym.spaces.Box(-big, big, shape=(self.own_dim,), dtype=np.float32),
+                "intruders": gym.spaces.Box(-big, big, shape=(p.n_intruders, self.intruder_dim), dtype=np.float32),
+                "mask": gym.spaces.Box(0.0, 1.0, shape=(p.n_intruders,), dtype=np.float32),
+            })
+        self._act_space = gym.spaces.Discrete(3)
+
+    # ------------------------------------------------------------------ spaces
+    def observation_space(self) -> gym.Space:
+        return self._obs_space
+
+    def action_space(self) -> gym.Space:
+        return self._act_space
+
+    # -------------------------------------------------------------- lifecycle
+    def attach(self, sim: Simulation) -> None:
+        p = self.params
+        service = conflicts_of(sim)
+        service.volumes = (SeparationVolume("nmac", p.nmac_m), SeparationVolume("lowc", p.lowc_m))
+        if p.alt_noise_ft > 0:
+            def jitter(sim: Simulation, i: int) -> None:
+                dz = float(sim.rng.uniform(-p.alt_noise_ft, p.alt_noise_ft)) * FT
+                sim.traffic.F[f.ALT, i] += dz
+                sim.traffic.F[f.SELALT, i] += dz
+            sim.hooks.created.add(jitter, name="corridor.alt_noise")
+
+    # ------------------------------------------------------------ observation
+    def _route_arrays(self, sim: Simulation) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """Destination and next ``n_wpt`` waypoints of every aircraft (the destination repeats at the end)."""
+        t = sim.traffic
+        n = t.n
+        nw = self.params.n_wpt
+        dest_lat = np.full(n, np.nan)
+        dest_lon = np.full(n, np.nan)
+        wlat = np.empty((n, nw))
+        wlon = np.empty((n, nw))
+        lat, lon = t.lat, t.lon
+        for s in range(n):
+            route = t.routes[s]
+            wps = route.waypoints
+            if wps:
+                rec = t.flights[s]
+                if rec.destination and not math.isnan(rec.dest_lat):
+                    dest_lat[s], dest_lon[s] = rec.dest_lat, rec.dest_lon
+                else:
+                    dest_lat[s], dest_lon[s] = wps[-1].lat, wps[-1].lon
+                start = route.iactwp if t.B[f.B_SWLNAV, s] and route.iactwp >= 0 else len(wps)
+                for j in range(nw):
+                    k = start + j
+                    if k < len(wps):
+                        wlat[s, j], wlon[s, j] = wps[k].lat, wps[k].lon
+                    else:
+                        wlat[s, j], wlon[s, j] = dest_lat[s], dest_lon[s]
+            else:
+                # No route: the aircraft's own position (zero offsets, zero distance).
+                dest_lat[s], dest_lon[s] = lat[s], lon[s]
+                wlat[s, :] = lat[s]
+                wlon[s, :] = lon[s]
+        dlat = np.radians(dest_lat - lat)
+        dlon = np.radians((dest_lon - lon + 180.0) % 360.0 - 180.0)
+        ddest = 6371000.0 * np.hypot(dlat, dlon * np.cos(np.radians(0.5 * (dest_lat + lat))))
+        return ddest, wlat, wlon, dest_lat, dest_lon
+
+    def _neighbours(self, sim: Simulation, slots: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        s = traffic_snapshot(sim)
+        n = len(s.ids)
+        rng = max(self.params.intruder_range_m, self.params.d_max_m)
+        zeros = np.zeros(n)
+        pi, pj = search_pairs(s, zeros, zeros, rng)
+        d = slant_distances(s.lat, s.lon, s.alt, pi, pj)
+        k = max(self.params.n_intruders, 1)
+        return nearest_neighbours(n, slots, pi, pj, d, k, rng)
+
+    def observe(self, sim: Simulation, agents: list[str]) -> Observations:
+        slots = np.array([sim.traffic.index(a) for a in agents], dtype=np.int64)
+        nbr, nbr_d = self._neighbours(sim, slots)
+        self._last_closest = nbr_d[:, 0].copy() if len(slots) else np.empty(0)
+        if self.params.n_intruders == 0:
+            nbr, nbr_d = nbr[:, :0], nbr_d[:, :0]
+        ddest, wlat, wlon, _, _ = self._route_arrays(sim)
+        t = sim.traffic
+        own, intr, mask = corridor_features(
+            slots, t.lat, t.lon, t.alt, t.hdg, t.ax, t.gs, ddest, wlat, wlon, nbr, nbr_d, self._scales
+        )
+        if self.params.obs_format == "dict":
+            return Observations(parts={"ownship": own, "intruders": intr, "mask": mask})
+        flat = np.concatenate([own, intr.reshape(len(slots), -1)], axis=1)
+        return Observations(flat=flat)
+
+    def closest_distances(self, sim: Simulation, agents: list[str]) -> np.ndarray:
+        """3-D distance to the closest intruder within d_max (inf beyond)."""
+        slots = np.array([sim.traffic.index(a) for a in agents], dtype=np.int64)
+        _, nbr_d = self._neighbours(sim, slots)
+        return nbr_d[:, 0] if len(slots) else np.empty(0)
+
+    # ----------------------------------------------------------------- reward
+    def rewards(self, sim: Simulation, agents: list[str], actions: dict[str, Any],
+                closest_m: np.ndarray, interval_nmac_min_m: dict[str, float]) -> np.ndarray:
+        """Per-agent reward from the closest-intruder distance and the advisory given."""
+        p = self.params
+        d = np.array(closest_m, dtype=float)
+        if p.reward_interval_nmac:
+            for k, a in enumerate(agents):
+                if a in interval_nmac_min_m:
+                    d[k] = min(d[k], interval_nmac_min_m[a])
+        r_sh = np.where(d < p.nmac_m, -1.0, np.where(d < p.d_max_m, -p.alpha + p.delta * d, 0.0))
+        r_a = np.array([0.0 if actions.get(a, HOLD) == HOLD else -p.psi for a in agents])
+        return r_sh + r_a - p.omega
+
+    # ----------------------------------------------------------------- action
+    def apply_actions(self, sim: Simulation, actions: dict[str, Any]) -> None:
+        """Speed advisories: set the selected CAS of each agent (missing agents: no advisory)."""
+        t = sim.traffic
+        p = self.params
+        for acid, action in actions.items():
+            i = t.find(acid)
+            if i is None:
+                continue
+            a = int(action)
+            if a == DECELERATE:
+                target = p.speed_low_kts * KTS
+            elif a == ACCELERATE:
+                target = p.speed_high_kts * KTS
+            elif a == HOLD:
+                target = float(t.F[f.CAS, i])
+            else:
+                raise ValueError(f"action {action!r} for {acid} is not 0, 1 or 2")
+            t.F[f.SELSPD, i] = target
+            t.B[f.B_SELSPD_MACH, i] = False
+            t.B[f.B_SWVNAVSPD, i] = False
+            record_advisory(sim, acid, ACTION_NAMES[a])
