@@ -44,7 +44,7 @@ class HookList:
         name: str | None = None,
         start_us: int = 0,
     ) -> Hook:
-        hook_name = name or getattr(fn, "__qualname__", repr(fn))
+        hook_name = str(name or getattr(fn, "__qualname__", repr(fn)))
         if any(h.name == hook_name for h in self._hooks):
             raise ValueError(f"a hook named {hook_name} is already registered")
         hook = Hook(fn, hook_name, priority, int(round(interval_s * US_PER_S)), next(self._order), start_us)

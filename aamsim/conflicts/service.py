@@ -263,7 +263,7 @@ class ConflictService:
         for vol in self.volumes:
             inside, t_in, t_out, dmin, t_min = volume_encounters(
                 s.lat, s.lon, s.alt, s.u, s.v, s.w, lookback, pi, pj, vol.cylinder, vol.radius_m,
-                vol.half_height_m if vol.cylinder else 0.0,
+                vol.half_height_m if vol.half_height_m is not None else 0.0,
             )
             seen: set[tuple[str, str, str]] = set()
             ks = np.flatnonzero(inside)
@@ -283,8 +283,8 @@ class ConflictService:
                     event.min_dist_m = float(dmin[k])
                     event.t_min_s = now + float(t_min[k])
                     first, second = (pos_i, pos_j) if key[1] == a else (pos_j, pos_i)
-                    event.pos1 = tuple(float(x[n_k]) for x in first)
-                    event.pos2 = tuple(float(x[n_k]) for x in second)
+                    event.pos1 = (float(first[0][n_k]), float(first[1][n_k]), float(first[2][n_k]))
+                    event.pos2 = (float(second[0][n_k]), float(second[1][n_k]), float(second[2][n_k]))
                 if t_out[k] < -1e-9:  # left the volume before now
                     event.end_s = now + float(t_out[k])
                     del self._active[key]

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import json
 import statistics
+from collections.abc import Sequence
 from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Any
@@ -67,7 +68,7 @@ def load_run(path: str | Path) -> RunMetrics:
                       int(safety["nmac_events"]), int(safety["lowc_events"]), data.get("operational") or {})
 
 
-def expand_runs(paths: list[str | Path]) -> list[RunMetrics]:
+def expand_runs(paths: Sequence[str | Path]) -> list[RunMetrics]:
     """Run directories; a directory without summary.json but with run sub-directories counts as many runs."""
     runs: list[RunMetrics] = []
     for path in paths:
@@ -108,7 +109,7 @@ def compare_runs(runs: list[RunMetrics], baselines: list[RunMetrics]) -> Compari
     if len(scen) > 1:
         names = sorted({f"{r.scenario} ({(r.scenario_sha256 or '?')[:12]})" for r in runs + baselines})
         raise ComparisonError(f"runs of different scenarios cannot be compared: {', '.join(names)}")
-    base = {}
+    base: dict[tuple[str, Any], RunMetrics] = {}
     for b in baselines:
         if key(b) in base:
             raise ComparisonError(f"two baseline runs with seed {b.seed}: {base[key(b)].path} and {b.path}")

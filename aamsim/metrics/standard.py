@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import math
 
-from aamsim.metrics.registry import MetricContext, MetricRegistry
+from aamsim.metrics.registry import MetricContext, MetricFn, MetricRegistry, MetricValue
 
 
 def _per_flight(count: int, ctx: MetricContext) -> float | None:
@@ -25,12 +25,24 @@ def _mean(values: list[float]) -> float | None:
     return sum(values) / len(values) if values else None
 
 
+def _events(volume: str, per: str = "") -> MetricFn:
+    def metric(ctx: MetricContext) -> MetricValue:
+        count = len(ctx.events_of(volume))
+        if per == "flight":
+            return _per_flight(count, ctx)
+        if per == "hour":
+            return _per_hour(count, ctx)
+        return count
+
+    return metric
+
+
 def register_standard_metrics(reg: MetricRegistry) -> None:
     # ------------------------------------------------------------------ safety
     for vol in ("nmac", "lowc"):
-        reg.add("safety", f"{vol}_events", lambda c, v=vol: len(c.events_of(v)))
-        reg.add("safety", f"{vol}_per_flight", lambda c, v=vol: _per_flight(len(c.events_of(v)), c))
-        reg.add("safety", f"{vol}_per_flight_hour", lambda c, v=vol: _per_hour(len(c.events_of(v)), c))
+        reg.add("safety", f"{vol}_events", _events(vol))
+        reg.add("safety", f"{vol}_per_flight", _events(vol, per="flight"))
+        reg.add("safety", f"{vol}_per_flight_hour", _events(vol, per="hour"))
     reg.add("safety", "min_separation_m", lambda c: c.min_separation_m if math.isfinite(c.min_separation_m) else None)
     reg.add("safety", "time_in_lowc_s", lambda c: sum(e.duration_s(c.duration_s) for e in c.events_of("lowc")))
     reg.add("safety", "conflict_pairs", lambda c: c.conflict_pairs)
