@@ -103,7 +103,6 @@ class EpisodeCore:
         self._interval = float(getattr(self.usecase, "params").decision_interval_s) \
             if hasattr(self.usecase, "params") else 10.0
         self._left: dict[str, dict[str, Any]] = {}
-        self._event_cursor = 0
 
     # ----------------------------------------------------------------- helpers
     def _new_simulation(self, seed: int | None) -> Simulation:
@@ -152,24 +151,9 @@ class EpisodeCore:
         return sim.is_quiescent()
 
     def _interval_events(self, t0: float) -> tuple[dict[str, float], set[str]]:
-        """Per callsign, the smallest NMAC distance, and the LoWC set, over events overlapping (t0, now]."""
+        """Per callsign, the smallest NMAC distance, and the LoWC set, over events overlapping [t0, now]."""
         service = conflicts_of(self.sim)
-        events = service.events
-        nmac: dict[str, float] = {}
-        lowc: set[str] = set()
-        # Events are appended in start order; skip those that ended before this interval.
-        while self._event_cursor < len(events) and not events[self._event_cursor].active \
-                and events[self._event_cursor].end_s < t0 - 1e-9:
-            self._event_cursor += 1
-        for ev in events[self._event_cursor:]:
-            if not ev.active and ev.end_s < t0 - 1e-9:
-                continue
-            if ev.volume == "nmac":
-                for a in (ev.ac1, ev.ac2):
-                    nmac[a] = min(nmac.get(a, math.inf), ev.min_dist_m)
-            elif ev.volume == "lowc":
-                lowc.update((ev.ac1, ev.ac2))
-        return nmac, lowc
+        return service.involved_since("nmac", t0), set(service.involved_since("lowc", t0))
 
     def _advance(self) -> None:
         """Advance one decision interval; skip ahead while no agent is airborne."""
@@ -190,7 +174,6 @@ class EpisodeCore:
         self.seed = seed
         self.agents = []
         self._left = {}
-        self._event_cursor = 0
         self.sim = self._new_simulation(seed)
         self.sim.run_until(0.0)
         if self.sim.traffic.n == 0 and not self._scenario_over():

@@ -1,10 +1,10 @@
 """Conflict detection (BlueSky STATEBASED) and loss-of-separation events (NMAC, LoWC)."""
 
+from aamsim.conflicts.events import EventLog, SeparationEvent
 from aamsim.conflicts.service import (
     PAPER_VOLUMES,
     ConflictService,
     ConflictState,
-    SeparationEvent,
     SeparationVolume,
     closest_intruders,
     conflicts_of,
@@ -14,6 +14,7 @@ __all__ = [
     "PAPER_VOLUMES",
     "ConflictService",
     "ConflictState",
+    "EventLog",
     "SeparationEvent",
     "SeparationVolume",
     "closest_intruders",

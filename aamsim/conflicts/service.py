@@ -26,6 +26,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from aamsim.conflicts.events import EventLog, SeparationEvent
 from aamsim.conflicts.grid import candidate_pairs, local_frame
 from aamsim.conflicts.pairs import (
     max_per_aircraft,
@@ -62,28 +63,6 @@ class SeparationVolume:
 
 
 PAPER_VOLUMES = (SeparationVolume("nmac", 150.0), SeparationVolume("lowc", 450.0))
-
-
-@dataclass
-class SeparationEvent:
-    """One pair inside one volume, from entry to exit; positions at the closest point."""
-
-    volume: str
-    ac1: str
-    ac2: str
-    start_s: float
-    end_s: float = math.nan
-    min_dist_m: float = math.inf
-    t_min_s: float = math.nan
-    pos1: tuple[float, float, float] = (math.nan, math.nan, math.nan)
-    pos2: tuple[float, float, float] = (math.nan, math.nan, math.nan)
-
-    @property
-    def active(self) -> bool:
-        return math.isnan(self.end_s)
-
-    def duration_s(self, now_s: float) -> float:
-        return (now_s if self.active else self.end_s) - self.start_s
 
 
 @dataclass(frozen=True)
@@ -167,12 +146,11 @@ class ConflictService:
 
     volumes: tuple[SeparationVolume, ...] = PAPER_VOLUMES
     closest_range_m: float = 1000.0  # closest-intruder distances and minimum separation below this range
-    events: list[SeparationEvent] = field(default_factory=list)
+    logs: dict[str, EventLog] = field(default_factory=dict)
     state: ConflictState | None = None
     conflict_pairs_total: int = 0  # new conflict pairs (i<j) over the run
     min_separation_m: float = math.inf
     closest_dist_m: dict[str, float] = field(default_factory=dict)
-    _active: dict[tuple[str, str, str], SeparationEvent] = field(default_factory=dict)
     _conflict_keys: np.ndarray = field(default_factory=lambda: np.empty(0, dtype=np.int64))
     _serials: dict[str, int] = field(default_factory=dict)
     _serial_ids: list[str] = field(default_factory=list)
@@ -189,6 +167,8 @@ class ConflictService:
     def on_reset(self, sim: Simulation) -> None:
         self.finish(sim)
         self._conflict_keys = np.empty(0, dtype=np.int64)
+        self._serials.clear()
+        self._serial_ids = []
         self._last_check_s = -math.inf
         self.state = None
         self.closest_dist_m.clear()
@@ -239,10 +219,7 @@ class ConflictService:
         self.state = ConflictState(tuple(s.ids), ci, cj, tcpa[conf], dcpa[conf], tin[conf], pi[los], pj[los],
                                    inconf, tcpamax)
         # Count pairs that were not in conflict at the previous detection.
-        if s.ids != self._serial_ids:
-            self._serial_ids = list(s.ids)
-            self._serial_array = np.fromiter((self._serial(a) for a in s.ids), dtype=np.int64, count=n)
-        serial = self._serial_array
+        serial = self._serials_of(s.ids)
         a, b = serial[ci], serial[cj]
         keys = np.minimum(a, b) * (1 << 32) + np.maximum(a, b)
         self.conflict_pairs_total += int(np.count_nonzero(~np.isin(keys, self._conflict_keys)))
@@ -254,44 +231,53 @@ class ConflictService:
             serial = self._serials[acid] = len(self._serials)
         return serial
 
+    def _log(self, volume: str) -> EventLog:
+        log = self.logs.get(volume)
+        if log is None:
+            log = self.logs[volume] = EventLog(volume)
+        return log
+
+    def _serials_of(self, ids: list[str]) -> np.ndarray:
+        if ids != self._serial_ids:
+            self._serial_ids = list(ids)
+            self._serial_array = np.fromiter((self._serial(a) for a in ids), dtype=np.int64, count=len(ids))
+        return self._serial_array
+
     def _track_events(self, now: float, s: TrafficSnapshot, lookback: np.ndarray, pi: np.ndarray, pj: np.ndarray,
                       only: str | None) -> None:
         """Open, update and close events from the pairs' straight paths over their last interval.
 
-        ``only``: restrict to pairs with this callsign (the last check of a deleted aircraft).
+        ``only``: restrict closing to events with this callsign (the last check of a deleted aircraft).
         """
+        serial = self._serials_of(s.ids)
+        close_unseen = None
+        if only is not None:
+            mine = self._serial(only)
+            close_unseen = np.array([mine], dtype=np.int64)
         for vol in self.volumes:
+            log = self._log(vol.name)
             inside, t_in, t_out, dmin, t_min = volume_encounters(
                 s.lat, s.lon, s.alt, s.u, s.v, s.w, lookback, pi, pj, vol.cylinder, vol.radius_m,
                 vol.half_height_m if vol.half_height_m is not None else 0.0,
             )
-            seen: set[tuple[str, str, str]] = set()
             ks = np.flatnonzero(inside)
             ii, jj, tau = pi[ks], pj[ks], t_min[ks]
-            pos_i = _extrapolate(s, ii, tau)
-            pos_j = _extrapolate(s, jj, tau)
-            for n_k, k in enumerate(ks.tolist()):
-                a, b = s.ids[ii[n_k]], s.ids[jj[n_k]]
-                key = (vol.name, a, b) if a < b else (vol.name, b, a)
-                seen.add(key)
-                event = self._active.get(key)
-                if event is None:
-                    event = SeparationEvent(vol.name, key[1], key[2], now + float(t_in[k]))
-                    self._active[key] = event
-                    self.events.append(event)
-                if dmin[k] < event.min_dist_m:
-                    event.min_dist_m = float(dmin[k])
-                    event.t_min_s = now + float(t_min[k])
-                    first, second = (pos_i, pos_j) if key[1] == a else (pos_j, pos_i)
-                    event.pos1 = (float(first[0][n_k]), float(first[1][n_k]), float(first[2][n_k]))
-                    event.pos2 = (float(second[0][n_k]), float(second[1][n_k]), float(second[2][n_k]))
-                if t_out[k] < -1e-9:  # left the volume before now
-                    event.end_s = now + float(t_out[k])
-                    del self._active[key]
-            # Open events of this volume not inside during this interval ended at the last check.
-            for key in [key for key in self._active if key[0] == vol.name and key not in seen]:
-                if only is None or only in key[1:]:
-                    self._active.pop(key).end_s = self._last_check_s if math.isfinite(self._last_check_s) else now
+            # Events name the pair in callsign order.
+            swap = np.array([s.ids[a] > s.ids[b] for a, b in zip(ii.tolist(), jj.tolist())], dtype=bool)
+            first = np.where(swap, jj, ii)
+            second = np.where(swap, ii, jj)
+            p1 = _extrapolate(s, first, tau)
+            p2 = _extrapolate(s, second, tau)
+            pos = np.column_stack([p1[0], p1[1], p1[2], p2[0], p2[1], p2[2]]) if len(ks) else np.empty((0, 6))
+            sa, sb = serial[first], serial[second]
+            keys = np.minimum(sa, sb) * (1 << 32) + np.maximum(sa, sb)
+            unseen_filter = None
+            if close_unseen is not None:
+                hi, lo = log.open_keys >> 32, log.open_keys & 0xFFFFFFFF
+                unseen_filter = log.open_keys[(hi == close_unseen[0]) | (lo == close_unseen[0])]
+            log.update(now, self._last_check_s, keys, [s.ids[a] for a in first.tolist()],
+                       [s.ids[b] for b in second.tolist()], t_in[ks], t_out[ks], dmin[ks], t_min[ks], pos,
+                       unseen_filter)
 
     def _closest(self, s: TrafficSnapshot, pi: np.ndarray, pj: np.ndarray) -> None:
         d = slant_distances(s.lat, s.lon, s.alt, pi, pj)
@@ -299,8 +285,9 @@ class ConflictService:
         self.closest_dist_m = dict(zip(s.ids, dist.tolist()))
         if len(d):
             self.min_separation_m = min(self.min_separation_m, float(d.min()))
-        for ev in self._active.values():
-            self.min_separation_m = min(self.min_separation_m, ev.min_dist_m)
+        for log in self.logs.values():
+            if len(log.open_rows):
+                self.min_separation_m = min(self.min_separation_m, float(log.dmin[log.open_rows].min()))
 
     def on_deleted(self, sim: Simulation, slot: int, record: object) -> None:
         """Check the deleted aircraft's last interval before it disappears."""
@@ -317,27 +304,38 @@ class ConflictService:
             near = d <= reach
             self._track_events(sim.simt, s, lookback, pi[near], pj[near], s.ids[slot])
         acid = s.ids[slot]
-        for key in [k for k in self._active if acid in k[1:]]:
-            self._active.pop(key).end_s = sim.simt
+        mine = self._serial(acid)
+        for log in self.logs.values():
+            hi, lo = log.open_keys >> 32, log.open_keys & 0xFFFFFFFF
+            log.close_all(sim.simt, log.open_keys[(hi == mine) | (lo == mine)])
         self.closest_dist_m.pop(acid, None)
 
     def finish(self, sim: Simulation) -> None:
         """Close events still open at the end of the run (end time = now)."""
-        for event in self._active.values():
-            event.end_s = sim.simt
-        self._active.clear()
+        for log in self.logs.values():
+            log.close_all(sim.simt)
 
     # -------------------------------------------------------------- queries
+    @property
+    def events(self) -> list[SeparationEvent]:
+        """Every event of every volume, by start time (built on demand from the logs)."""
+        out = [e for log in self.logs.values() for e in log.events()]
+        out.sort(key=lambda e: (e.start_s, e.volume, e.ac1, e.ac2))
+        return out
+
     def count(self, volume: str) -> int:
-        return sum(1 for e in self.events if e.volume == volume)
+        log = self.logs.get(volume)
+        return log.n if log is not None else 0
 
     def in_volume_now(self, volume: str) -> set[str]:
         """Callsigns currently inside an open event of ``volume``."""
-        out: set[str] = set()
-        for key in self._active:
-            if key[0] == volume:
-                out.update(key[1:])
-        return out
+        log = self.logs.get(volume)
+        return log.open_callsigns() if log is not None else set()
+
+    def involved_since(self, volume: str, t0: float) -> dict[str, float]:
+        """Callsign -> smallest distance in ``volume`` events open at some time since ``t0``."""
+        log = self.logs.get(volume)
+        return log.involved_since(t0) if log is not None else {}
 
 
 def _extrapolate(s: TrafficSnapshot, idx: np.ndarray, tau: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
