@@ -213,3 +213,56 @@ def commands(group: str | None) -> None:
         aliases = f"  (also {', '.join(spec.aliases)})" if spec.aliases else ""
         click.echo(f"{spec.usage}{aliases}")
         click.echo(f"    [{spec.group}] {spec.summary}")
+
+
+@main.command()
+@click.option("--bind", default="tcp://127.0.0.1:5555", show_default=True,
+              help="ZeroMQ endpoint to listen on (loopback by default; tcp://*:PORT for every interface).")
+@click.option("--plugin", "plugins", multiple=True, help="Load a plugin into every session's simulation (repeatable).")
+@click.option("--max-message-bytes", type=click.IntRange(min=1024), default=16 * 1024 * 1024, show_default=True,
+              help="Largest request accepted; larger ones get an error reply.")
+@click.option("--session-timeout", type=click.FloatRange(min=0, min_open=True), default=300.0, show_default=True,
+              help="Free the simulation of a client silent for this long [s].")
+@click.option("--max-sessions", type=click.IntRange(min=1), default=64, show_default=True,
+              help="Most simulations served at once.")
+@click.option("--scenario-root", "scenario_roots", multiple=True,
+              type=click.Path(exists=True, file_okay=False, path_type=Path),
+              help="Folder clients may load scenarios from (repeatable; default: the working directory). "
+                   "Shipped scenarios are always allowed.")
+@click.option("--allow-shutdown", is_flag=True, help="Let a client stop the server with a shutdown request.")
+@click.option("--log-level", type=click.Choice(["DEBUG", "INFO", "WARNING", "ERROR"], case_sensitive=False),
+              default="INFO", show_default=True)
+def serve(bind: str, plugins: tuple[str, ...], max_message_bytes: int, session_timeout: float, max_sessions: int,
+          scenario_roots: tuple[Path, ...], allow_shutdown: bool, log_level: str) -> None:
+    """Run a headless simulation server for RL environments (ZeroMQ, docs/protocol.md).
+
+    Each client gets its own simulation. Ctrl-C or SIGTERM stops the server.
+    """
+    import logging
+
+    from aamsim.errors import CommandError
+    from aamsim.plugins import plugin_module
+
+    logging.basicConfig(level=log_level.upper(), format="%(asctime)s %(name)s %(levelname)s: %(message)s")
+    try:
+        for name in plugins:
+            plugin_module(name)
+        bridge = plugin_module("BRIDGE")
+    except CommandError as exc:
+        click.echo(f"error: {exc}", err=True)
+        sys.exit(2)
+
+    def ready(endpoint: str) -> None:
+        click.echo(f"aamsim serve: listening on {endpoint}", err=False)
+        sys.stdout.flush()
+
+    import zmq
+
+    try:
+        code = bridge.serve(bind, tuple(plugins), on_ready=ready, max_message_bytes=max_message_bytes,
+                            session_timeout_s=session_timeout, max_sessions=max_sessions,
+                            scenario_roots=scenario_roots, allow_shutdown=allow_shutdown)
+    except zmq.ZMQError as exc:
+        click.echo(f"error: cannot listen on {bind}: {exc}", err=True)
+        sys.exit(2)
+    sys.exit(code)

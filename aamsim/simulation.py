@@ -100,6 +100,8 @@ class Simulation:
         self.scenario_path: Path | None = None
         self.scenario_text = ""
         self.search_path: list[Path] = []
+        # Called with every file PCALL/IC resolve; raises CommandError to refuse it (the ZMQ server's roots).
+        self.file_guard: Callable[[Path], None] | None = None
         self.plugins: dict[str, Any] = {}
         self.extensions: dict[str, Any] = {}  # per-simulation state of services and plugins
         self.aircraft_steps = 0
@@ -173,7 +175,13 @@ class Simulation:
         return parsed
 
     def find_file(self, name: str) -> Path | None:
-        """Resolve a scenario file name (PCALL, IC) against the search path."""
+        """Resolve a scenario file name (PCALL, IC) against the search path (and ``file_guard``)."""
+        found = self._find_file(name)
+        if found is not None and self.file_guard is not None:
+            self.file_guard(found)
+        return found
+
+    def _find_file(self, name: str) -> Path | None:
         candidate = Path(name)
         options = [candidate] if candidate.suffix else [candidate, candidate.with_suffix(".scn")]
         for option in options:

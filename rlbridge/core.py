@@ -13,6 +13,7 @@ backends give identical results.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -29,6 +30,7 @@ from aamsim.stack.tokens import next_arg
 from rlbridge.usecases.registry import Observations, UseCase, make_usecase
 
 
+TRAFFIC_STATE_FIELDS = ("lat", "lon", "alt", "tas", "gs", "trk", "vs")
 DEFAULT_EXTRA_TIME_S = 7200.0  # default episode limit: last scheduled command + 2 h
 
 
@@ -81,6 +83,7 @@ class EpisodeCore:
         time_limit_s: float | None = None,
         dt: float = 0.05,
         plugins: tuple[str, ...] = (),
+        file_guard: Callable[[Path], None] | None = None,
     ):
         path = resolve_scenario(scenario)
         if path is None:
@@ -90,6 +93,7 @@ class EpisodeCore:
         self.usecase: UseCase = make_usecase(usecase, **(params or {})) if isinstance(usecase, str) else usecase
         self.dt = dt
         self.plugins = tuple(plugins)
+        self.file_guard = file_guard
         template = Simulation(use_bluesky_navdata=True)
         self._parsed = template.parse(self.text, str(path))
         self.parse_errors = [str(e) for e in self._parsed.errors]
@@ -111,6 +115,7 @@ class EpisodeCore:
         sim.scenario_path = self.path
         sim.scenario_text = self.text
         sim.search_path.insert(0, self.path.parent)
+        sim.file_guard = self.file_guard
         conflicts_of(sim)
         metrics_of(sim)
         self.usecase.attach(sim)
@@ -190,7 +195,8 @@ class EpisodeCore:
             raise RuntimeError("step() before reset()")
         sim = self.sim
         before = list(self.agents)
-        valid = {a: act for a, act in actions.items() if a in set(before)}
+        before_set = set(before)
+        valid = {a: act for a, act in actions.items() if a in before_set}
         self.usecase.apply_actions(sim, valid)
         t0 = sim.simt
         self._left = {}
@@ -199,7 +205,7 @@ class EpisodeCore:
         alive_set = set(now_alive)
         over = self._scenario_over()
         truncate = over and bool(now_alive)
-        reported = before + [a for a in now_alive if a not in set(before)]
+        reported = before + [a for a in now_alive if a not in before_set]
         nmac_min, lowc_set = self._interval_events(t0)
         stay = [a for a in reported if a in alive_set]
         live_obs = self.usecase.observe(sim, stay) if stay else None
@@ -224,7 +230,7 @@ class EpisodeCore:
                 terminated[k] = True
         obs = self._stack_obs(rows, live_obs)
         rewards = self.usecase.rewards(sim, reported, valid, closest, nmac_min)
-        new_agents = set(reported) - set(before)
+        new_agents = set(reported) - before_set
         for k, a in enumerate(reported):
             if a in new_agents:
                 rewards[k] = 0.0
@@ -271,6 +277,16 @@ class EpisodeCore:
         start = len(self.sim.reporter.messages)
         self.sim.stack(text, SourceRef("<bridge>"))
         return [str(m) for m in self.sim.reporter.since(start)]
+
+    def traffic_state(self) -> dict[str, Any]:
+        """The aircraft now flying: ``ids`` and SI arrays (deg, m, m/s) ``lat lon alt tas gs trk vs``."""
+        if self.sim is None:
+            raise RuntimeError("traffic_state() before reset()")
+        t = self.sim.traffic
+        state: dict[str, Any] = {"simt": self.sim.simt, "ids": list(t.ids[: t.n])}
+        for name in TRAFFIC_STATE_FIELDS:
+            state[name] = np.array(getattr(t, name), dtype=np.float64)
+        return state
 
     def close(self) -> None:
         self.sim = None

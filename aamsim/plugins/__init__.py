@@ -5,7 +5,7 @@ and registers what it provides explicitly (``sim.commands.add(...)``,
 ``sim.hooks.post_step.add(...)``, ...), keeping any state in its own objects
 (or ``sim.extensions``), never in module globals, so that two simulations in
 one process stay independent. ``init_plugin`` may return an object; it is
-kept in ``sim.plugins[name]``.
+kept in ``sim.plugins[name]``. ``docs/plugins.md`` shows how to write one.
 
 Plugins come from the built-in table below or from installed packages that
 declare an entry point in the ``aamsim.plugins`` group::
@@ -13,6 +13,12 @@ declare an entry point in the ``aamsim.plugins`` group::
     [options.entry_points]
     aamsim.plugins =
         myplugin = mypackage.myplugin
+
+From Python and the command line (``aamsim run --plugin``, ``aamsim serve
+--plugin``) a plugin can also be named by its importable module path
+(``mypackage.myplugin``), e.g. while developing it; the ``PLUGINS LOAD``
+stack command loads registered plugins only, so that scenario files and
+remote clients of the simulation server cannot import arbitrary modules.
 """
 
 from __future__ import annotations
@@ -29,6 +35,7 @@ if TYPE_CHECKING:
 
 BUILTIN_PLUGINS: dict[str, str] = {
     "EXAMPLE": "aamsim.plugins.example",
+    "BRIDGE": "rlbridge.plugin",  # the RL bridge; provides serve() for `aamsim serve`
 }
 
 
@@ -44,7 +51,11 @@ def available() -> dict[str, str]:
     return found
 
 
-def _import(name: str) -> ModuleType:
+def _unknown(name: str) -> CommandError:
+    return CommandError(f"unknown plugin {name}; available: {', '.join(sorted(available())) or 'none'}")
+
+
+def _import(name: str, modules: bool = False) -> ModuleType:
     key = name.upper()
     if key in BUILTIN_PLUGINS:
         return importlib.import_module(BUILTIN_PLUGINS[key])
@@ -55,15 +66,30 @@ def _import(name: str) -> ModuleType:
             return loaded
         module = importlib.import_module(loaded.__module__)
         return module
-    raise CommandError(f"unknown plugin {name}; available: {', '.join(sorted(available())) or 'none'}")
+    if modules and name.replace(".", "").replace("_", "").isalnum():
+        try:
+            return importlib.import_module(name)
+        except ModuleNotFoundError as exc:
+            if exc.name is None or not (name == exc.name or name.startswith(exc.name + ".")):
+                raise  # the plugin exists but one of its own imports is missing
+    raise _unknown(name)
 
 
-def load_plugin(sim: Simulation, name: str) -> Any:
-    """Load a plugin into a simulation (once); returns what ``init_plugin`` returned."""
+def plugin_module(name: str, modules: bool = True) -> ModuleType:
+    """The module of a plugin (registered name, or module path if ``modules``), imported but not loaded."""
+    return _import(name, modules)
+
+
+def load_plugin(sim: Simulation, name: str, *, modules: bool = True) -> Any:
+    """Load a plugin into a simulation (once); returns what ``init_plugin`` returned.
+
+    ``name`` is a registered plugin name (built in or an entry point) or, when
+    ``modules`` is true, an importable module path.
+    """
     key = name.upper()
     if key in sim.plugins:
         return sim.plugins[key]
-    module = _import(key)
+    module = _import(name, modules)
     init = getattr(module, "init_plugin", None)
     if init is None:
         raise CommandError(f"plugin {name} has no init_plugin(sim) function")

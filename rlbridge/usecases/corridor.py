@@ -112,6 +112,7 @@ class CorridorSA:
                 "mask": gym.spaces.Box(0.0, 1.0, shape=(p.n_intruders,), dtype=np.float32),
             })
         self._act_space = gym.spaces.Discrete(3)
+        self._pairs_memo: tuple[tuple[np.ndarray, ...], tuple[int, np.ndarray, np.ndarray, np.ndarray]] | None = None
 
     # ------------------------------------------------------------------ spaces
     def observation_space(self) -> gym.Space:
@@ -169,13 +170,30 @@ class CorridorSA:
         ddest = 6371000.0 * np.hypot(dlat, dlon * np.cos(np.radians(0.5 * (dest_lat + lat))))
         return ddest, wlat, wlon, dest_lat, dest_lon
 
-    def _neighbours(self, sim: Simulation, slots: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def _pairs(self, sim: Simulation) -> tuple[int, np.ndarray, np.ndarray, np.ndarray]:
+        """Aircraft pairs within range and their slant distances.
+
+        A pure function of the traffic's position, altitude, track and ground
+        speed arrays, memoised on them: a step observes the agents and then asks
+        for their closest distances on the same state, which then costs one search.
+        """
+        t = sim.traffic
+        state = (t.lat, t.lon, t.alt, t.trk, t.gs)
+        memo = self._pairs_memo
+        if memo is not None and all(np.array_equal(a, b) for a, b in zip(memo[0], state)):
+            return memo[1]
         s = traffic_snapshot(sim)
         n = len(s.ids)
         rng = max(self.params.intruder_range_m, self.params.d_max_m)
         zeros = np.zeros(n)
         pi, pj = search_pairs(s, zeros, zeros, rng)
-        d = slant_distances(s.lat, s.lon, s.alt, pi, pj)
+        result = (n, pi, pj, slant_distances(s.lat, s.lon, s.alt, pi, pj))
+        self._pairs_memo = (tuple(a.copy() for a in state), result)
+        return result
+
+    def _neighbours(self, sim: Simulation, slots: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        n, pi, pj, d = self._pairs(sim)
+        rng = max(self.params.intruder_range_m, self.params.d_max_m)
         k = max(self.params.n_intruders, 1)
         return nearest_neighbours(n, slots, pi, pj, d, k, rng)
 
@@ -217,23 +235,34 @@ class CorridorSA:
 
     # ----------------------------------------------------------------- action
     def apply_actions(self, sim: Simulation, actions: dict[str, Any]) -> None:
-        """Speed advisories: set the selected CAS of each agent (missing agents: no advisory)."""
+        """Speed advisories: set the selected CAS of each agent (missing agents: no advisory).
+
+        All actions are checked before any is applied.
+        """
         t = sim.traffic
         p = self.params
+        slots: list[int] = []
+        codes: list[int] = []
+        advised: list[tuple[str, int]] = []
         for acid, action in actions.items():
             i = t.find(acid)
             if i is None:
                 continue
             a = int(action)
-            if a == DECELERATE:
-                target = p.speed_low_kts * KTS
-            elif a == ACCELERATE:
-                target = p.speed_high_kts * KTS
-            elif a == HOLD:
-                target = float(t.F[f.CAS, i])
-            else:
+            if a not in (DECELERATE, HOLD, ACCELERATE):
                 raise ValueError(f"action {action!r} for {acid} is not 0, 1 or 2")
-            t.F[f.SELSPD, i] = target
-            t.B[f.B_SELSPD_MACH, i] = False
-            t.B[f.B_SWVNAVSPD, i] = False
+            slots.append(i)
+            codes.append(a)
+            if a != HOLD:
+                advised.append((acid, a))
+        if not slots:
+            return
+        idx = np.array(slots, dtype=np.int64)
+        code = np.array(codes, dtype=np.int64)
+        target = np.where(code == DECELERATE, p.speed_low_kts * KTS,
+                          np.where(code == ACCELERATE, p.speed_high_kts * KTS, t.F[f.CAS, idx]))
+        t.F[f.SELSPD, idx] = target
+        t.B[f.B_SELSPD_MACH, idx] = False
+        t.B[f.B_SWVNAVSPD, idx] = False
+        for acid, a in advised:  # hold advisories are not alerts
             record_advisory(sim, acid, ACTION_NAMES[a])

@@ -24,7 +24,7 @@ def plugins(sim: Simulation, action: Text = "LIST", name: Text = "") -> str | No
     if action == "LOAD":
         if not name:
             raise CommandError("PLUGINS LOAD needs a plugin name")
-        loader.load_plugin(sim, name)
+        loader.load_plugin(sim, name, modules=False)  # registered plugins only
         return f"plugin {name} loaded"
     raise CommandError(f"PLUGINS {action}: use LIST or LOAD name")
 

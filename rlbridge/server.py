@@ -1,0 +1,299 @@
+"""The headless simulation server: one ZeroMQ ROUTER socket, one simulation per client.
+
+Clients (``rlbridge.client.RemoteEpisode``, or any ZeroMQ DEALER/REQ socket
+speaking ``docs/protocol.md``) are told apart by their routing identity;
+each owns a :class:`Session` holding an :class:`~rlbridge.core.EpisodeCore`.
+The loop polls with a short timeout so that :meth:`SimulationServer.stop`
+(called by the SIGINT/SIGTERM handlers of :func:`rlbridge.plugin.serve`)
+ends it promptly, and frees sessions whose client has been silent longer
+than the session timeout. Every request gets exactly one reply, an error
+reply when the request is bad; nothing a client sends stops the server
+(except ``shutdown``, when enabled).
+"""
+
+from __future__ import annotations
+
+import logging
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import zmq
+
+from aamsim.errors import CommandError
+from rlbridge.core import EpisodeCore, ScenarioError
+from rlbridge.protocol import (
+    DEFAULT_MAX_MESSAGE_BYTES,
+    PROTOCOL_VERSION,
+    ProtocolError,
+    check_fields,
+    decode,
+    error_reply,
+    peek_id,
+    reply,
+)
+from rlbridge.scenario_access import ScenarioAccessError, ScenarioRoots
+from rlbridge.wire import actions_from_payload, step_result_to_payload
+
+log = logging.getLogger(__name__)
+
+DEFAULT_BIND = "tcp://127.0.0.1:5555"
+
+
+@dataclass(frozen=True)
+class ServerOptions:
+    """Server settings (``aamsim serve`` options)."""
+
+    bind: str = DEFAULT_BIND
+    plugins: tuple[str, ...] = ()  # loaded into every session's simulation
+    max_message_bytes: int = DEFAULT_MAX_MESSAGE_BYTES  # larger requests get a too_large error reply
+    session_timeout_s: float = 300.0  # a silent client's simulation is freed after this
+    max_sessions: int = 64
+    scenario_roots: tuple[Path, ...] = ()  # empty: the working directory
+    allow_shutdown: bool = False  # honour the shutdown request
+    poll_interval_s: float = 0.1  # how often the loop checks the stop flag and idle sessions
+
+    def transport_limit_bytes(self) -> int:
+        """zmq MAXMSGSIZE: a frame above it makes zmq drop the connection (no reply possible)."""
+        return 2 * self.max_message_bytes + 65536
+
+
+@dataclass
+class Session:
+    identity: bytes
+    last_seen: float
+    core: EpisodeCore | None = None
+    requests: int = 0
+
+
+class RequestError(Exception):
+    """A request the server understood but cannot carry out (error reply with ``code``)."""
+
+    def __init__(self, code: str, message: str):
+        super().__init__(message)
+        self.code = code
+
+
+_NUM, _STR, _INT, _NIL = (float,), (str,), (int,), (type(None),)
+_OPEN_FIELDS: dict[str, tuple[tuple[type, ...], bool]] = {
+    "scenario": (_STR, True), "usecase": (_STR, False), "params": ((dict,), False),
+    "time_limit_s": (_NUM + _NIL, False), "dt": (_NUM, False),
+}
+SCHEMAS: dict[str, dict[str, tuple[tuple[type, ...], bool]]] = {
+    "hello": {"client": (_STR, False)},
+    "open": _OPEN_FIELDS,
+    "reset": {**{k: (kinds, False) for k, (kinds, _) in _OPEN_FIELDS.items()}, "seed": (_INT + _NIL, False)},
+    "step": {"actions": ((dict, np.ndarray), False), "agents": ((list,), False)},
+    "stack": {"text": (_STR, True)},
+    "state": {},
+    "metrics": {"groups": ((list,), False)},
+    "close": {},
+    "shutdown": {},
+}
+
+
+class SimulationServer:
+    """Serves simulations over one ROUTER socket until :meth:`stop` is called."""
+
+    def __init__(self, options: ServerOptions = ServerOptions()):
+        self.options = options
+        self.roots = ScenarioRoots(options.scenario_roots)
+        self.sessions: dict[bytes, Session] = {}
+        self.started = time.monotonic()
+        self._stop = False
+        self._context = zmq.Context()
+        self._socket = self._context.socket(zmq.ROUTER)
+        self._socket.setsockopt(zmq.LINGER, 0)
+        self._socket.setsockopt(zmq.MAXMSGSIZE, options.transport_limit_bytes())
+        self._socket.setsockopt(zmq.ROUTER_HANDOVER, 1)  # a client that reconnects keeps its session
+        try:
+            self._socket.bind(options.bind)
+        except zmq.ZMQError:
+            self._socket.close(0)
+            self._context.term()
+            raise
+        self.endpoint: str = self._socket.getsockopt_string(zmq.LAST_ENDPOINT)
+        self._handlers: dict[str, Callable[[Session | None, bytes, dict[str, Any]], dict[str, Any]]] = {
+            "hello": self._hello, "open": self._open, "reset": self._reset, "step": self._step,
+            "stack": self._stack, "state": self._state, "metrics": self._metrics, "close": self._close,
+            "shutdown": self._shutdown,
+        }
+
+    # ------------------------------------------------------------------ loop
+    def stop(self) -> None:
+        """Ask the loop to end (safe from a signal handler or another thread)."""
+        self._stop = True
+
+    def serve_forever(self) -> None:
+        """Serve until :meth:`stop`; then free every session and close the socket."""
+        log.info("serving on %s (protocol v%d)", self.endpoint, PROTOCOL_VERSION)
+        poll_ms = max(1, int(self.options.poll_interval_s * 1000))
+        try:
+            while not self._stop:
+                if self._socket.poll(poll_ms, zmq.POLLIN):
+                    self._drain()
+                self.reap_idle(time.monotonic())
+        finally:
+            self.close()
+
+    def _drain(self) -> None:
+        for _ in range(100):  # bounded, so that stop and idle checks still run under load
+            if self._stop:
+                return
+            try:
+                frames = self._socket.recv_multipart(zmq.NOBLOCK, copy=False)
+            except zmq.Again:
+                return
+            self.handle(frames)
+
+    def close(self) -> None:
+        for session in self.sessions.values():
+            if session.core is not None:
+                session.core.close()
+        self.sessions.clear()
+        if not self._socket.closed:
+            self._socket.close(0)
+            self._context.term()
+            log.info("server on %s closed", self.endpoint)
+
+    def reap_idle(self, now: float) -> None:
+        """Free the sessions of clients silent for longer than the session timeout."""
+        limit = self.options.session_timeout_s
+        for identity in [k for k, s in self.sessions.items() if now - s.last_seen > limit]:
+            session = self.sessions.pop(identity)
+            if session.core is not None:
+                session.core.close()
+            log.info("session %s idle for more than %.1f s: freed", identity.hex(), limit)
+
+    # -------------------------------------------------------------- requests
+    def handle(self, frames: list[Any]) -> None:
+        """Answer one message ``[identity, (empty delimiter,) header, buffers...]``."""
+        identity = bytes(frames[0])
+        body = frames[1:]
+        envelope: list[Any] = [identity]
+        if body and len(body[0]) == 0:  # a REQ client: keep its delimiter
+            envelope.append(b"")
+            body = body[1:]
+        self._socket.send_multipart(envelope + self._answer(identity, body), copy=False)
+
+    def _answer(self, identity: bytes, body: list[Any]) -> list[Any]:
+        msg_id = None
+        try:
+            message = decode(body, self.options.max_message_bytes)
+            msg_id = message.get("id")
+            op = message.get("op")
+            if not isinstance(op, str):
+                raise ProtocolError(f"op must be a string naming the request, not {type(op).__name__}")
+            handler = self._handlers.get(op)
+            if handler is None:
+                raise RequestError("unknown_op", f"unknown op {op!r}; known: {', '.join(self._handlers)}")
+            check_fields(message, SCHEMAS[op])
+            session = self.sessions.get(identity)
+            if session is not None:
+                session.last_seen = time.monotonic()
+                session.requests += 1
+            return reply(msg_id, **handler(session, identity, message))
+        except ProtocolError as exc:
+            msg_id = msg_id if msg_id is not None else peek_id(body)
+            log.warning("bad request from %s: %s", identity.hex(), exc)
+            return error_reply(msg_id, exc.code, str(exc))
+        except RequestError as exc:
+            return error_reply(msg_id, exc.code, str(exc))
+        except ScenarioAccessError as exc:
+            return error_reply(msg_id, exc.code, str(exc))
+        except (CommandError, ScenarioError, KeyError, ValueError, TypeError, RuntimeError, OSError) as exc:
+            log.info("request from %s failed: %s: %s", identity.hex(), type(exc).__name__, exc)
+            return error_reply(msg_id, "bad_request", f"{type(exc).__name__}: {exc}")
+        except Exception as exc:  # the boundary: a bug in one session must not stop the server
+            log.exception("internal error answering %s", identity.hex())
+            return error_reply(msg_id, "internal", f"internal error: {type(exc).__name__}: {exc}")
+
+    def _need_core(self, session: Session | None) -> EpisodeCore:
+        if session is None or session.core is None:
+            raise RequestError("no_session", "no open session for this client: send open (or reset with a "
+                                             "scenario) first")
+        return session.core
+
+    # ------------------------------------------------------------------- ops
+    def _hello(self, session: Session | None, identity: bytes, message: dict[str, Any]) -> dict[str, Any]:
+        from aamsim import __version__
+        from rlbridge.usecases.registry import available
+
+        return {"server": "aamsim", "version": __version__, "protocol": PROTOCOL_VERSION,
+                "sessions": len(self.sessions), "max_sessions": self.options.max_sessions,
+                "max_message_bytes": self.options.max_message_bytes,
+                "session_timeout_s": self.options.session_timeout_s, "usecases": available(),
+                "plugins": list(self.options.plugins)}
+
+    def _open(self, session: Session | None, identity: bytes, message: dict[str, Any]) -> dict[str, Any]:
+        if session is None and len(self.sessions) >= self.options.max_sessions:
+            raise RequestError("busy", f"the server already serves {self.options.max_sessions} sessions")
+        path = self.roots.resolve(message["scenario"])
+        dt = float(message.get("dt", 0.05))
+        if not dt > 0:
+            raise RequestError("bad_request", "dt must be positive")
+        core = EpisodeCore(path, message.get("usecase", "corridor_sa"), message.get("params") or {},
+                           time_limit_s=message.get("time_limit_s"), dt=dt, plugins=self.options.plugins,
+                           file_guard=self.roots.guard)
+        if session is None:
+            session = self.sessions[identity] = Session(identity, time.monotonic())
+            log.info("session %s opened: %s", identity.hex(), path.name)
+        elif session.core is not None:
+            session.core.close()
+        session.core = core
+        return {"possible_agents": list(core.possible_agents), "parse_errors": list(core.parse_errors),
+                "time_limit_s": core.time_limit_s, "scenario": str(path)}
+
+    def _reset(self, session: Session | None, identity: bytes, message: dict[str, Any]) -> dict[str, Any]:
+        opened: dict[str, Any] = {}
+        if "scenario" in message:
+            fields = {k: message[k] for k in _OPEN_FIELDS if k in message}
+            opened = self._open(session, identity, {"op": "open", **fields})
+            session = self.sessions[identity]
+        elif set(message) & set(_OPEN_FIELDS):
+            raise ProtocolError("reset: usecase, params, time_limit_s and dt need a scenario")
+        core = self._need_core(session)
+        return {**step_result_to_payload(core.reset(message.get("seed"))), **opened}
+
+    def _step(self, session: Session | None, identity: bytes, message: dict[str, Any]) -> dict[str, Any]:
+        core = self._need_core(session)
+        if core.sim is None:
+            raise RequestError("bad_request", "step before reset")
+        return step_result_to_payload(core.step(actions_from_payload(message)))
+
+    def _stack(self, session: Session | None, identity: bytes, message: dict[str, Any]) -> dict[str, Any]:
+        core = self._need_core(session)
+        if core.sim is None:
+            raise RequestError("bad_request", "stack before reset")
+        return {"messages": core.stack(message["text"])}
+
+    def _state(self, session: Session | None, identity: bytes, message: dict[str, Any]) -> dict[str, Any]:
+        core = self._need_core(session)
+        if core.sim is None:
+            raise RequestError("bad_request", "state before reset")
+        return core.traffic_state()
+
+    def _metrics(self, session: Session | None, identity: bytes, message: dict[str, Any]) -> dict[str, Any]:
+        core = self._need_core(session)
+        groups = message.get("groups")
+        if groups is not None and not all(isinstance(g, str) for g in groups):
+            raise ProtocolError("metrics: groups must be a list of strings")
+        return {"metrics": core.metrics(tuple(groups)) if groups is not None else core.metrics()}
+
+    def _close(self, session: Session | None, identity: bytes, message: dict[str, Any]) -> dict[str, Any]:
+        if session is not None:
+            if session.core is not None:
+                session.core.close()
+            del self.sessions[identity]
+            log.info("session %s closed by its client", identity.hex())
+        return {"closed": session is not None}
+
+    def _shutdown(self, session: Session | None, identity: bytes, message: dict[str, Any]) -> dict[str, Any]:
+        if not self.options.allow_shutdown:
+            raise RequestError("forbidden", "shutdown is disabled on this server (start it with --allow-shutdown)")
+        log.info("shutdown requested by %s", identity.hex())
+        self.stop()
+        return {"stopping": True}

@@ -1,0 +1,98 @@
+"""Episode values on the wire: step results and actions as protocol payloads (``docs/protocol.md``).
+
+Both ends use these functions, so a :class:`~rlbridge.core.StepResult` that
+crosses the wire comes back with the same arrays, dtypes and values.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from rlbridge.core import StepResult
+from rlbridge.protocol import ProtocolError
+from rlbridge.usecases.registry import Observations
+
+_ARRAYS = {"rewards": np.float64, "terminated": np.bool_, "truncated": np.bool_, "nmac": np.bool_,
+           "lowc": np.bool_}
+_INT_KINDS = "iu"
+
+
+def step_result_to_payload(result: StepResult) -> dict[str, Any]:
+    obs: Any = result.obs.parts if result.obs.parts is not None else result.obs.flat
+    return {
+        "agents": list(result.agents), "obs": obs, "rewards": result.rewards, "terminated": result.terminated,
+        "truncated": result.truncated, "nmac": result.nmac, "lowc": result.lowc, "alive": list(result.alive),
+        "simt": float(result.simt), "done": bool(result.done), "info": dict(result.info),
+    }
+
+
+def _str_list(payload: dict[str, Any], name: str) -> list[str]:
+    value = payload.get(name)
+    if not isinstance(value, list) or not all(isinstance(a, str) for a in value):
+        raise ProtocolError(f"reply field {name!r} must be a list of strings")
+    return value
+
+
+def step_result_from_payload(payload: dict[str, Any]) -> StepResult:
+    """Rebuild a step result from a reply, checking every field."""
+    agents = _str_list(payload, "agents")
+    n = len(agents)
+    arrays: dict[str, np.ndarray] = {}
+    for name, dtype in _ARRAYS.items():
+        arr = payload.get(name)
+        if not isinstance(arr, np.ndarray) or arr.dtype != dtype or arr.shape != (n,):
+            raise ProtocolError(f"reply field {name!r} must be a {np.dtype(dtype).name} array of {n} values")
+        arrays[name] = arr
+    obs = payload.get("obs")
+    if isinstance(obs, np.ndarray) and obs.ndim:
+        observations = Observations(flat=obs)
+    elif isinstance(obs, dict) and obs and all(isinstance(v, np.ndarray) and v.ndim for v in obs.values()):
+        observations = Observations(parts=obs)
+    else:
+        raise ProtocolError("reply field 'obs' must be an array or a map of arrays")
+    if len(observations) != n:
+        raise ProtocolError(f"reply field 'obs' has {len(observations)} rows for {n} agents")
+    simt, done, info = payload.get("simt"), payload.get("done"), payload.get("info")
+    if not isinstance(simt, float) or not isinstance(done, bool) or not isinstance(info, dict):
+        raise ProtocolError("reply fields simt (number), done (boolean) and info (map) are required")
+    return StepResult(agents, observations, arrays["rewards"], arrays["terminated"], arrays["truncated"],
+                      arrays["nmac"], arrays["lowc"], _str_list(payload, "alive"), simt, done, info)
+
+
+def actions_to_payload(actions: dict[str, Any]) -> dict[str, Any]:
+    """Integer actions travel as ``agents`` + one int64 array; anything else as a map."""
+    agents = list(actions)
+    values = list(actions.values())
+    if all(isinstance(v, (int, np.integer)) and not isinstance(v, (bool, np.bool_)) for v in values):
+        return {"agents": agents, "actions": np.array(values, dtype=np.int64).reshape(len(values))}
+    out: dict[str, Any] = {}
+    for agent, value in actions.items():
+        if isinstance(value, np.generic):
+            value = value.item()
+        out[agent] = value
+    return {"actions": out}
+
+
+def actions_from_payload(payload: dict[str, Any]) -> dict[str, Any]:
+    """The actions map of a ``step`` request (already type-checked at the top level)."""
+    actions = payload.get("actions", {})
+    agents = payload.get("agents")
+    if agents is None:
+        if not isinstance(actions, dict):
+            raise ProtocolError("step: 'actions' must be a map agent -> action, or an array with 'agents'")
+        for agent, value in actions.items():
+            if isinstance(value, (bool, str, bytes, dict)) or value is None:
+                raise ProtocolError(f"step: action of {agent!r} must be a number, a list or an array, "
+                                    f"not {type(value).__name__}")
+        return dict(actions)
+    if not isinstance(agents, list) or not all(isinstance(a, str) for a in agents):
+        raise ProtocolError("step: 'agents' must be a list of strings")
+    if not isinstance(actions, np.ndarray) or actions.ndim < 1 or actions.shape[0] != len(agents):
+        raise ProtocolError(f"step: with 'agents', 'actions' must be an array with {len(agents)} rows")
+    if len(set(agents)) != len(agents):
+        raise ProtocolError("step: 'agents' lists an agent twice")
+    if actions.ndim == 1 and actions.dtype.kind in _INT_KINDS:
+        return dict(zip(agents, actions.tolist()))
+    return {a: actions[k] for k, a in enumerate(agents)}
