@@ -10,6 +10,7 @@ from typing import Any
 
 import click
 
+from aamsim.errors import CommandError
 from aamsim.units import UnitParseError, parse_time
 
 
@@ -139,6 +140,10 @@ def run(scenario: str, until: str | None, out_dir: Path | None, dt: float, seed:
     except ScenarioNotFound as exc:
         progress.close()
         click.echo(f"error: {exc}", err=True)
+        sys.exit(2)
+    except CommandError as exc:  # e.g. --plugin names no plugin
+        progress.close()
+        click.echo(f"error: {exc.message}", err=True)
         sys.exit(2)
     except StrictValidationFailed as exc:
         progress.close()

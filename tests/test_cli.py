@@ -97,6 +97,8 @@ def test_missing_scenario_and_bad_options(tmp_path):
     assert proc.returncode == 2 and "scenario not found" in proc.stderr
     assert aamsim("run", "demo", "--nmac", "abc").returncode == 2
     assert aamsim("run", "demo", "--metrics", "safety,bogus").returncode == 2
+    proc = aamsim("run", "demo", "--plugin", "NOSUCH", "--out", str(tmp_path / "p"))
+    assert proc.returncode == 2 and "unknown plugin NOSUCH" in proc.stderr and "Traceback" not in proc.stderr
 
 
 def test_commands_listing():

@@ -261,6 +261,8 @@ class ConflictService:
                 vol.half_height_m if vol.half_height_m is not None else 0.0,
             )
             ks = np.flatnonzero(inside)
+            if len(ks) == 0 and len(log.open_keys) == 0:
+                continue  # nothing inside and nothing open: the common case
             ii, jj, tau = pi[ks], pj[ks], t_min[ks]
             # Events name the pair in callsign order.
             swap = np.array([s.ids[a] > s.ids[b] for a, b in zip(ii.tolist(), jj.tolist())], dtype=bool)

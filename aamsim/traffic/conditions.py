@@ -34,18 +34,39 @@ class Condition:
 @dataclass
 class Conditions:
     items: list[Condition] = field(default_factory=list)
+    _cache: tuple[np.ndarray, ...] | None = field(default=None, repr=False)
+    _cache_ids: list[str] = field(default_factory=list, repr=False)
+    _cache_n: int = -1
 
     def __len__(self) -> int:
         return len(self.items)
 
+    def _sync(self) -> None:
+        """Copy the kernel's differences back into the items before the cache is rebuilt."""
+        if self._cache is not None and len(self._cache[3]) == len(self.items):
+            for k, c in enumerate(self.items):
+                c.lastdif = float(self._cache[3][k])
+        self._cache = None
+
     def add(self, cond: Condition) -> None:
+        self._sync()
         self.items.append(cond)
 
     def clear(self) -> None:
+        self._cache = None
         self.items.clear()
 
     def arrays(self, traffic: Traffic) -> tuple[np.ndarray, ...]:
-        """Kernel arrays for the live conditions (drops those of deleted aircraft)."""
+        """Kernel arrays for the live conditions (drops those of deleted aircraft).
+
+        Cached while neither the conditions nor the aircraft slots change; the
+        kernel updates ``lastdif`` in place and :meth:`update_after` keeps it.
+        """
+        if self._cache is not None and self._cache_ids == traffic.ids and self._cache_n == len(self.items):
+            arrays = self._cache
+            arrays[6][:] = False
+            return arrays
+        self._sync()
         self.items = [c for c in self.items if c.acid in traffic]
         n = len(self.items)
         ac = np.empty(n, dtype=np.int64)
@@ -61,14 +82,20 @@ class Conditions:
             lastdif[k] = c.lastdif
             lat[k] = c.lat
             lon[k] = c.lon
-        return ac, kind, target, lastdif, lat, lon, np.zeros(n, dtype=np.bool_)
+        self._cache = (ac, kind, target, lastdif, lat, lon, np.zeros(n, dtype=np.bool_))
+        self._cache_ids = list(traffic.ids)
+        self._cache_n = n
+        return self._cache
 
     def update_after(self, lastdif: np.ndarray, fired: np.ndarray) -> list[Condition]:
-        """Store the kernel's new differences; remove and return fired conditions."""
+        """Remove and return fired conditions (the others keep the kernel's new differences)."""
+        if not fired.any():
+            return []  # lastdif lives on in the cached arrays
         done: list[Condition] = []
         keep: list[Condition] = []
         for k, c in enumerate(self.items):
             c.lastdif = float(lastdif[k])
             (done if fired[k] else keep).append(c)
         self.items = keep
+        self._cache = None
         return done
