@@ -138,3 +138,80 @@ def local_frame(lat: np.ndarray, lon: np.ndarray) -> tuple[np.ndarray, np.ndarra
     # cos(lat) varies over the set; per-pair distances use the mean of the pair.
     err = abs(math.cos(math.radians(abs(lat0) + spread)) / coslat0 - 1.0) if coslat0 > 0 else 1.0
     return x, y, err
+
+
+@njit(cache=True)
+def snapshot_arrays(F: np.ndarray, n: int, lat_row: int, lon_row: int, alt_row: int, gs_row: int, trk_row: int,
+                    vs_row: int, r_earth: float) -> tuple:
+    """Positions, velocities and the local flat frame of the first ``n`` aircraft in one pass.
+
+    Returns lat, lon, alt, u (east), v (north), w (up), x, y and the frame's
+    largest relative scale error (see :func:`local_frame`).
+    """
+    lat = np.empty(n)
+    lon = np.empty(n)
+    alt = np.empty(n)
+    u = np.empty(n)
+    v = np.empty(n)
+    w = np.empty(n)
+    x = np.empty(n)
+    y = np.empty(n)
+    if n == 0:
+        return lat, lon, alt, u, v, w, x, y, 0.0
+    lat0 = 0.0
+    for i in range(n):
+        lat[i] = F[lat_row, i]
+        lat0 += lat[i]
+    lat0 /= n
+    lon0 = F[lon_row, 0]
+    coslat0 = math.cos(math.radians(lat0))
+    spread = 0.0
+    for i in range(n):
+        lon[i] = F[lon_row, i]
+        alt[i] = F[alt_row, i]
+        trk = math.radians(F[trk_row, i])
+        gs = F[gs_row, i]
+        u[i] = gs * math.sin(trk)
+        v[i] = gs * math.cos(trk)
+        w[i] = F[vs_row, i]
+        dlon = ((lon[i] - lon0) + 180.0) % 360.0 - 180.0
+        x[i] = math.radians(dlon) * r_earth * coslat0
+        y[i] = math.radians(lat[i] - lat0) * r_earth
+        spread = max(spread, abs(lat[i] - lat0))
+    err = abs(math.cos(math.radians(abs(lat0) + spread)) / coslat0 - 1.0) if coslat0 > 0 else 1.0
+    return lat, lon, alt, u, v, w, x, y, err
+
+
+@njit(cache=True)
+def swept_boxes(x: np.ndarray, y: np.ndarray, u: np.ndarray, v: np.ndarray, t0: np.ndarray, t1: np.ndarray,
+                radius: float, frame_err: float) -> tuple:
+    """Boxes around each straight path between t0 and t1 [s from now], grown for a pair distance ``radius``.
+
+    The growth covers half the radius plus the flat frame's scale error over the
+    largest relative displacement; returns the boxes and a good grid cell size.
+    """
+    n = x.shape[0]
+    vmax = 0.0
+    tmax = 0.0
+    for i in range(n):
+        vmax = max(vmax, math.hypot(u[i], v[i]))
+        tmax = max(tmax, abs(t0[i]) + abs(t1[i]))
+    reach = tmax * 2.0 * vmax + radius
+    grow = 0.5 * radius * (1.0 + frame_err) + frame_err * reach + 1.0
+    xmin = np.empty(n)
+    xmax = np.empty(n)
+    ymin = np.empty(n)
+    ymax = np.empty(n)
+    extent = np.empty(n)
+    for i in range(n):
+        xa = x[i] + u[i] * t0[i]
+        xb = x[i] + u[i] * t1[i]
+        ya = y[i] + v[i] * t0[i]
+        yb = y[i] + v[i] * t1[i]
+        xmin[i] = min(xa, xb) - grow
+        xmax[i] = max(xa, xb) + grow
+        ymin[i] = min(ya, yb) - grow
+        ymax[i] = max(ya, yb) + grow
+        extent[i] = max(xmax[i] - xmin[i], ymax[i] - ymin[i])
+    cell = max(np.median(extent) if n else 1.0, 2.0 * grow, 1.0)
+    return xmin, xmax, ymin, ymax, cell

@@ -115,6 +115,30 @@ def _interval_inside(p: float, q: float, c: float, lo: float, hi: float) -> tupl
     return max(lo, (-q - sq) / (2.0 * p)), min(hi, (-q + sq) / (2.0 * p))
 
 
+@njit(cache=True, inline="always")
+def _encounter(dx: float, dy: float, dz: float, du: float, dv: float, dw: float, lo: float, cylinder: bool,
+               radius: float, half_height: float) -> tuple[bool, float, float, float, float]:
+    """Inside-interval of one pair in [lo, 0]: (inside, t_in, t_out, min 3-D distance, its time)."""
+    if cylinder:
+        a, b = _interval_inside(du * du + dv * dv, 2.0 * (dx * du + dy * dv), dx * dx + dy * dy - radius * radius,
+                                lo, 0.0)
+        if a > b:
+            return False, 0.0, 0.0, 0.0, 0.0
+        a, b = _interval_inside(dw * dw, 2.0 * dz * dw, dz * dz - half_height * half_height, a, b)
+    else:
+        a, b = _interval_inside(du * du + dv * dv + dw * dw, 2.0 * (dx * du + dy * dv + dz * dw),
+                                dx * dx + dy * dy + dz * dz - radius * radius, lo, 0.0)
+    if a > b:
+        return False, 0.0, 0.0, 0.0, 0.0
+    vv = du * du + dv * dv + dw * dw
+    tau = -(dx * du + dy * dv + dz * dw) / vv if vv > 1e-12 else b
+    tau = min(max(tau, a), b)
+    ex = dx + du * tau
+    ey = dy + dv * tau
+    ez = dz + dw * tau
+    return True, a, b, math.sqrt(ex * ex + ey * ey + ez * ez), tau
+
+
 @njit(cache=True)
 def volume_encounters(
     lat: np.ndarray,
@@ -152,32 +176,68 @@ def volume_encounters(
         j = pj[k]
         dx, dy, dz, du, dv, dw = relative_state(lat, lon, alt, u, v, w, i, j)
         lo = -min(lookback[i], lookback[j])
-        hi = 0.0
-        if cylinder:
-            a, b = _interval_inside(du * du + dv * dv, 2.0 * (dx * du + dy * dv), dx * dx + dy * dy - radius * radius,
-                                    lo, hi)
-            if a > b:
-                continue
-            a2, b2 = _interval_inside(dw * dw, 2.0 * dz * dw, dz * dz - half_height * half_height, a, b)
-            a, b = a2, b2
-        else:
-            a, b = _interval_inside(du * du + dv * dv + dw * dw, 2.0 * (dx * du + dy * dv + dz * dw),
-                                    dx * dx + dy * dy + dz * dz - radius * radius, lo, hi)
-        if a > b:
-            continue
-        inside[k] = True
-        t_in[k] = a
-        t_out[k] = b
-        # Closest 3-D approach within the inside interval.
-        vv = du * du + dv * dv + dw * dw
-        tau = -(dx * du + dy * dv + dz * dw) / vv if vv > 1e-12 else b
-        tau = min(max(tau, a), b)
-        ex = dx + du * tau
-        ey = dy + dv * tau
-        ez = dz + dw * tau
-        dmin[k] = math.sqrt(ex * ex + ey * ey + ez * ez)
-        t_min[k] = tau
+        inside[k], t_in[k], t_out[k], dmin[k], t_min[k] = _encounter(dx, dy, dz, du, dv, dw, lo, cylinder, radius,
+                                                                     half_height)
     return inside, t_in, t_out, dmin, t_min
+
+
+@njit(cache=True)
+def proximity_pass(
+    lat: np.ndarray,
+    lon: np.ndarray,
+    alt: np.ndarray,
+    u: np.ndarray,
+    v: np.ndarray,
+    w: np.ndarray,
+    lookback: np.ndarray,
+    pi: np.ndarray,
+    pj: np.ndarray,
+    radii: np.ndarray,
+    cylinder: np.ndarray,
+    half_heights: np.ndarray,
+    closest_range: float,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, float]:
+    """Encounters of every volume and closest-intruder distances in one pass over the candidate pairs.
+
+    Returns per volume (rows) and pair (columns): inside, t_in, t_out, dmin, t_min;
+    the number of inside pairs per volume; per aircraft the distance to its
+    closest intruder within ``closest_range`` (inf beyond); and the smallest
+    pair distance now.
+    """
+    m = pi.shape[0]
+    nv = radii.shape[0]
+    n = lat.shape[0]
+    inside = np.zeros((nv, m), dtype=np.bool_)
+    t_in = np.zeros((nv, m))
+    t_out = np.zeros((nv, m))
+    dmin = np.zeros((nv, m))
+    t_min = np.zeros((nv, m))
+    count = np.zeros(nv, dtype=np.int64)
+    closest = np.full(n, np.inf)
+    dmin_now = np.inf
+    for k in range(m):
+        i = pi[k]
+        j = pj[k]
+        dx, dy, dz, du, dv, dw = relative_state(lat, lon, alt, u, v, w, i, j)
+        d = math.sqrt(dx * dx + dy * dy + dz * dz)
+        if d < dmin_now:
+            dmin_now = d
+        if d <= closest_range:
+            if d < closest[i]:
+                closest[i] = d
+            if d < closest[j]:
+                closest[j] = d
+        lo = -min(lookback[i], lookback[j])
+        for q in range(nv):
+            ok, a, b, dm, tau = _encounter(dx, dy, dz, du, dv, dw, lo, cylinder[q], radii[q], half_heights[q])
+            if ok:
+                inside[q, k] = True
+                t_in[q, k] = a
+                t_out[q, k] = b
+                dmin[q, k] = dm
+                t_min[q, k] = tau
+                count[q] += 1
+    return inside, t_in, t_out, dmin, t_min, count, closest, dmin_now
 
 
 @njit(cache=True)

@@ -27,10 +27,11 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from aamsim.conflicts.events import EventLog, SeparationEvent
-from aamsim.conflicts.grid import candidate_pairs, local_frame
+from aamsim.conflicts.grid import candidate_pairs, snapshot_arrays, swept_boxes
 from aamsim.conflicts.pairs import (
     max_per_aircraft,
     nearest_per_aircraft,
+    proximity_pass,
     slant_distances,
     statebased,
     volume_encounters,
@@ -105,39 +106,19 @@ class TrafficSnapshot:
 
 
 def traffic_snapshot(sim: Simulation) -> TrafficSnapshot:
+    """Positions, velocities (east, north, up) and the local frame of all aircraft now."""
     t = sim.traffic
-    n = t.n
-    F = t.F
-    trk = np.radians(F[f.TRK, :n])
-    gs = F[f.GS, :n]
-    lat = F[f.LAT, :n].copy()
-    lon = F[f.LON, :n].copy()
-    x, y, err = local_frame(lat, lon)
-    return TrafficSnapshot(list(t.ids), lat, lon, F[f.ALT, :n].copy(), gs * np.sin(trk), gs * np.cos(trk),
-                     F[f.VS, :n].copy(), x, y, err)
-
-
-def _boxes(s: TrafficSnapshot, t0: np.ndarray, t1: np.ndarray, grow: float) -> tuple[np.ndarray, ...]:
-    """Boxes around each aircraft's straight path between times t0 and t1 (relative to now)."""
-    xa = s.x + s.u * t0
-    xb = s.x + s.u * t1
-    ya = s.y + s.v * t0
-    yb = s.y + s.v * t1
-    return (np.minimum(xa, xb) - grow, np.maximum(xa, xb) + grow, np.minimum(ya, yb) - grow,
-            np.maximum(ya, yb) + grow)
+    lat, lon, alt, u, v, w, x, y, err = snapshot_arrays(t.F, t.n, f.LAT, f.LON, f.ALT, f.GS, f.TRK, f.VS, R_EARTH)
+    return TrafficSnapshot(list(t.ids), lat, lon, alt, u, v, w, x, y, err)
 
 
 def search_pairs(s: TrafficSnapshot, t0: np.ndarray, t1: np.ndarray, radius: float) -> tuple[np.ndarray, np.ndarray]:
     """Candidate pairs whose straight paths over [t0, t1] come within ``radius`` (superset)."""
-    n = len(s.ids)
-    if n < 2:
+    if len(s.ids) < 2:
         empty = np.empty(0, dtype=np.int64)
         return empty, empty
-    reach = float(np.max(np.abs(t0) + np.abs(t1)) * 2.0 * np.max(np.hypot(s.u, s.v))) + radius
-    grow = 0.5 * radius * (1.0 + s.frame_err) + s.frame_err * reach + 1.0
-    xmin, xmax, ymin, ymax = _boxes(s, t0, t1, grow)
-    extent = float(np.median(np.maximum(xmax - xmin, ymax - ymin)))
-    return candidate_pairs(xmin, xmax, ymin, ymax, max(extent, 2.0 * grow, 1.0))
+    xmin, xmax, ymin, ymax, cell = swept_boxes(s.x, s.y, s.u, s.v, t0, t1, radius, s.frame_err)
+    return candidate_pairs(xmin, xmax, ymin, ymax, cell)
 
 
 @dataclass
@@ -150,7 +131,8 @@ class ConflictService:
     state: ConflictState | None = None
     conflict_pairs_total: int = 0  # new conflict pairs (i<j) over the run
     min_separation_m: float = math.inf
-    closest_dist_m: dict[str, float] = field(default_factory=dict)
+    _closest_ids: list[str] = field(default_factory=list)
+    _closest_arr: np.ndarray = field(default_factory=lambda: np.empty(0))
     _conflict_keys: np.ndarray = field(default_factory=lambda: np.empty(0, dtype=np.int64))
     _serials: dict[str, int] = field(default_factory=dict)
     _serial_ids: list[str] = field(default_factory=list)
@@ -171,7 +153,7 @@ class ConflictService:
         self._serial_ids = []
         self._last_check_s = -math.inf
         self.state = None
-        self.closest_dist_m.clear()
+        self._closest_ids, self._closest_arr = [], np.empty(0)
 
     def set_volume(self, volume: SeparationVolume) -> None:
         self.volumes = tuple(v for v in self.volumes if v.name != volume.name) + (volume,)
@@ -201,8 +183,24 @@ class ConflictService:
         lookback = self._lookback(sim, n)
         radius = max([v.radius_m for v in self.volumes] + [self.closest_range_m])
         pi, pj = search_pairs(s, -lookback, np.zeros(n), radius)
-        self._track_events(sim.simt, s, lookback, pi, pj, None)
-        self._closest(s, pi, pj)
+        vols = self.volumes
+        inside, t_in, t_out, dmin, t_min, count, closest, dnow = proximity_pass(
+            s.lat, s.lon, s.alt, s.u, s.v, s.w, lookback, pi, pj,
+            np.array([v.radius_m for v in vols]), np.array([v.cylinder for v in vols], dtype=np.bool_),
+            np.array([v.half_height_m or 0.0 for v in vols]), self.closest_range_m,
+        )
+        for q, vol in enumerate(vols):
+            log = self._log(vol.name)
+            if count[q] == 0 and len(log.open_keys) == 0:
+                continue  # nothing inside and nothing open: the common case
+            ks = np.flatnonzero(inside[q])
+            self._merge_events(log, sim.simt, s, pi[ks], pj[ks], t_in[q, ks], t_out[q, ks], dmin[q, ks],
+                               t_min[q, ks], None)
+        self._closest_ids, self._closest_arr = s.ids, closest
+        self.min_separation_m = min(self.min_separation_m, dnow)
+        for log in self.logs.values():
+            if len(log.open_rows):
+                self.min_separation_m = min(self.min_separation_m, float(log.dmin[log.open_rows].min()))
         self._last_check_s = sim.simt
 
     def _detect_conflicts(self, sim: Simulation, s: TrafficSnapshot) -> None:
@@ -243,17 +241,35 @@ class ConflictService:
             self._serial_array = np.fromiter((self._serial(a) for a in ids), dtype=np.int64, count=len(ids))
         return self._serial_array
 
-    def _track_events(self, now: float, s: TrafficSnapshot, lookback: np.ndarray, pi: np.ndarray, pj: np.ndarray,
+    def _merge_events(self, log: EventLog, now: float, s: TrafficSnapshot, ii: np.ndarray, jj: np.ndarray,
+                      t_in: np.ndarray, t_out: np.ndarray, dmin: np.ndarray, t_min: np.ndarray,
                       only: str | None) -> None:
-        """Open, update and close events from the pairs' straight paths over their last interval.
+        """Merge one check's inside pairs (slots ii, jj) into a volume's log.
 
-        ``only``: restrict closing to events with this callsign (the last check of a deleted aircraft).
+        ``only``: restrict closing unseen open events to those of this callsign
+        (the last check of a deleted aircraft).
         """
         serial = self._serials_of(s.ids)
-        close_unseen = None
+        # Events name the pair in callsign order.
+        swap = np.array([s.ids[a] > s.ids[b] for a, b in zip(ii.tolist(), jj.tolist())], dtype=bool)
+        first = np.where(swap, jj, ii)
+        second = np.where(swap, ii, jj)
+        p1 = _extrapolate(s, first, t_min)
+        p2 = _extrapolate(s, second, t_min)
+        pos = np.column_stack([p1[0], p1[1], p1[2], p2[0], p2[1], p2[2]]) if len(ii) else np.empty((0, 6))
+        sa, sb = serial[first], serial[second]
+        keys = np.minimum(sa, sb) * (1 << 32) + np.maximum(sa, sb)
+        unseen_filter = None
         if only is not None:
             mine = self._serial(only)
-            close_unseen = np.array([mine], dtype=np.int64)
+            hi, lo = log.open_keys >> 32, log.open_keys & 0xFFFFFFFF
+            unseen_filter = log.open_keys[(hi == mine) | (lo == mine)]
+        log.update(now, self._last_check_s, keys, [s.ids[a] for a in first.tolist()],
+                   [s.ids[b] for b in second.tolist()], t_in, t_out, dmin, t_min, pos, unseen_filter)
+
+    def _track_events(self, now: float, s: TrafficSnapshot, lookback: np.ndarray, pi: np.ndarray, pj: np.ndarray,
+                      only: str | None) -> None:
+        """Open, update and close events from the pairs' straight paths over their last interval."""
         for vol in self.volumes:
             log = self._log(vol.name)
             inside, t_in, t_out, dmin, t_min = volume_encounters(
@@ -262,34 +278,8 @@ class ConflictService:
             )
             ks = np.flatnonzero(inside)
             if len(ks) == 0 and len(log.open_keys) == 0:
-                continue  # nothing inside and nothing open: the common case
-            ii, jj, tau = pi[ks], pj[ks], t_min[ks]
-            # Events name the pair in callsign order.
-            swap = np.array([s.ids[a] > s.ids[b] for a, b in zip(ii.tolist(), jj.tolist())], dtype=bool)
-            first = np.where(swap, jj, ii)
-            second = np.where(swap, ii, jj)
-            p1 = _extrapolate(s, first, tau)
-            p2 = _extrapolate(s, second, tau)
-            pos = np.column_stack([p1[0], p1[1], p1[2], p2[0], p2[1], p2[2]]) if len(ks) else np.empty((0, 6))
-            sa, sb = serial[first], serial[second]
-            keys = np.minimum(sa, sb) * (1 << 32) + np.maximum(sa, sb)
-            unseen_filter = None
-            if close_unseen is not None:
-                hi, lo = log.open_keys >> 32, log.open_keys & 0xFFFFFFFF
-                unseen_filter = log.open_keys[(hi == close_unseen[0]) | (lo == close_unseen[0])]
-            log.update(now, self._last_check_s, keys, [s.ids[a] for a in first.tolist()],
-                       [s.ids[b] for b in second.tolist()], t_in[ks], t_out[ks], dmin[ks], t_min[ks], pos,
-                       unseen_filter)
-
-    def _closest(self, s: TrafficSnapshot, pi: np.ndarray, pj: np.ndarray) -> None:
-        d = slant_distances(s.lat, s.lon, s.alt, pi, pj)
-        dist, _ = nearest_per_aircraft(len(s.ids), pi, pj, d, self.closest_range_m)
-        self.closest_dist_m = dict(zip(s.ids, dist.tolist()))
-        if len(d):
-            self.min_separation_m = min(self.min_separation_m, float(d.min()))
-        for log in self.logs.values():
-            if len(log.open_rows):
-                self.min_separation_m = min(self.min_separation_m, float(log.dmin[log.open_rows].min()))
+                continue
+            self._merge_events(log, now, s, pi[ks], pj[ks], t_in[ks], t_out[ks], dmin[ks], t_min[ks], only)
 
     def on_deleted(self, sim: Simulation, slot: int, record: object) -> None:
         """Check the deleted aircraft's last interval before it disappears."""
@@ -310,7 +300,7 @@ class ConflictService:
         for log in self.logs.values():
             hi, lo = log.open_keys >> 32, log.open_keys & 0xFFFFFFFF
             log.close_all(sim.simt, log.open_keys[(hi == mine) | (lo == mine)])
-        self.closest_dist_m.pop(acid, None)
+
 
     def finish(self, sim: Simulation) -> None:
         """Close events still open at the end of the run (end time = now)."""
@@ -318,6 +308,11 @@ class ConflictService:
             log.close_all(sim.simt)
 
     # -------------------------------------------------------------- queries
+    @property
+    def closest_dist_m(self) -> dict[str, float]:
+        """Distance [m] to the closest intruder at the last check (inf beyond ``closest_range_m``)."""
+        return dict(zip(self._closest_ids, self._closest_arr.tolist()))
+
     @property
     def events(self) -> list[SeparationEvent]:
         """Every event of every volume, by start time (built on demand from the logs)."""
