@@ -49,6 +49,9 @@ from aamsim.traffic.traffic import FlightRecord, Traffic
 from aamsim.units import FT, KTS, NM, Speed
 
 
+CONDITION_WAIT_LIMIT_S = 3600.0  # see Simulation._only_conditions_wait
+
+
 @dataclass
 class SimSettings:
     """Run-wide settings (stack commands change most of them)."""
@@ -106,6 +109,7 @@ class Simulation:
         self.extensions: dict[str, Any] = {}  # per-simulation state of services and plugins
         self.aircraft_steps = 0
         self.quit_requested = False
+        self._conditions_idle_s = 0.0
         self._next_perf_us = 0
         self._noted: set[str] = set()
         self._source: SourceRef | None = None
@@ -460,6 +464,27 @@ class Simulation:
                 return
             if until_s is None and self.is_quiescent():
                 return
+            if until_s is None and self._only_conditions_wait(chunk):
+                return
+
+    def _only_conditions_wait(self, chunk_s: float) -> bool:
+        """True once conditional commands alone have kept a finished scenario going for an hour.
+
+        An aircraft that misses the position of its ATDIST condition (and has no
+        route left) would otherwise keep an open-ended run alive forever.
+        """
+        n = self.traffic.n
+        routes_active = n and (self.traffic.B[f.B_SWLNAV, :n].any() or self.traffic.B[f.B_SWVNAV, :n].any())
+        if len(self.queue) or not len(self.conditions) or routes_active:
+            self._conditions_idle_s = 0.0
+            return False
+        self._conditions_idle_s += chunk_s
+        if self._conditions_idle_s >= CONDITION_WAIT_LIMIT_S:
+            self.report("note", f"stopped: nothing scheduled and no aircraft on a route for "
+                                f"{CONDITION_WAIT_LIMIT_S:.0f} s; {len(self.conditions)} conditional command(s) "
+                                "never fired (use --until to run longer)")
+            return True
+        return False
 
     def is_quiescent(self) -> bool:
         """True when the scenario can produce no further change worth simulating."""

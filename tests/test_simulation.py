@@ -88,3 +88,11 @@ def test_quiescent_when_everything_is_done(sim):
     sim.run()
     # The aircraft passed its only waypoint and flies on without a route: nothing left to happen.
     assert sim.traffic.n == 1 and sim.simt <= 60.0  # checked every 60 s of sim time
+
+
+def test_run_ends_when_only_unfireable_conditions_wait(sim):
+    # The aircraft flies away from the ATDIST point: the condition can never fire.
+    sim.load_text("00:00:00.00>CRE A EC35 0 0 90 1000 100\n00:00:00.00>A ATDIST 1 1 0.05 DEL A\n")
+    sim.run()
+    assert sim.traffic.n == 1 and 3600.0 <= sim.simt <= 3700.0
+    assert any("never fired" in m.text for m in sim.reporter.messages)
