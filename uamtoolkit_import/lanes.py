@@ -11,14 +11,21 @@ Among acceptable lanes the lowest is taken. Overtaking, merging and
 crossing encounters remain: those are the conflicts a speed-control agent
 can resolve.
 
-Lane rules, in order: (1) free for the OD pair and no head-on overlap;
-(2) shared with same-direction flights of the pair but no head-on overlap;
-otherwise :meth:`LaneBook.choose` returns None and the caller waits.
+A departure also needs a clear vertiport: a lane is refused while another
+flight on it is predicted (flying its timed legs) within ``clearance_m`` of
+the origin vertiport around the departure time, as a vertiport would hold a
+take-off while traffic passes overhead or lands. Without this an aircraft can
+be created on top of passing traffic: an NMAC no speed advisory can avoid.
+
+Lane rules, in order: (1) free for the OD pair, no head-on overlap, clear
+departure; (2) shared with same-direction flights of the pair, otherwise the
+same; otherwise :meth:`LaneBook.choose` returns None and the caller waits.
 """
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+import math
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 
 Leg = tuple[str, str, float, float]
@@ -56,9 +63,17 @@ class LaneBook:
         margin_s: each segment occupation is widened by this much on both
             sides when looking for head-on overlaps [s] (it absorbs the
             acceleration after take-off and speed capping by the aircraft model).
+        position: point id -> (lat, lon) [deg]; without it departures are not checked.
+        clearance_m: a departure waits while traffic on its lane is predicted this close to the origin [m].
+        clear_before_s, clear_after_s: the time window around the departure that must be clear [s]
+            (wide: predicted times drift from the flown ones by tens of seconds).
     """
 
     margin_s: float = 120.0
+    position: Callable[[str], tuple[float, float]] | None = None
+    clearance_m: float = 600.0
+    clear_before_s: float = 60.0
+    clear_after_s: float = 90.0
     _active: list[LaneUse] = field(default_factory=list)
 
     def airborne(self, t_s: float) -> list[LaneUse]:
@@ -78,19 +93,55 @@ class LaneBook:
                 return True
         return False
 
+    def _passes_near(self, legs: Sequence[Leg], site: str, t0: float, t1: float) -> bool:
+        """Whether a flight on ``legs`` is predicted within ``clearance_m`` of point ``site`` between t0 and t1."""
+        assert self.position is not None
+        lat0, lon0 = self.position(site)
+        coslat = math.cos(math.radians(lat0))
+
+        def xy(point: str) -> tuple[float, float]:
+            lat, lon = self.position(point)  # type: ignore[misc]
+            return (math.radians(lon - lon0) * 6371000.0 * coslat, math.radians(lat - lat0) * 6371000.0)
+
+        for a, b, ta, tb in legs:
+            lo, hi = max(ta, t0), min(tb, t1)
+            if lo > hi or tb <= ta:
+                continue
+            (xa, ya), (xb, yb) = xy(a), xy(b)
+            # The part of the leg flown inside the window, then its closest point to the site (origin).
+            fa, fb = (lo - ta) / (tb - ta), (hi - ta) / (tb - ta)
+            px, py = xa + fa * (xb - xa), ya + fa * (yb - ya)
+            qx, qy = xa + fb * (xb - xa), ya + fb * (yb - ya)
+            dx, dy = qx - px, qy - py
+            seg2 = dx * dx + dy * dy
+            u = 0.0 if seg2 == 0 else max(0.0, min(1.0, -(px * dx + py * dy) / seg2))
+            if math.hypot(px + u * dx, py + u * dy) < self.clearance_m:
+                return True
+        return False
+
     def acceptable(
         self, origin: str, destination: str, lane_ft: float, legs: Sequence[Leg], t_s: float, pair_free: bool
     ) -> bool:
         """Whether a lane suits a flight (``pair_free``: also unused by the OD pair)."""
         pair = {origin, destination}
-        for use in self.airborne(t_s):
+        for use in self.airborne(t_s - self.clear_before_s):
             if use.lane_ft != lane_ft:
                 continue
-            if pair_free and {use.origin, use.destination} == pair:
+            if pair_free and {use.origin, use.destination} == pair and use.arr_s + self.margin_s > t_s:
                 return False
             if self._head_on(legs, use):
                 return False
+            if self.position is not None and self._blocks_departure(legs, origin, t_s, use):
+                return False
         return True
+
+    def _blocks_departure(self, legs: Sequence[Leg], origin: str, t_s: float, other: LaneUse) -> bool:
+        """Whether either flight would pass over the other's origin around its departure time."""
+        if self._passes_near(other.legs, origin, t_s - self.clear_before_s, t_s + self.clear_after_s):
+            return True
+        # A flight booked earlier may depart later than this one (it waited for a lane).
+        return self._passes_near(legs, other.origin, other.dep_s - self.clear_before_s,
+                                 other.dep_s + self.clear_after_s)
 
     def choose(
         self, origin: str, destination: str, lanes_ft: Sequence[float], legs: Sequence[Leg], t_s: float

@@ -186,7 +186,8 @@ def _initial_fleet(network: Network, config: SynthConfig, rng: np.random.Generat
     idle: dict[str, deque[int]] = {v: deque() for v in ids}
     for k, ac in enumerate(aircraft):
         idle[ac.at].append(k)
-    return _Fleet(network, config, aircraft, idle, {v: deque() for v in ids})
+    return _Fleet(network, config, aircraft, idle, {v: deque() for v in ids},
+                  LaneBook(position=network.position))
 
 
 def synthesize(network: Network, config: SynthConfig | None = None) -> SynthResult:
