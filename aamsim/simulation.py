@@ -105,6 +105,7 @@ class Simulation:
         self.aircraft_steps = 0
         self.quit_requested = False
         self._next_perf_us = 0
+        self._perf_pending = False  # an aircraft waits for its first performance refresh
         self._noted: set[str] = set()
         self._source: SourceRef | None = None
         self._scratch_cap = 0
@@ -267,6 +268,7 @@ class Simulation:
         i = self.traffic.create(acid, actype, envelope, lat, lon, hdg, alt, spd or Speed(0.0), self.simt)
         if self.state == self.STATE_INIT:
             self.state = self.STATE_OP
+        self._perf_pending = True
         self._alloc_scratch()
         self.hooks.created.call(self, i)
         return i
@@ -316,11 +318,13 @@ class Simulation:
 
     def _refresh_performance(self) -> None:
         if self.simt_us >= self._next_perf_us:
-            n = self.traffic.n
-            self.traffic.F[f.AXMAX, :n] = self.traffic.F[f.AXMAX_TYPE, :n]
+            if self._perf_pending:
+                n = self.traffic.n
+                self.traffic.F[f.AXMAX, :n] = self.traffic.F[f.AXMAX_TYPE, :n]
+                self._perf_pending = False
             interval = to_us(self.settings.perf_interval_s)
-            while self._next_perf_us <= self.simt_us:
-                self._next_perf_us += interval
+            if self._next_perf_us <= self.simt_us:
+                self._next_perf_us += interval * ((self.simt_us - self._next_perf_us) // interval + 1)
 
     def _boundary(self) -> None:
         """Everything that happens at the start of a step, at time simt."""
@@ -334,7 +338,12 @@ class Simulation:
         dt_us = self.dt_us
         if self.hooks.post_step.every_step() or self.hooks.pre_step.every_step():
             return 1
-        candidates = [end_us, self._next_perf_us]
+        candidates = [end_us]
+        if self._perf_pending:
+            # Only a refresh that changes something splits a batch: the
+            # envelope refresh rewrites values that are already in place once
+            # every aircraft has had its first one.
+            candidates.append(self._next_perf_us)
         for t in (self.queue.next_due_us(), self.hooks.post_step.next_due_us(), self.hooks.pre_step.next_due_us()):
             if t is not None:
                 candidates.append(t)
@@ -468,6 +477,7 @@ class Simulation:
         self.navdb.clear()
         self.simt_us = 0
         self._next_perf_us = 0
+        self._perf_pending = False
         self.state = self.STATE_INIT
         dt = self.settings.dt_s
         self.settings = SimSettings(dt_s=dt)

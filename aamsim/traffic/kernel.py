@@ -34,6 +34,14 @@ from aamsim.traffic.fields import (
     C_APTAS_OUT,
     C_BANK,
     C_CAS_OUT,
+    C_COSLA0,
+    C_LA0,
+    C_LAT,
+    C_Q0,
+    C_Q0COS,
+    C_Q0SIN,
+    C_SINLA0,
+    C_SINLAT,
     C_SPD_IN,
     C_TANBANK,
     C_TAS_IN,
@@ -120,6 +128,18 @@ _A2 = WGS84_A * WGS84_A
 _B2 = WGS84_B * WGS84_B
 _A4 = _A2 * _A2
 _B4 = _B2 * _B2
+# Below these sizes the guidance uses truncated Taylor series whose first
+# omitted term is under 1e-19 relative (longitude difference [rad], half chord
+# of the unit sphere, a 250 km distance): exact to double precision.
+_SMALL_DLON = 0.05
+_SMALL_CHORD = 0.02
+_SMALL_DLAT = 2e-4  # rad (1.3 km) from the anchor latitude of the position update
+_SMALL_DQDR = 0.01  # tangent of the bearing change from the guidance's anchor bearing (0.57 deg)
+# Series coefficients (multiplications: a division by a literal is not folded).
+_S3, _S5, _S7, _S9 = -1.0 / 6.0, 1.0 / 120.0, -1.0 / 5040.0, 1.0 / 362880.0  # sin x / x
+_C4, _C6, _C8 = -1.0 / 24.0, 1.0 / 720.0, -1.0 / 40320.0  # (1 - cos x) / x^2 beyond 1/2
+_AS3, _AS5, _AS7, _AS9 = 1.0 / 6.0, 3.0 / 40.0, 5.0 / 112.0, 35.0 / 1152.0  # asin x / x
+_AT3, _AT5, _AT7 = -1.0 / 3.0, 1.0 / 5.0, -1.0 / 7.0  # atan x / x
 
 
 @njit(cache=True, inline="always")
@@ -195,7 +215,8 @@ def guidance(F: np.ndarray, i: int) -> tuple[float, float]:
         F[C_WPLAT, i] = lat2
     s2 = F[C_WPSIN, i]
     c2 = F[C_WPCOS, i]
-    s1 = math.sin(math.radians(lat1))
+    # sin(lat) comes with cos(lat) from the position update (one sincos call).
+    s1 = F[C_SINLAT, i] if F[C_LAT, i] == lat1 else math.sin(math.radians(lat1))
     c1 = F[COSLAT, i]
     if lat1 * lat2 >= 0.0:
         # sin^2 of the mean latitude from the two points' sines and cosines
@@ -205,15 +226,62 @@ def guidance(F: np.ndarray, i: int) -> tuple[float, float]:
     else:
         return qdrdist_scalar(lat1, F[LON, i], lat2, F[WP_LON, i])
     dlon = math.radians(F[WP_LON, i]) - math.radians(F[LON, i])
-    cdl = math.cos(dlon)
-    sdl = math.sin(dlon)
-    cosarg = c1 * c2 * cdl + s1 * s2
-    if cosarg > 1.0:
-        cosarg = 1.0
-    elif cosarg < -1.0:
-        cosarg = -1.0
-    dist = r * math.acos(cosarg)
-    qdr = math.degrees(math.atan2(sdl * c2, c1 * s2 - s1 * c2 * cdl))
+    if abs(dlon) < _SMALL_DLON:
+        # Taylor series, exact to double precision at this size: cheaper than
+        # a libm sincos call, and they give 1 - cos(dlon) without cancellation.
+        x2 = dlon * dlon
+        sdl = dlon * (1.0 + x2 * (_S3 + x2 * (_S5 + x2 * (_S7 + x2 * _S9))))
+        one_minus_cdl = x2 * (0.5 + x2 * (_C4 + x2 * (_C6 + x2 * _C8)))
+        cdl = 1.0 - one_minus_cdl
+    else:
+        cdl = math.cos(dlon)
+        sdl = math.sin(dlon)
+        one_minus_cdl = 1.0 - cdl
+    # Central angle from the chord between the two points on the unit sphere:
+    # the same great circle as BlueSky's acos(sin sin + cos cos cos), without
+    # its loss of precision at short range.
+    ds = s1 - s2
+    dc = c1 - c2
+    half_chord = 0.5 * math.sqrt(ds * ds + dc * dc + 2.0 * c1 * c2 * one_minus_cdl)
+    if half_chord < _SMALL_CHORD:
+        h2 = half_chord * half_chord
+        angle = 2.0 * half_chord * (
+            1.0 + h2 * (_AS3 + h2 * (_AS5 + h2 * (_AS7 + h2 * _AS9)))
+        )
+    else:
+        angle = 2.0 * math.asin(min(1.0, half_chord))
+    dist = r * angle
+    y = sdl * c2
+    x = c1 * s2 - s1 * c2 * cdl
+    h2 = x * x + y * y
+    if h2 > 0.0:
+        inv = 1.0 / math.sqrt(h2)
+        cq = x * inv
+        sq = y * inv
+        # The bearing barely changes from step to step: it is the anchor
+        # bearing plus the small angle between the two directions, from an
+        # arctangent series exact to double precision; libm's atan2 only
+        # runs to set a new anchor.
+        c0 = F[C_Q0COS, i]
+        s0 = F[C_Q0SIN, i]
+        dot = c0 * cq + s0 * sq
+        crs = c0 * sq - s0 * cq
+        if dot > 0.0 and abs(crs) < _SMALL_DQDR * dot:
+            t = crs / dot
+            t2 = t * t
+            qdr = F[C_Q0, i] + math.degrees(t * (1.0 + t2 * (_AT3 + t2 * (_AT5 + t2 * _AT7))))
+        else:
+            qdr = math.degrees(math.atan2(y, x))
+            F[C_Q0, i] = qdr
+            F[C_Q0COS, i] = cq
+            F[C_Q0SIN, i] = sq
+        # The aircraft usually flies exactly this bearing next step: give the
+        # heading cache its sine and cosine from the same triangle.
+        F[C_HDG, i] = wrap360(qdr)
+        F[C_SINHDG, i] = sq
+        F[C_COSHDG, i] = cq
+    else:
+        qdr = math.degrees(math.atan2(y, x))
     return qdr, dist
 
 
@@ -228,7 +296,7 @@ def _reached(F: np.ndarray, B: np.ndarray, i: int, qdr: float, dist: float) -> b
     return away_or_passed or dist < turndist
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _step_aircraft(
     F: np.ndarray,
     B: np.ndarray,
@@ -397,7 +465,27 @@ def _step_aircraft(
     if gsn != 0.0:
         lat = F[LAT, i] + math.degrees(dt * gsn / R_EARTH)
         F[LAT, i] = lat
-        F[COSLAT, i] = math.cos(math.radians(lat))
+        la = math.radians(lat)
+        d = la - F[C_LA0, i]
+        if abs(d) < _SMALL_DLAT:
+            # Rotate the exact sine and cosine of a nearby anchor latitude by
+            # d: exact to a few ulps, no error build-up, no libm call.
+            d2 = d * d
+            cd = 1.0 - d2 * (0.5 + d2 * _C4)
+            sd = d * (1.0 + d2 * (_S3 + d2 * _S5))
+            s0 = F[C_SINLA0, i]
+            c0 = F[C_COSLA0, i]
+            F[COSLAT, i] = c0 * cd - s0 * sd
+            F[C_SINLAT, i] = s0 * cd + c0 * sd
+        else:
+            c0 = math.cos(la)
+            s0 = math.sin(la)
+            F[C_LA0, i] = la
+            F[C_SINLA0, i] = s0
+            F[C_COSLA0, i] = c0
+            F[COSLAT, i] = c0
+            F[C_SINLAT, i] = s0
+        F[C_LAT, i] = lat
     F[LON, i] = F[LON, i] + math.degrees(dt * gse / F[COSLAT, i] / R_EARTH)
     F[DISTFLOWN, i] += tas * dt
     if alt > airborne_alt:
@@ -406,7 +494,39 @@ def _step_aircraft(
             F[SLOW_S, i] += dt
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
+def _check_waypoint(
+    F: np.ndarray, B: np.ndarray, i: int, scratch_qdr: np.ndarray, scratch_dist: np.ndarray,
+    fresh: np.ndarray, reached: np.ndarray,
+) -> bool:
+    """Guidance of aircraft ``i`` for the coming step and BlueSky's passing test."""
+    reached[i] = False
+    if B[B_SWLNAV, i]:
+        q, d = guidance(F, i)
+        scratch_qdr[i] = q
+        scratch_dist[i] = d
+        fresh[i] = True
+        if _reached(F, B, i, q, d):
+            reached[i] = True
+            return True
+    else:
+        fresh[i] = False
+    return False
+
+
+@njit(cache=True, _nrt=False)
+def _check_waypoints(
+    F: np.ndarray, B: np.ndarray, n: int, scratch_qdr: np.ndarray, scratch_dist: np.ndarray,
+    fresh: np.ndarray, reached: np.ndarray,
+) -> bool:
+    any_reached = False
+    for i in range(n):
+        if _check_waypoint(F, B, i, scratch_qdr, scratch_dist, fresh, reached):
+            any_reached = True
+    return any_reached
+
+
+@njit(cache=True, _nrt=False)
 def advance(
     F: np.ndarray,
     B: np.ndarray,
@@ -439,25 +559,25 @@ def advance(
     """
     ncond = cond_ac.shape[0]
     k = 0
+    if check_first:
+        if _check_waypoints(F, B, n, scratch_qdr, scratch_dist, fresh, reached):
+            return 0, STATUS_REACHED
     while k < nsteps:
-        if check_first or k > 0:
-            any_reached = False
-            for i in range(n):
-                reached[i] = False
-                if B[B_SWLNAV, i]:
-                    q, d = guidance(F, i)
-                    scratch_qdr[i] = q
-                    scratch_dist[i] = d
-                    fresh[i] = True
-                    if _reached(F, B, i, q, d):
-                        reached[i] = True
-                        any_reached = True
-                else:
-                    fresh[i] = False
-            if any_reached:
-                return k, STATUS_REACHED
+        # One pass over the aircraft per step: each is advanced, then (unless
+        # the batch ends here) its guidance and waypoint test for the next step
+        # are computed while its data is still in cache. Aircraft are
+        # independent within a step, so this equals testing at the start of
+        # the next step.
+        test_next = k + 1 < nsteps
+        any_reached = False
         for i in range(n):
             _step_aircraft(F, B, i, dt, scratch_qdr[i], scratch_dist[i], fresh[i], hold_speed, airborne_alt)
+            if test_next:
+                if _check_waypoint(F, B, i, scratch_qdr, scratch_dist, fresh, reached):
+                    any_reached = True
+            else:
+                fresh[i] = False
+                reached[i] = False
         k += 1
         if ncond > 0:
             fired_any = False
@@ -477,4 +597,6 @@ def advance(
                 cond_lastdif[c] = dif
             if fired_any:
                 return k, STATUS_CONDITION
+        if any_reached:
+            return k, STATUS_REACHED
     return k, STATUS_DONE
