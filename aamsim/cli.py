@@ -75,8 +75,11 @@ def main() -> None:
 @click.option("--delete-on-arrival", is_flag=True, help="Aircraft delete themselves at the end of their route.")
 @click.option("--metrics", default="safety,operational", show_default=True,
               help="Metric groups to report (comma separated).")
+@click.option("--threads", type=int, default=1, show_default=True,
+              help="Numba threads stepping the traffic (same results; helps from a few hundred aircraft).")
 def run(scenario: str, until: str | None, out_dir: Path | None, dt: float, seed: int | None, strict: bool,
-        quiet: bool, log_period: float, plugins: tuple[str, ...], delete_on_arrival: bool, metrics: str) -> None:
+        quiet: bool, log_period: float, plugins: tuple[str, ...], delete_on_arrival: bool, metrics: str,
+        threads: int) -> None:
     """Simulate SCENARIO headless, as fast as possible, and write a run directory.
 
     SCENARIO is a path, or the name of a scenario shipped with aamsim
@@ -89,9 +92,14 @@ def run(scenario: str, until: str | None, out_dir: Path | None, dt: float, seed:
         raise click.BadParameter("--dt must be positive")
     if log_period < 0:
         raise click.BadParameter("--log-period cannot be negative")
+    import numba
+
+    if not 1 <= threads <= numba.config.NUMBA_NUM_THREADS:
+        raise click.BadParameter(f"--threads must be between 1 and {numba.config.NUMBA_NUM_THREADS}")
     until_s = _time_option(until)
     groups = tuple(g.strip() for g in metrics.split(",") if g.strip())
-    cfg = RunConfig(scenario, out_dir, until_s, dt, seed, strict, log_period, plugins, delete_on_arrival, groups)
+    cfg = RunConfig(scenario, out_dir, until_s, dt, seed, strict, log_period, plugins, delete_on_arrival, groups,
+                    threads)
 
     def listener(msg: Any) -> None:
         if msg.kind in ("error", "warning"):

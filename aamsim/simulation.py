@@ -21,6 +21,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+import numba
 import numpy as np
 
 from aamsim.errors import ArgumentError, CommandError, ScenarioSyntaxError, SourceRef
@@ -43,10 +44,15 @@ from aamsim.stack.registry import CommandRegistry
 from aamsim.traffic import fields as f
 from aamsim.traffic.autopilot import pass_waypoint
 from aamsim.traffic.conditions import Conditions
-from aamsim.traffic.kernel import STATUS_CONDITION, STATUS_REACHED, advance
+from aamsim.traffic.kernel import STATUS_CONDITION, STATUS_REACHED, advance, advance_parallel
 from aamsim.traffic.performance import PerformanceTable
 from aamsim.traffic.traffic import FlightRecord, Traffic
 from aamsim.units import FT, KTS, NM, Speed
+
+
+# Fewest aircraft for which the parallel kernel is used (measured: below a few
+# hundred aircraft the per-step start of the threads costs more than it saves).
+PARALLEL_MIN_AIRCRAFT = 256
 
 
 @dataclass
@@ -81,8 +87,11 @@ class Simulation:
         performance: PerformanceTable | None = None,
         use_bluesky_navdata: bool = True,
         register_builtins: bool = True,
+        threads: int = 1,
     ):
         self.settings = SimSettings(dt_s=dt)
+        self.threads = 1
+        self.set_threads(threads)
         self.seed = seed
         self.rng = np.random.default_rng(seed)
         self.simt_us = 0
@@ -133,6 +142,18 @@ class Simulation:
         if not (0.0 < dt_s <= 10.0) or to_us(dt_s) == 0:
             raise CommandError(f"DT must be between 1 microsecond and 10 s, not {dt_s}")
         self.settings.dt_s = dt_s
+
+    def set_threads(self, threads: int) -> None:
+        """Use ``threads`` Numba threads to step the traffic (1: serial, the default).
+
+        The parallel kernel gives the same results bit for bit; it only runs
+        when there are at least :data:`PARALLEL_MIN_AIRCRAFT` aircraft, below
+        which starting the threads every step costs more than it saves.
+        """
+        available = numba.config.NUMBA_NUM_THREADS
+        if not 1 <= threads <= available:
+            raise ValueError(f"threads must be between 1 and {available} (NUMBA_NUM_THREADS), not {threads}")
+        self.threads = threads
 
     # --------------------------------------------------------------- messages
     def report(self, kind: str, text: str, source: SourceRef | None = None) -> None:
@@ -360,7 +381,12 @@ class Simulation:
             traffic = self.traffic
             n = traffic.n
             cond = self.conditions.arrays(traffic) if len(self.conditions) else _NO_CONDITIONS
-            k, status = advance(
+            extra: tuple[int, ...] = ()
+            kernel = advance
+            if self.threads > 1 and n >= PARALLEL_MIN_AIRCRAFT:
+                numba.set_num_threads(self.threads)  # a per-thread setting: set it where the kernel runs
+                kernel, extra = advance_parallel, (self.threads,)
+            k, status = kernel(
                 traffic.F,
                 traffic.B,
                 n,
@@ -374,6 +400,7 @@ class Simulation:
                 self._fresh,
                 self._reached,
                 *cond,
+                *extra,
             )
             done += k
             self.simt_us += k * dt_us

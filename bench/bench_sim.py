@@ -34,7 +34,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 # Idle OpenBLAS worker threads spin on the second core and disturb the timing.
-for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
+for _var in ("OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ.setdefault(_var, "1")
 
 import numpy as np  # noqa: E402
@@ -135,9 +135,7 @@ def time_aamsim(text: str, sim_time: float, dt: float = 0.05, threads: int = 1) 
     """Wall time of aamsim's stepping loop over ``sim_time`` seconds."""
     from aamsim import Simulation
 
-    sim = Simulation(seed=0, dt=dt, use_bluesky_navdata=False)
-    if threads != 1:
-        sim.set_threads(threads)
+    sim = Simulation(seed=0, dt=dt, use_bluesky_navdata=False, threads=threads)
     sim.load_text(text)
     sim.run_until(0.0)  # runs the creation commands due at t = 0, no step
     steps0 = sim.aircraft_steps

@@ -24,7 +24,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
+from numba import njit, prange
 
 from aamsim.aero import P0, R_AIR, RHO0, T0, T_STRAT, LAPSE, GAMMA
 from aamsim.geo import WGS84_A, WGS84_B, qdrdist_scalar
@@ -498,8 +498,8 @@ def _step_aircraft(
 def _check_waypoint(
     F: np.ndarray, B: np.ndarray, i: int, scratch_qdr: np.ndarray, scratch_dist: np.ndarray,
     fresh: np.ndarray, reached: np.ndarray,
-) -> bool:
-    """Guidance of aircraft ``i`` for the coming step and BlueSky's passing test."""
+) -> int:
+    """Guidance of aircraft ``i`` for the coming step and BlueSky's passing test (1: reached)."""
     reached[i] = False
     if B[B_SWLNAV, i]:
         q, d = guidance(F, i)
@@ -508,22 +508,85 @@ def _check_waypoint(
         fresh[i] = True
         if _reached(F, B, i, q, d):
             reached[i] = True
-            return True
+            return 1
     else:
         fresh[i] = False
-    return False
+    return 0
+
+
+@njit(cache=True, inline="always")
+def _conditions_fired(
+    F: np.ndarray,
+    cond_ac: np.ndarray,
+    cond_type: np.ndarray,
+    cond_target: np.ndarray,
+    cond_lastdif: np.ndarray,
+    cond_lat: np.ndarray,
+    cond_lon: np.ndarray,
+    cond_fired: np.ndarray,
+) -> bool:
+    """ATALT/ATSPD/ATDIST: flag the conditions whose target was crossed this step."""
+    fired_any = False
+    for c in range(cond_ac.shape[0]):
+        i = cond_ac[c]
+        kind = cond_type[c]
+        if kind == COND_ALT:
+            actual = F[ALT, i]
+        elif kind == COND_SPD:
+            actual = F[CAS, i]
+        else:
+            actual = qdrdist_scalar(F[LAT, i], F[LON, i], cond_lat[c], cond_lon[c])[1]
+        dif = cond_target[c] - actual
+        if dif * cond_lastdif[c] <= 0.0:
+            cond_fired[c] = True
+            fired_any = True
+        cond_lastdif[c] = dif
+    return fired_any
 
 
 @njit(cache=True, _nrt=False)
-def _check_waypoints(
-    F: np.ndarray, B: np.ndarray, n: int, scratch_qdr: np.ndarray, scratch_dist: np.ndarray,
+def _step_range(
+    F: np.ndarray,
+    B: np.ndarray,
+    lo: int,
+    hi: int,
+    dt: float,
+    test_next: bool,
+    hold_speed: float,
+    airborne_alt: float,
+    scratch_qdr: np.ndarray,
+    scratch_dist: np.ndarray,
+    fresh: np.ndarray,
+    reached: np.ndarray,
+) -> int:
+    """One step of aircraft ``lo..hi-1``; returns how many reached their waypoint.
+
+    Each aircraft is advanced, then (unless ``test_next`` is False: the batch
+    ends here) its guidance and waypoint test for the next step are computed
+    while its data is still in cache. Aircraft are independent within a step,
+    so this equals testing at the start of the next step.
+    """
+    nreached = 0
+    for i in range(lo, hi):
+        _step_aircraft(F, B, i, dt, scratch_qdr[i], scratch_dist[i], fresh[i], hold_speed, airborne_alt)
+        if test_next:
+            nreached += _check_waypoint(F, B, i, scratch_qdr, scratch_dist, fresh, reached)
+        else:
+            fresh[i] = False
+            reached[i] = False
+    return nreached
+
+
+@njit(cache=True, _nrt=False)
+def _check_range(
+    F: np.ndarray, B: np.ndarray, lo: int, hi: int, scratch_qdr: np.ndarray, scratch_dist: np.ndarray,
     fresh: np.ndarray, reached: np.ndarray,
-) -> bool:
-    any_reached = False
-    for i in range(n):
-        if _check_waypoint(F, B, i, scratch_qdr, scratch_dist, fresh, reached):
-            any_reached = True
-    return any_reached
+) -> int:
+    """The waypoint test of aircraft ``lo..hi-1`` at the start of a step."""
+    nreached = 0
+    for i in range(lo, hi):
+        nreached += _check_waypoint(F, B, i, scratch_qdr, scratch_dist, fresh, reached)
+    return nreached
 
 
 @njit(cache=True, _nrt=False)
@@ -557,46 +620,70 @@ def advance(
     Returns:
         ``(steps_done, status)``, status one of ``STATUS_*``.
     """
-    ncond = cond_ac.shape[0]
+    k = 0
+    if check_first and _check_range(F, B, 0, n, scratch_qdr, scratch_dist, fresh, reached):
+        return 0, STATUS_REACHED
+    while k < nsteps:
+        nreached = _step_range(F, B, 0, n, dt, k + 1 < nsteps, hold_speed, airborne_alt, scratch_qdr,
+                               scratch_dist, fresh, reached)
+        k += 1
+        if cond_ac.shape[0] and _conditions_fired(
+            F, cond_ac, cond_type, cond_target, cond_lastdif, cond_lat, cond_lon, cond_fired
+        ):
+            return k, STATUS_CONDITION
+        if nreached:
+            return k, STATUS_REACHED
+    return k, STATUS_DONE
+
+
+@njit(cache=True, parallel=True)
+def advance_parallel(
+    F: np.ndarray,
+    B: np.ndarray,
+    n: int,
+    dt: float,
+    nsteps: int,
+    check_first: bool,
+    hold_speed: float,
+    airborne_alt: float,
+    scratch_qdr: np.ndarray,
+    scratch_dist: np.ndarray,
+    fresh: np.ndarray,
+    reached: np.ndarray,
+    cond_ac: np.ndarray,
+    cond_type: np.ndarray,
+    cond_target: np.ndarray,
+    cond_lastdif: np.ndarray,
+    cond_lat: np.ndarray,
+    cond_lon: np.ndarray,
+    cond_fired: np.ndarray,
+    nblocks: int,
+) -> tuple[int, int]:
+    """:func:`advance` with the aircraft split in ``nblocks`` blocks over Numba's threads.
+
+    Every thread runs :func:`_step_range` on its own block of aircraft (the
+    same compiled code as the serial kernel, so the results are the same bit
+    for bit); the threads meet after each step for the events.
+    """
+    nblocks = max(1, min(n, nblocks))
+    counts = np.zeros(nblocks, dtype=np.int64)
     k = 0
     if check_first:
-        if _check_waypoints(F, B, n, scratch_qdr, scratch_dist, fresh, reached):
+        for b in prange(nblocks):
+            counts[b] = _check_range(F, B, b * n // nblocks, (b + 1) * n // nblocks, scratch_qdr, scratch_dist,
+                                     fresh, reached)
+        if counts.sum():
             return 0, STATUS_REACHED
     while k < nsteps:
-        # One pass over the aircraft per step: each is advanced, then (unless
-        # the batch ends here) its guidance and waypoint test for the next step
-        # are computed while its data is still in cache. Aircraft are
-        # independent within a step, so this equals testing at the start of
-        # the next step.
         test_next = k + 1 < nsteps
-        any_reached = False
-        for i in range(n):
-            _step_aircraft(F, B, i, dt, scratch_qdr[i], scratch_dist[i], fresh[i], hold_speed, airborne_alt)
-            if test_next:
-                if _check_waypoint(F, B, i, scratch_qdr, scratch_dist, fresh, reached):
-                    any_reached = True
-            else:
-                fresh[i] = False
-                reached[i] = False
+        for b in prange(nblocks):
+            counts[b] = _step_range(F, B, b * n // nblocks, (b + 1) * n // nblocks, dt, test_next, hold_speed,
+                                    airborne_alt, scratch_qdr, scratch_dist, fresh, reached)
         k += 1
-        if ncond > 0:
-            fired_any = False
-            for c in range(ncond):
-                i = cond_ac[c]
-                kind = cond_type[c]
-                if kind == COND_ALT:
-                    actual = F[ALT, i]
-                elif kind == COND_SPD:
-                    actual = F[CAS, i]
-                else:
-                    actual = qdrdist_scalar(F[LAT, i], F[LON, i], cond_lat[c], cond_lon[c])[1]
-                dif = cond_target[c] - actual
-                if dif * cond_lastdif[c] <= 0.0:
-                    cond_fired[c] = True
-                    fired_any = True
-                cond_lastdif[c] = dif
-            if fired_any:
-                return k, STATUS_CONDITION
-        if any_reached:
+        if cond_ac.shape[0] and _conditions_fired(
+            F, cond_ac, cond_type, cond_target, cond_lastdif, cond_lat, cond_lon, cond_fired
+        ):
+            return k, STATUS_CONDITION
+        if counts.sum():
             return k, STATUS_REACHED
     return k, STATUS_DONE

@@ -165,12 +165,12 @@ def main(names: list[str]) -> int:
         w = c.worst()
         ok = not c.failures
         bad += not ok
-        print(f"{name:<18} {len(c.aircraft):>8} {w.pos_m:>10.3f} {w.pos_frac:>10.2e} {w.alt_m:>10.3f} "
-              f"{w.spd_kt:>10.4f} {w.trk_deg:>11.4f}  {'ok' if ok else 'FAIL'}")
-        if len(sys.argv) > 1 and "-v" in sys.argv:
+        print(f"{name:<18} {len(c.aircraft):>8} {w.pos_m:>10.2e} {w.pos_frac:>10.2e} {w.alt_m:>10.2e} "
+              f"{w.spd_kt:>10.2e} {w.trk_deg:>11.2e}  {'ok' if ok else 'FAIL'}")
+        if "-v" in sys.argv:
             for acid, e in c.aircraft.items():
-                print(f"    {acid:<8} pos {e.pos_m:9.3f} m alt {e.alt_m:8.3f} m spd {e.spd_kt:8.4f} kt "
-                      f"trk {e.trk_deg:8.4f}")
+                print(f"    {acid:<8} pos {e.pos_m:9.2e} m alt {e.alt_m:9.2e} m spd {e.spd_kt:9.2e} kt "
+                      f"trk {e.trk_deg:9.2e} deg")
         for msg in c.failures[:10]:
             print("    " + msg)
     return 1 if bad else 0
