@@ -326,6 +326,7 @@ class Simulation:
             self._scratch_dist = np.zeros(cap)
             self._reached = np.zeros(cap, dtype=np.bool_)
             self._fresh = np.zeros(cap, dtype=np.bool_)
+            self._scratch = (self._scratch_qdr, self._scratch_dist, self._fresh, self._reached)
             self._scratch_cap = cap
 
     def _run_due_commands(self) -> None:
@@ -395,11 +396,8 @@ class Simulation:
                 check_first,
                 self.settings.hold_speed_mps,
                 self.settings.airborne_alt_m,
-                self._scratch_qdr,
-                self._scratch_dist,
-                self._fresh,
-                self._reached,
-                *cond,
+                self._scratch,
+                cond,
                 *extra,
             )
             done += k

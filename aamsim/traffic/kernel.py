@@ -131,6 +131,7 @@ _B4 = _B2 * _B2
 # Below these sizes the guidance uses truncated Taylor series whose first
 # omitted term is under 1e-19 relative (longitude difference [rad], half chord
 # of the unit sphere, a 250 km distance): exact to double precision.
+_INV_R_EARTH = 1.0 / R_EARTH
 _SMALL_DLON = 0.05
 _SMALL_CHORD = 0.02
 _SMALL_DLAT = 2e-4  # rad (1.3 km) from the anchor latitude of the position update
@@ -289,7 +290,7 @@ def guidance(F: np.ndarray, i: int) -> tuple[float, float]:
 def _reached(F: np.ndarray, B: np.ndarray, i: int, qdr: float, dist: float) -> bool:
     """BlueSky's waypoint-passing test for an aircraft flying LNAV."""
     gs = F[GS, i]
-    close = dist / max(0.0001, abs(gs)) < 4.0
+    close = dist < 4.0 * max(0.0001, abs(gs))  # less than 4 s away
     too_close_to_turn = close and abs(wrap180(wrap360(F[TRK, i]) - wrap360(qdr))) > 90.0
     away_or_passed = too_close_to_turn or abs(wrap180(qdr - F[WP_CURLEGDIR, i])) > 90.0
     turndist = F[WP_TURNDIST, i] if B[B_WP_FLYBY, i] else 0.0
@@ -402,10 +403,11 @@ def _step_aircraft(
     F[AX, i] = ax
     F[TAS, i] = tas
     if F[C_TAS_IN, i] != tas:
+        # Also dropped when the altitude (so the speed of sound) changes.
         F[C_CAS_OUT, i] = _tas2cas(tas, rho, p)
         F[C_TAS_IN, i] = tas
+        F[MACH, i] = tas / a
     F[CAS, i] = F[C_CAS_OUT, i]
-    F[MACH, i] = tas / a
 
     hdg = F[HDG, i]
     delhdg = wrap180(des_hdg - hdg)
@@ -463,7 +465,7 @@ def _step_aircraft(
         alt = des_alt
     F[ALT, i] = alt
     if gsn != 0.0:
-        lat = F[LAT, i] + math.degrees(dt * gsn / R_EARTH)
+        lat = F[LAT, i] + math.degrees(dt * gsn * _INV_R_EARTH)
         F[LAT, i] = lat
         la = math.radians(lat)
         d = la - F[C_LA0, i]
@@ -486,7 +488,7 @@ def _step_aircraft(
             F[COSLAT, i] = c0
             F[C_SINLAT, i] = s0
         F[C_LAT, i] = lat
-    F[LON, i] = F[LON, i] + math.degrees(dt * gse / F[COSLAT, i] / R_EARTH)
+    F[LON, i] = F[LON, i] + math.degrees(dt * gse * _INV_R_EARTH / F[COSLAT, i])
     F[DISTFLOWN, i] += tas * dt
     if alt > airborne_alt:
         F[AIRBORNE_S, i] += dt
@@ -515,17 +517,9 @@ def _check_waypoint(
 
 
 @njit(cache=True, inline="always")
-def _conditions_fired(
-    F: np.ndarray,
-    cond_ac: np.ndarray,
-    cond_type: np.ndarray,
-    cond_target: np.ndarray,
-    cond_lastdif: np.ndarray,
-    cond_lat: np.ndarray,
-    cond_lon: np.ndarray,
-    cond_fired: np.ndarray,
-) -> bool:
+def _conditions_fired(F: np.ndarray, cond: tuple) -> bool:
     """ATALT/ATSPD/ATDIST: flag the conditions whose target was crossed this step."""
+    cond_ac, cond_type, cond_target, cond_lastdif, cond_lat, cond_lon, cond_fired = cond
     fired_any = False
     for c in range(cond_ac.shape[0]):
         i = cond_ac[c]
@@ -589,8 +583,8 @@ def _check_range(
     return nreached
 
 
-@njit(cache=True, _nrt=False)
-def advance(
+@njit(cache=True, inline="always")
+def _advance(
     F: np.ndarray,
     B: np.ndarray,
     n: int,
@@ -599,91 +593,62 @@ def advance(
     check_first: bool,
     hold_speed: float,
     airborne_alt: float,
-    scratch_qdr: np.ndarray,
-    scratch_dist: np.ndarray,
-    fresh: np.ndarray,
-    reached: np.ndarray,
-    cond_ac: np.ndarray,
-    cond_type: np.ndarray,
-    cond_target: np.ndarray,
-    cond_lastdif: np.ndarray,
-    cond_lat: np.ndarray,
-    cond_lon: np.ndarray,
-    cond_fired: np.ndarray,
-) -> tuple[int, int]:
-    """Advance all ``n`` aircraft by up to ``nsteps`` steps of ``dt`` seconds.
-
-    ``fresh[i]`` tells that ``scratch_qdr/dist[i]`` hold this step's guidance
-    for aircraft ``i`` (the waypoint test computed them); Python clears it for
-    aircraft whose leg it changed before resuming.
-
-    Returns:
-        ``(steps_done, status)``, status one of ``STATUS_*``.
-    """
-    k = 0
-    if check_first and _check_range(F, B, 0, n, scratch_qdr, scratch_dist, fresh, reached):
-        return 0, STATUS_REACHED
-    while k < nsteps:
-        nreached = _step_range(F, B, 0, n, dt, k + 1 < nsteps, hold_speed, airborne_alt, scratch_qdr,
-                               scratch_dist, fresh, reached)
-        k += 1
-        if cond_ac.shape[0] and _conditions_fired(
-            F, cond_ac, cond_type, cond_target, cond_lastdif, cond_lat, cond_lon, cond_fired
-        ):
-            return k, STATUS_CONDITION
-        if nreached:
-            return k, STATUS_REACHED
-    return k, STATUS_DONE
-
-
-@njit(cache=True, parallel=True)
-def advance_parallel(
-    F: np.ndarray,
-    B: np.ndarray,
-    n: int,
-    dt: float,
-    nsteps: int,
-    check_first: bool,
-    hold_speed: float,
-    airborne_alt: float,
-    scratch_qdr: np.ndarray,
-    scratch_dist: np.ndarray,
-    fresh: np.ndarray,
-    reached: np.ndarray,
-    cond_ac: np.ndarray,
-    cond_type: np.ndarray,
-    cond_target: np.ndarray,
-    cond_lastdif: np.ndarray,
-    cond_lat: np.ndarray,
-    cond_lon: np.ndarray,
-    cond_fired: np.ndarray,
+    scratch: tuple,
+    cond: tuple,
     nblocks: int,
 ) -> tuple[int, int]:
-    """:func:`advance` with the aircraft split in ``nblocks`` blocks over Numba's threads.
-
-    Every thread runs :func:`_step_range` on its own block of aircraft (the
-    same compiled code as the serial kernel, so the results are the same bit
-    for bit); the threads meet after each step for the events.
-    """
+    scratch_qdr, scratch_dist, fresh, reached = scratch
     nblocks = max(1, min(n, nblocks))
     counts = np.zeros(nblocks, dtype=np.int64)
-    k = 0
+    # Block b holds aircraft b*n//nblocks .. (b+1)*n//nblocks - 1. prange is a
+    # plain loop in the serial kernel and splits the blocks over threads in
+    # the parallel one; every block runs the same compiled code, so both give
+    # the same bits. The threads meet after each step for the events.
     if check_first:
         for b in prange(nblocks):
             counts[b] = _check_range(F, B, b * n // nblocks, (b + 1) * n // nblocks, scratch_qdr, scratch_dist,
                                      fresh, reached)
         if counts.sum():
             return 0, STATUS_REACHED
+    k = 0
     while k < nsteps:
         test_next = k + 1 < nsteps
         for b in prange(nblocks):
             counts[b] = _step_range(F, B, b * n // nblocks, (b + 1) * n // nblocks, dt, test_next, hold_speed,
                                     airborne_alt, scratch_qdr, scratch_dist, fresh, reached)
         k += 1
-        if cond_ac.shape[0] and _conditions_fired(
-            F, cond_ac, cond_type, cond_target, cond_lastdif, cond_lat, cond_lon, cond_fired
-        ):
+        if cond[0].shape[0] and _conditions_fired(F, cond):
             return k, STATUS_CONDITION
         if counts.sum():
             return k, STATUS_REACHED
     return k, STATUS_DONE
+
+
+@njit(cache=True)
+def advance(
+    F: np.ndarray, B: np.ndarray, n: int, dt: float, nsteps: int, check_first: bool, hold_speed: float,
+    airborne_alt: float, scratch: tuple, cond: tuple,
+) -> tuple[int, int]:
+    """Advance all ``n`` aircraft by up to ``nsteps`` steps of ``dt`` seconds.
+
+    Args:
+        scratch: ``(qdr, dist, fresh, reached)`` per slot: ``fresh[i]`` tells
+            that ``qdr/dist[i]`` hold this step's guidance for aircraft ``i``
+            (the waypoint test computed them; Python clears it for aircraft
+            whose leg it changed before resuming), ``reached[i]`` that the
+            aircraft is at its waypoint.
+        cond: the conditional commands' arrays (:meth:`Conditions.arrays`).
+
+    Returns:
+        ``(steps_done, status)``, status one of ``STATUS_*``.
+    """
+    return _advance(F, B, n, dt, nsteps, check_first, hold_speed, airborne_alt, scratch, cond, 1)
+
+
+@njit(cache=True, parallel=True)
+def advance_parallel(
+    F: np.ndarray, B: np.ndarray, n: int, dt: float, nsteps: int, check_first: bool, hold_speed: float,
+    airborne_alt: float, scratch: tuple, cond: tuple, nblocks: int,
+) -> tuple[int, int]:
+    """:func:`advance` with the aircraft in ``nblocks`` blocks over Numba's threads (same results, bit for bit)."""
+    return _advance(F, B, n, dt, nsteps, check_first, hold_speed, airborne_alt, scratch, cond, nblocks)
