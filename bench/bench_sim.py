@@ -122,13 +122,15 @@ class Timing:
         return self.sim_s / self.wall_s
 
 
-def _warm_up() -> None:
-    """Load the compiled kernel (Numba cache) before anything is timed."""
+def _warm_up(threads: tuple[int, ...] = (1,)) -> None:
+    """Load (or compile) the kernels and start the threads before anything is timed."""
     from aamsim import Simulation
+    from aamsim.simulation import PARALLEL_MIN_AIRCRAFT
 
-    sim = Simulation(seed=0, use_bluesky_navdata=False)
-    sim.load_text(make_scenario(3))
-    sim.run_until(2.0)
+    for nthreads in threads:
+        sim = Simulation(seed=0, use_bluesky_navdata=False, threads=nthreads)
+        sim.load_text(make_scenario(PARALLEL_MIN_AIRCRAFT if nthreads > 1 else 3))
+        sim.run_until(2.0)
 
 
 def time_aamsim(text: str, sim_time: float, dt: float = 0.05, threads: int = 1) -> Timing:
@@ -233,7 +235,7 @@ def main(argv: list[str] | None = None) -> int:
 
     import numba
 
-    _warm_up()
+    _warm_up(tuple(threads))
     print(f"aamsim bench: EC35 on 3-waypoint routes, {BOX_KM:g} km box, dt {args.dt:g} s, "
           f"{args.sim_time:g} s sim time, median of {args.repeat}, cpu count {os.cpu_count()}, "
           f"numba {numba.__version__}")
@@ -243,12 +245,19 @@ def main(argv: list[str] | None = None) -> int:
     print("-" * len(header))
     for n in sizes:
         text = make_scenario(n)
-        bs_timing = None
-        if use_bluesky:
-            bs_sim = args.sim_time if n < 10000 else min(args.sim_time, args.bluesky_large_sim_time)
-            bs_timing = _median([time_bluesky(text, bs_sim, args.dt) for _ in range(args.repeat)])
+        bs_sim = args.sim_time if n < 10000 else min(args.sim_time, args.bluesky_large_sim_time)
+        # Runs alternate between the simulators, so that a change in the
+        # machine's load hits both alike.
+        bs_runs: list[Timing] = []
+        our_runs: dict[int, list[Timing]] = {k: [] for k in threads}
+        for _ in range(args.repeat):
+            if use_bluesky:
+                bs_runs.append(time_bluesky(text, bs_sim, args.dt))
+            for nthreads in threads:
+                our_runs[nthreads].append(time_aamsim(text, args.sim_time, args.dt, nthreads))
+        bs_timing = _median(bs_runs) if bs_runs else None
         for nthreads in threads:
-            ours = _median([time_aamsim(text, args.sim_time, args.dt, nthreads) for _ in range(args.repeat)])
+            ours = _median(our_runs[nthreads])
             bs_rate = f"{bs_timing.rate / 1e6:16.3f} M" if bs_timing else f"{'-':>18}"
             bs_sim_txt = f"{bs_timing.sim_s:8.0f}" if bs_timing else f"{'-':>8}"
             ratio = f"{ours.rate / bs_timing.rate:7.1f}" if bs_timing else f"{'-':>7}"

@@ -14,9 +14,25 @@ order within a step:
 5. conditional commands (ATALT/ATSPD/ATDIST): if one fires, the call returns
    after the step so that Python runs its command before the next one.
 
-Aircraft are independent within a step, so the loop is a plain scalar loop
-over slots with no allocation. Atmospheric quantities and heading sines are
-cached per aircraft and recomputed only when altitude or heading change.
+Aircraft are independent within a step, so each step is one plain scalar
+pass over the slots, without allocation. Each aircraft is advanced, then its
+waypoint test for the next step (1.) runs while its data is still in cache.
+
+Measured choices that make the pass cheap:
+
+* The per-aircraft code is compiled without NRT reference counting
+  (``_nrt=False``). Counting the state arrays in and out of every call took
+  a fifth of the time, as atomic operations.
+* The state is Fortran-ordered (``Traffic``), so one aircraft's fields are
+  contiguous.
+* Atmosphere, CAS/TAS conversions, heading sines and the waypoint's
+  trigonometry are cached per aircraft. Each cache is keyed by its input value.
+* Guidance and the position update avoid libm as described in
+  :mod:`aamsim.traffic.navmath`.
+
+:func:`advance_parallel` splits the aircraft into blocks over Numba threads.
+The blocks run the same compiled code, so the results are the same bit for
+bit.
 """
 
 from __future__ import annotations
@@ -27,27 +43,16 @@ import numpy as np
 from numba import njit, prange
 
 from aamsim.aero import P0, R_AIR, RHO0, T0, T_STRAT, LAPSE, GAMMA
-from aamsim.geo import WGS84_A, WGS84_B, qdrdist_scalar
+from aamsim.geo import qdrdist_scalar
 from aamsim.traffic.fields import (
     ALT,
     B_C_SPD_MACH,
     C_APTAS_OUT,
     C_BANK,
     C_CAS_OUT,
-    C_COSLA0,
-    C_LA0,
-    C_LAT,
-    C_Q0,
-    C_Q0COS,
-    C_Q0SIN,
-    C_SINLA0,
-    C_SINLAT,
     C_SPD_IN,
     C_TANBANK,
     C_TAS_IN,
-    C_WPCOS,
-    C_WPLAT,
-    C_WPSIN,
     AP_ALT,
     AP_TAS,
     AP_TRK,
@@ -74,7 +79,6 @@ from aamsim.traffic.fields import (
     C_RHO,
     C_SINHDG,
     CAS,
-    COSLAT,
     DIST2VS,
     DIST2WP,
     DISTFLOWN,
@@ -103,8 +107,6 @@ from aamsim.traffic.fields import (
     VSMAX,
     VSMIN,
     WP_CURLEGDIR,
-    WP_LAT,
-    WP_LON,
     WP_NEXTALTCO,
     WP_NEXTSPD,
     WP_SPD,
@@ -112,7 +114,8 @@ from aamsim.traffic.fields import (
     WP_TURNDIST,
     WP_VS,
 )
-from aamsim.units import FPM, G0, NM, R_EARTH
+from aamsim.traffic.navmath import guidance, position_step, wrap180, wrap360
+from aamsim.units import FPM, G0, NM
 
 STATUS_DONE = 0
 STATUS_REACHED = 1  # returned before a step: reached[] marks aircraft at their waypoint
@@ -124,41 +127,6 @@ COND_DIST = 2
 
 _VS_ACCEL = 300.0 * FPM  # m/s^2, vertical speed ramp
 _EPS = 0.01
-_A2 = WGS84_A * WGS84_A
-_B2 = WGS84_B * WGS84_B
-_A4 = _A2 * _A2
-_B4 = _B2 * _B2
-# Below these sizes the guidance uses truncated Taylor series whose first
-# omitted term is under 1e-19 relative (longitude difference [rad], half chord
-# of the unit sphere, a 250 km distance): exact to double precision.
-_INV_R_EARTH = 1.0 / R_EARTH
-_SMALL_DLON = 0.05
-_SMALL_CHORD = 0.02
-_SMALL_DLAT = 2e-4  # rad (1.3 km) from the anchor latitude of the position update
-_SMALL_DQDR = 0.01  # tangent of the bearing change from the guidance's anchor bearing (0.57 deg)
-# Series coefficients (multiplications: a division by a literal is not folded).
-_S3, _S5, _S7, _S9 = -1.0 / 6.0, 1.0 / 120.0, -1.0 / 5040.0, 1.0 / 362880.0  # sin x / x
-_C4, _C6, _C8 = -1.0 / 24.0, 1.0 / 720.0, -1.0 / 40320.0  # (1 - cos x) / x^2 beyond 1/2
-_AS3, _AS5, _AS7, _AS9 = 1.0 / 6.0, 3.0 / 40.0, 5.0 / 112.0, 35.0 / 1152.0  # asin x / x
-_AT3, _AT5, _AT7 = -1.0 / 3.0, 1.0 / 5.0, -1.0 / 7.0  # atan x / x
-
-
-@njit(cache=True, inline="always")
-def wrap360(x: float) -> float:
-    """``x % 360.0`` with Python semantics; cheap in the common in-range case."""
-    if 0.0 <= x < 360.0:
-        return x
-    if -360.0 <= x < 0.0:
-        return x + 360.0
-    if 360.0 <= x < 720.0:
-        return x - 360.0
-    return x % 360.0
-
-
-@njit(cache=True, inline="always")
-def wrap180(x: float) -> float:
-    """Angle difference wrapped to [-180, 180) degrees (``(x + 180) % 360 - 180``)."""
-    return wrap360(x + 180.0) - 180.0
 
 
 @njit(cache=True, inline="always")
@@ -196,94 +164,6 @@ def _atmos_at(h: float) -> tuple[float, float, float]:
     t = max(T0 + LAPSE * h, T_STRAT)
     rho = RHO0 * (t / T0) ** 4.256848030018761 * math.exp(-max(0.0, h - 11000.0) / 6341.552161)
     return rho, rho * R_AIR * t, math.sqrt(GAMMA * R_AIR * t)
-
-
-@njit(cache=True, inline="always")
-def guidance(F: np.ndarray, i: int) -> tuple[float, float]:
-    """Bearing [deg, -180..180] and distance [m] to the active waypoint.
-
-    The same great circle on the local WGS-84 radius as
-    :func:`aamsim.geo.qdrdist_scalar`, reusing cos(lat) from the position
-    update and the waypoint's sine and cosine, cached per leg; the radius is
-    computed from those products instead of new trigonometry.
-    """
-    lat1 = F[LAT, i]
-    lat2 = F[WP_LAT, i]
-    if F[C_WPLAT, i] != lat2:
-        la2 = math.radians(lat2)
-        F[C_WPSIN, i] = math.sin(la2)
-        F[C_WPCOS, i] = math.cos(la2)
-        F[C_WPLAT, i] = lat2
-    s2 = F[C_WPSIN, i]
-    c2 = F[C_WPCOS, i]
-    # sin(lat) comes with cos(lat) from the position update (one sincos call).
-    s1 = F[C_SINLAT, i] if F[C_LAT, i] == lat1 else math.sin(math.radians(lat1))
-    c1 = F[COSLAT, i]
-    if lat1 * lat2 >= 0.0:
-        # sin^2 of the mean latitude from the two points' sines and cosines
-        smean2 = 0.5 * (1.0 - (c1 * c2 - s1 * s2))
-        cmean2 = 1.0 - smean2
-        r = math.sqrt((_A4 * cmean2 + _B4 * smean2) / (_A2 * cmean2 + _B2 * smean2))
-    else:
-        return qdrdist_scalar(lat1, F[LON, i], lat2, F[WP_LON, i])
-    dlon = math.radians(F[WP_LON, i]) - math.radians(F[LON, i])
-    if abs(dlon) < _SMALL_DLON:
-        # Taylor series, exact to double precision at this size: cheaper than
-        # a libm sincos call, and they give 1 - cos(dlon) without cancellation.
-        x2 = dlon * dlon
-        sdl = dlon * (1.0 + x2 * (_S3 + x2 * (_S5 + x2 * (_S7 + x2 * _S9))))
-        one_minus_cdl = x2 * (0.5 + x2 * (_C4 + x2 * (_C6 + x2 * _C8)))
-        cdl = 1.0 - one_minus_cdl
-    else:
-        cdl = math.cos(dlon)
-        sdl = math.sin(dlon)
-        one_minus_cdl = 1.0 - cdl
-    # Central angle from the chord between the two points on the unit sphere:
-    # the same great circle as BlueSky's acos(sin sin + cos cos cos), without
-    # its loss of precision at short range.
-    ds = s1 - s2
-    dc = c1 - c2
-    half_chord = 0.5 * math.sqrt(ds * ds + dc * dc + 2.0 * c1 * c2 * one_minus_cdl)
-    if half_chord < _SMALL_CHORD:
-        h2 = half_chord * half_chord
-        angle = 2.0 * half_chord * (
-            1.0 + h2 * (_AS3 + h2 * (_AS5 + h2 * (_AS7 + h2 * _AS9)))
-        )
-    else:
-        angle = 2.0 * math.asin(min(1.0, half_chord))
-    dist = r * angle
-    y = sdl * c2
-    x = c1 * s2 - s1 * c2 * cdl
-    h2 = x * x + y * y
-    if h2 > 0.0:
-        inv = 1.0 / math.sqrt(h2)
-        cq = x * inv
-        sq = y * inv
-        # The bearing barely changes from step to step: it is the anchor
-        # bearing plus the small angle between the two directions, from an
-        # arctangent series exact to double precision; libm's atan2 only
-        # runs to set a new anchor.
-        c0 = F[C_Q0COS, i]
-        s0 = F[C_Q0SIN, i]
-        dot = c0 * cq + s0 * sq
-        crs = c0 * sq - s0 * cq
-        if dot > 0.0 and abs(crs) < _SMALL_DQDR * dot:
-            t = crs / dot
-            t2 = t * t
-            qdr = F[C_Q0, i] + math.degrees(t * (1.0 + t2 * (_AT3 + t2 * (_AT5 + t2 * _AT7))))
-        else:
-            qdr = math.degrees(math.atan2(y, x))
-            F[C_Q0, i] = qdr
-            F[C_Q0COS, i] = cq
-            F[C_Q0SIN, i] = sq
-        # The aircraft usually flies exactly this bearing next step: give the
-        # heading cache its sine and cosine from the same triangle.
-        F[C_HDG, i] = wrap360(qdr)
-        F[C_SINHDG, i] = sq
-        F[C_COSHDG, i] = cq
-    else:
-        qdr = math.degrees(math.atan2(y, x))
-    return qdr, dist
 
 
 @njit(cache=True, inline="always")
@@ -464,31 +344,7 @@ def _step_aircraft(
     else:
         alt = des_alt
     F[ALT, i] = alt
-    if gsn != 0.0:
-        lat = F[LAT, i] + math.degrees(dt * gsn * _INV_R_EARTH)
-        F[LAT, i] = lat
-        la = math.radians(lat)
-        d = la - F[C_LA0, i]
-        if abs(d) < _SMALL_DLAT:
-            # Rotate the exact sine and cosine of a nearby anchor latitude by
-            # d: exact to a few ulps, no error build-up, no libm call.
-            d2 = d * d
-            cd = 1.0 - d2 * (0.5 + d2 * _C4)
-            sd = d * (1.0 + d2 * (_S3 + d2 * _S5))
-            s0 = F[C_SINLA0, i]
-            c0 = F[C_COSLA0, i]
-            F[COSLAT, i] = c0 * cd - s0 * sd
-            F[C_SINLAT, i] = s0 * cd + c0 * sd
-        else:
-            c0 = math.cos(la)
-            s0 = math.sin(la)
-            F[C_LA0, i] = la
-            F[C_SINLA0, i] = s0
-            F[C_COSLA0, i] = c0
-            F[COSLAT, i] = c0
-            F[C_SINLAT, i] = s0
-        F[C_LAT, i] = lat
-    F[LON, i] = F[LON, i] + math.degrees(dt * gse * _INV_R_EARTH / F[COSLAT, i])
+    position_step(F, i, dt, gsn, gse)
     F[DISTFLOWN, i] += tas * dt
     if alt > airborne_alt:
         F[AIRBORNE_S, i] += dt
