@@ -94,8 +94,9 @@ def run(scenario: str, until: str | None, out_dir: Path | None, dt: float, seed:
         raise click.BadParameter("--log-period cannot be negative")
     import numba
 
-    if not 1 <= threads <= numba.config.NUMBA_NUM_THREADS:
-        raise click.BadParameter(f"--threads must be between 1 and {numba.config.NUMBA_NUM_THREADS}")
+    available = int(numba.config.NUMBA_NUM_THREADS)  # type: ignore[attr-defined]
+    if not 1 <= threads <= available:
+        raise click.BadParameter(f"--threads must be between 1 and {available}")
     until_s = _time_option(until)
     groups = tuple(g.strip() for g in metrics.split(",") if g.strip())
     cfg = RunConfig(scenario, out_dir, until_s, dt, seed, strict, log_period, plugins, delete_on_arrival, groups,

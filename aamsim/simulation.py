@@ -49,7 +49,6 @@ from aamsim.traffic.performance import PerformanceTable
 from aamsim.traffic.traffic import FlightRecord, Traffic
 from aamsim.units import FT, KTS, NM, Speed
 
-
 # Fewest aircraft for which the parallel kernel is used (measured: below a few
 # hundred aircraft the per-step start of the threads costs more than it saves).
 PARALLEL_MIN_AIRCRAFT = 256
@@ -150,7 +149,7 @@ class Simulation:
         when there are at least :data:`PARALLEL_MIN_AIRCRAFT` aircraft, below
         which starting the threads every step costs more than it saves.
         """
-        available = numba.config.NUMBA_NUM_THREADS
+        available = int(numba.config.NUMBA_NUM_THREADS)  # type: ignore[attr-defined]
         if not 1 <= threads <= available:
             raise ValueError(f"threads must be between 1 and {available} (NUMBA_NUM_THREADS), not {threads}")
         self.threads = threads
@@ -383,7 +382,7 @@ class Simulation:
             n = traffic.n
             cond = self.conditions.arrays(traffic) if len(self.conditions) else _NO_CONDITIONS
             extra: tuple[int, ...] = ()
-            kernel = advance
+            kernel: Any = advance
             if self.threads > 1 and n >= PARALLEL_MIN_AIRCRAFT:
                 numba.set_num_threads(self.threads)  # a per-thread setting: set it where the kernel runs
                 kernel, extra = advance_parallel, (self.threads,)

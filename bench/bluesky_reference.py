@@ -58,7 +58,7 @@ def sample_times(text: str) -> list[float]:
     options = dict(item.split("=", 1) for item in match.group(1).split())
     until = float(options["until"])
     every = float(options.get("every", "5"))
-    count = int(round(until / every))
+    count = round(until / every)
     times = {round(k * every, 6) for k in range(1, count + 1)}
     for extra in options.get("extra", "").split(","):
         if extra.strip():
@@ -160,6 +160,7 @@ def main(argv: list[str] | None = None) -> int:
             [sys.executable, __file__, "--worker", str(scn.resolve()), str(out)],
             capture_output=True,
             text=True,
+            check=False,
         )
         if proc.returncode != 0:
             failed += 1

@@ -30,10 +30,10 @@ ROOT = Path(__file__).resolve().parent.parent
 if str(ROOT) not in sys.path:
     sys.path.insert(0, str(ROOT))
 
-from aamsim import Simulation  # noqa: E402
-from aamsim.geo import WGS84_A, WGS84_B, geodesic_forward, geodesic_inverse  # noqa: E402
-from aamsim.traffic import fields as f  # noqa: E402
-from aamsim.units import KTS  # noqa: E402
+from aamsim import Simulation
+from aamsim.geo import WGS84_A, WGS84_B, geodesic_forward, geodesic_inverse
+from aamsim.traffic import fields as f
+from aamsim.units import KTS
 
 SPEED_KT = 120.0
 DT = 0.05

@@ -5,14 +5,13 @@ from __future__ import annotations
 import numba
 import numpy as np
 import pytest
+from conftest import errors_of
 
 from aamsim import Simulation
+from aamsim.scenarios import packaged_scenario
 from aamsim.simulation import PARALLEL_MIN_AIRCRAFT
 from aamsim.traffic import fields as f
 from aamsim.units import FT
-from aamsim.scenarios import packaged_scenario
-
-from conftest import errors_of
 
 
 def run_demo(per_step_hook: bool = False, seed: int = 7) -> Simulation:

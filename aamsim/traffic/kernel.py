@@ -38,29 +38,24 @@ bit.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
+from typing import Any, TypeVar
 
 import numpy as np
 from numba import njit, prange
 
-from aamsim.aero import P0, R_AIR, RHO0, T0, T_STRAT, LAPSE, GAMMA
+from aamsim.aero import GAMMA, LAPSE, P0, R_AIR, RHO0, T0, T_STRAT
 from aamsim.geo import qdrdist_scalar
 from aamsim.traffic.fields import (
+    AIRBORNE_S,
     ALT,
-    B_C_SPD_MACH,
-    C_APTAS_OUT,
-    C_BANK,
-    C_CAS_OUT,
-    C_SPD_IN,
-    C_TANBANK,
-    C_TAS_IN,
     AP_ALT,
     AP_TAS,
     AP_TRK,
     AP_VS,
-    AIRBORNE_S,
     AX,
     AXMAX,
-    BANKDEF,
+    B_C_SPD_MACH,
     B_ROTOR,
     B_SELSPD_MACH,
     B_SWALTSEL,
@@ -71,13 +66,20 @@ from aamsim.traffic.fields import (
     B_SWVNAVSPD,
     B_SWVNAVVS,
     B_WP_FLYBY,
+    BANKDEF,
     C_A,
     C_ALT,
+    C_APTAS_OUT,
+    C_BANK,
+    C_CAS_OUT,
     C_COSHDG,
     C_HDG,
     C_P,
     C_RHO,
     C_SINHDG,
+    C_SPD_IN,
+    C_TANBANK,
+    C_TAS_IN,
     CAS,
     DIST2VS,
     DIST2WP,
@@ -124,6 +126,17 @@ STATUS_CONDITION = 2  # returned after a step: fired[] marks conditions that tri
 COND_ALT = 0
 COND_SPD = 1
 COND_DIST = 2
+
+_FunctionT = TypeVar("_FunctionT", bound=Callable[..., Any])
+
+
+def _njit_without_refcounts(fn: _FunctionT) -> _FunctionT:
+    """``njit(cache=True)`` with Numba's (private) switch that leaves out NRT reference counting.
+
+    See the module docstring; these functions allocate nothing.
+    """
+    return njit(cache=True, _nrt=False)(fn)  # type: ignore[call-overload,no-any-return]
+
 
 _VS_ACCEL = 300.0 * FPM  # m/s^2, vertical speed ramp
 _EPS = 0.01
@@ -373,7 +386,7 @@ def _check_waypoint(
 
 
 @njit(cache=True, inline="always")
-def _conditions_fired(F: np.ndarray, cond: tuple) -> bool:
+def _conditions_fired(F: np.ndarray, cond: tuple[np.ndarray, ...]) -> bool:
     """ATALT/ATSPD/ATDIST: flag the conditions whose target was crossed this step."""
     cond_ac, cond_type, cond_target, cond_lastdif, cond_lat, cond_lon, cond_fired = cond
     fired_any = False
@@ -394,7 +407,7 @@ def _conditions_fired(F: np.ndarray, cond: tuple) -> bool:
     return fired_any
 
 
-@njit(cache=True, _nrt=False)
+@_njit_without_refcounts
 def _step_range(
     F: np.ndarray,
     B: np.ndarray,
@@ -427,7 +440,7 @@ def _step_range(
     return nreached
 
 
-@njit(cache=True, _nrt=False)
+@_njit_without_refcounts
 def _check_range(
     F: np.ndarray, B: np.ndarray, lo: int, hi: int, scratch_qdr: np.ndarray, scratch_dist: np.ndarray,
     fresh: np.ndarray, reached: np.ndarray,
@@ -449,8 +462,8 @@ def _advance(
     check_first: bool,
     hold_speed: float,
     airborne_alt: float,
-    scratch: tuple,
-    cond: tuple,
+    scratch: tuple[np.ndarray, ...],
+    cond: tuple[np.ndarray, ...],
     nblocks: int,
 ) -> tuple[int, int]:
     scratch_qdr, scratch_dist, fresh, reached = scratch
@@ -483,7 +496,7 @@ def _advance(
 @njit(cache=True)
 def advance(
     F: np.ndarray, B: np.ndarray, n: int, dt: float, nsteps: int, check_first: bool, hold_speed: float,
-    airborne_alt: float, scratch: tuple, cond: tuple,
+    airborne_alt: float, scratch: tuple[np.ndarray, ...], cond: tuple[np.ndarray, ...],
 ) -> tuple[int, int]:
     """Advance all ``n`` aircraft by up to ``nsteps`` steps of ``dt`` seconds.
 
@@ -504,7 +517,7 @@ def advance(
 @njit(cache=True, parallel=True)
 def advance_parallel(
     F: np.ndarray, B: np.ndarray, n: int, dt: float, nsteps: int, check_first: bool, hold_speed: float,
-    airborne_alt: float, scratch: tuple, cond: tuple, nblocks: int,
+    airborne_alt: float, scratch: tuple[np.ndarray, ...], cond: tuple[np.ndarray, ...], nblocks: int,
 ) -> tuple[int, int]:
     """:func:`advance` with the aircraft in ``nblocks`` blocks over Numba's threads (same results, bit for bit)."""
     return _advance(F, B, n, dt, nsteps, check_first, hold_speed, airborne_alt, scratch, cond, nblocks)

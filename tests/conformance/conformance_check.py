@@ -23,11 +23,11 @@ REFERENCES = HERE / "reference"
 if __name__ == "__main__":  # run as a script from anywhere: use this checkout's aamsim
     sys.path.insert(0, str(HERE.parent.parent))
 
-from aamsim import Simulation  # noqa: E402
-from aamsim.geo import geodesic_inverse  # noqa: E402
-from aamsim.stack.queue import to_us  # noqa: E402
-from aamsim.traffic import fields as f  # noqa: E402
-from aamsim.units import KTS  # noqa: E402
+from aamsim import Simulation
+from aamsim.geo import geodesic_inverse
+from aamsim.stack.queue import to_us
+from aamsim.traffic import fields as f
+from aamsim.units import KTS
 
 # Issue 2's agreement criteria.
 POS_FRACTION = 0.01  # of the distance flown

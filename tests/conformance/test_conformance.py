@@ -11,7 +11,6 @@ has flown straight, altitude within 5 m, TAS, CAS and ground speed within
 from __future__ import annotations
 
 import pytest
-
 from conformance_check import SCENARIOS, compare, load_reference, scenario_names
 
 NAMES = scenario_names()
