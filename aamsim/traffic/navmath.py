@@ -26,7 +26,7 @@ without changing the result beyond a few units in the last place:
   rotated from the exact values at an anchor latitude within 1.3 km. This is
   exact to a few ulps and builds up no error.
 
-The trajectories agree with BlueSky's to 0.1 mm over 15 minutes (see
+The trajectories agree with BlueSky's to a third of a millimetre over 15 minutes (see
 ``docs/bluesky-differences.md``). Every cache is keyed by the value it was
 computed from, so a command that moves an aircraft cannot leave a stale one.
 """
