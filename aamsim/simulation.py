@@ -16,6 +16,7 @@ to stepping one by one.
 from __future__ import annotations
 
 import math
+import os
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -49,9 +50,9 @@ from aamsim.traffic.performance import PerformanceTable
 from aamsim.traffic.traffic import FlightRecord, Traffic
 from aamsim.units import FT, KTS, NM, Speed
 
-# Fewest aircraft for which the parallel kernel is used (measured: below a few
-# hundred aircraft the per-step start of the threads costs more than it saves).
-PARALLEL_MIN_AIRCRAFT = 256
+# Fewest aircraft for which the parallel kernel is used. Measured on a shared
+# 2-core machine: no gain up to a few thousand aircraft, 1.3-1.8x at 10,000.
+PARALLEL_MIN_AIRCRAFT = 1000
 
 
 @dataclass
@@ -147,11 +148,19 @@ class Simulation:
 
         The parallel kernel gives the same results bit for bit; it only runs
         when there are at least :data:`PARALLEL_MIN_AIRCRAFT` aircraft, below
-        which starting the threads every step costs more than it saves.
+        which meeting the threads every step costs more than it saves. It
+        pays only with idle cores (see ``bench/bench_sim.py --threads``).
         """
         available = int(numba.config.NUMBA_NUM_THREADS)  # type: ignore[attr-defined]
         if not 1 <= threads <= available:
             raise ValueError(f"threads must be between 1 and {available} (NUMBA_NUM_THREADS), not {threads}")
+        if threads > 1:
+            # The kernel's threads meet after every step. With OpenMP's default
+            # spin-waiting, a machine with more busy threads than cores ran the
+            # parallel kernel 20 times slower than the serial one (measured);
+            # sleeping waits cost little. It applies if set before Numba
+            # starts its threads, and only when the user has not chosen.
+            os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
         self.threads = threads
 
     # --------------------------------------------------------------- messages
