@@ -56,6 +56,7 @@ class RunConfig:
     delete_on_arrival: bool = False
     metrics: tuple[str, ...] = ("safety", "operational")
     volumes: tuple[Any, ...] = ()  # SeparationVolume overrides (default: the paper's NMAC/LoWC)
+    threads: int = 1
 
 
 @dataclass
@@ -79,7 +80,7 @@ def default_out_dir(scenario: Path) -> Path:
 
 def build_simulation(cfg: RunConfig, path: Path, text: str) -> Simulation:
     """A simulation with the run's settings, plugins and services attached."""
-    sim = Simulation(seed=cfg.seed, dt=cfg.dt_s)
+    sim = Simulation(seed=cfg.seed, dt=cfg.dt_s, threads=cfg.threads)
     sim.settings.delete_on_arrival = cfg.delete_on_arrival
     sim.scenario_name = path.stem
     sim.scenario_path = path
@@ -157,6 +158,7 @@ def make_summary(sim: Simulation, cfg: RunConfig, path: Path, wall_s: float) -> 
         "python": platform.python_version(),
         "seed": cfg.seed,
         "dt_s": sim.settings.dt_s,
+        "threads": sim.threads,
         "until_s": cfg.until_s,
         "sim_time_s": round(simt, 6),
         "wall_time_s": round(wall_s, 4),

@@ -2,13 +2,16 @@
 
 from __future__ import annotations
 
+import numba
 import numpy as np
 import pytest
+from conftest import errors_of
 
 from aamsim import Simulation
 from aamsim.scenarios import packaged_scenario
-
-from conftest import errors_of
+from aamsim.simulation import PARALLEL_MIN_AIRCRAFT
+from aamsim.traffic import fields as f
+from aamsim.units import FT
 
 
 def run_demo(per_step_hook: bool = False, seed: int = 7) -> Simulation:
@@ -96,3 +99,42 @@ def test_run_ends_when_only_unfireable_conditions_wait(sim):
     sim.run()
     assert sim.traffic.n == 1 and 3600.0 <= sim.simt <= 3700.0
     assert any("never fired" in m.text for m in sim.reporter.messages)
+
+
+def _route_traffic(n: int, seed: int = 3) -> str:
+    rng = np.random.default_rng(seed)
+    lines = []
+    for k in range(n):
+        lat, lon = 40.7 + rng.uniform(-0.25, 0.25), -74.0 + rng.uniform(-0.3, 0.3)
+        lines.append(f"00:00:00.00>CRE P{k} EC35 {lat:.5f} {lon:.5f} {rng.uniform(0, 360):.1f} 1500 "
+                     f"{rng.uniform(60, 140):.0f}")
+        for _ in range(3):
+            lines.append(f"00:00:00.00>ADDWPT P{k} {40.7 + rng.uniform(-0.25, 0.25):.5f} "
+                         f"{-74.0 + rng.uniform(-0.3, 0.3):.5f}")
+    lines.append("00:00:05.00>ATALT P1 1400 ALT P2 900")  # a conditional command inside the batches
+    lines.append("00:00:10.00>ALT P1 1000")
+    lines.append("00:00:20.00>DEL P5")
+    return "\n".join(lines) + "\n"
+
+
+def test_thread_count_is_validated():
+    with pytest.raises(ValueError):
+        Simulation(threads=0, use_bluesky_navdata=False)
+    with pytest.raises(ValueError):
+        Simulation(threads=numba.config.NUMBA_NUM_THREADS + 1, use_bluesky_navdata=False)
+
+
+@pytest.mark.slow
+@pytest.mark.skipif(numba.config.NUMBA_NUM_THREADS < 2, reason="needs two CPUs")
+def test_parallel_kernel_gives_the_same_bits_as_the_serial_one():
+    text = _route_traffic(PARALLEL_MIN_AIRCRAFT + 44)
+    runs = []
+    for threads in (1, 2):
+        sim = Simulation(seed=1, use_bluesky_navdata=False, threads=threads)
+        sim.load_text(text)
+        sim.run_until(120.0)
+        runs.append(state(sim))
+    (ids_a, F_a, B_a), (ids_b, F_b, B_b) = runs
+    assert ids_a == ids_b and len(ids_a) == PARALLEL_MIN_AIRCRAFT + 43
+    assert F_a[f.SELALT, ids_a.index("P2")] == pytest.approx(900 * FT)  # the condition fired
+    assert np.array_equal(F_a, F_b, equal_nan=True) and np.array_equal(B_a, B_b)

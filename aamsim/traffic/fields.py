@@ -85,6 +85,14 @@ FLOAT_FIELDS = (
     "c_wpcos",
     "c_bank",  # bank angle the tan cache belongs to
     "c_tanbank",
+    "c_lat",  # latitude the sine cache belongs to (set with cos(lat) by the position update)
+    "c_sinlat",
+    "c_la0",  # rad, anchor latitude of the position update's rotation (see kernel)
+    "c_sinla0",
+    "c_cosla0",
+    "c_q0",  # deg, anchor bearing of the guidance's bearing update (see kernel)
+    "c_q0cos",
+    "c_q0sin",
 )
 
 BOOL_FIELDS = (
@@ -129,6 +137,7 @@ VMIN, VMAX, VSMIN, VSMAX, HMAX, AXMAX, AXMAX_TYPE, MMO = range(32, 40)
 ) = range(40, 52)
 C_ALT, C_RHO, C_P, C_A, C_HDG, C_SINHDG, C_COSHDG = range(52, 59)
 C_TAS_IN, C_CAS_OUT, C_SPD_IN, C_APTAS_OUT, C_WPLAT, C_WPSIN, C_WPCOS, C_BANK, C_TANBANK = range(59, 68)
+C_LAT, C_SINLAT, C_LA0, C_SINLA0, C_COSLA0, C_Q0, C_Q0COS, C_Q0SIN = range(68, 76)
 
 (
     B_SWLNAV,
@@ -147,5 +156,5 @@ C_TAS_IN, C_CAS_OUT, C_SPD_IN, C_APTAS_OUT, C_WPLAT, C_WPSIN, C_WPCOS, C_BANK, C
     B_HAS_MOVED,
 ) = range(14)
 
-assert N_FLOAT == 68 and FLOAT_FIELDS[C_TANBANK] == "c_tanbank"
+assert N_FLOAT == 76 and FLOAT_FIELDS[C_Q0SIN] == "c_q0sin"
 assert N_BOOL == 14 and BOOL_FIELDS[B_HAS_MOVED] == "has_moved"

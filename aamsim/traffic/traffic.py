@@ -65,8 +65,8 @@ class Traffic:
     _index: dict[str, int] = field(default_factory=dict, repr=False)
 
     def __post_init__(self) -> None:
-        self.F = np.zeros((f.N_FLOAT, self.capacity))
-        self.B = np.zeros((f.N_BOOL, self.capacity), dtype=np.bool_)
+        self.F = np.zeros((f.N_FLOAT, self.capacity), order="F")
+        self.B = np.zeros((f.N_BOOL, self.capacity), dtype=np.bool_, order="F")
 
     # ------------------------------------------------------------------ access
     def __len__(self) -> int:
@@ -114,8 +114,8 @@ class Traffic:
     # --------------------------------------------------------------- lifecycle
     def _grow(self) -> None:
         new_cap = self.capacity * 2
-        F = np.zeros((f.N_FLOAT, new_cap))
-        B = np.zeros((f.N_BOOL, new_cap), dtype=np.bool_)
+        F = np.zeros((f.N_FLOAT, new_cap), order="F")
+        B = np.zeros((f.N_BOOL, new_cap), dtype=np.bool_, order="F")
         F[:, : self.n] = self.F[:, : self.n]
         B[:, : self.n] = self.B[:, : self.n]
         self.F, self.B, self.capacity = F, B, new_cap
@@ -190,7 +190,7 @@ class Traffic:
         B[f.B_SWTOC, i] = True
         B[f.B_SWTOD, i] = True
         # Caches start invalid.
-        for row in (f.C_ALT, f.C_HDG, f.C_TAS_IN, f.C_SPD_IN, f.C_WPLAT, f.C_BANK):
+        for row in (f.C_ALT, f.C_HDG, f.C_TAS_IN, f.C_SPD_IN, f.C_WPLAT, f.C_BANK, f.C_LAT, f.C_LA0, f.C_Q0):
             F[row, i] = math.nan
         self.ids.append(acid)
         self.types.append(actype.upper())

@@ -1,0 +1,147 @@
+"""aamsim's behaviour where it deliberately differs from BlueSky 1.1.1.
+
+One test per BlueSky bug that aamsim does not reproduce, named after its
+section in docs/bluesky-differences.md; each shows what aamsim does instead
+(what BlueSky does is stated in the docstring and was checked by running it).
+"""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+
+from aamsim import Simulation
+from aamsim.geo import WGS84_A, WGS84_B, geodesic_forward, geodesic_inverse, qdrdist
+from aamsim.traffic import fields as f
+from aamsim.traffic.autopilot import turn_distance
+from aamsim.units import KTS
+
+
+def run(lines: str, until: float, **kwargs) -> Simulation:
+    sim = Simulation(seed=0, use_bluesky_navdata=False, **kwargs)
+    sim.load_text(lines)
+    sim.run_until(until)
+    return sim
+
+
+def errors(sim: Simulation) -> list[str]:
+    return [str(m) for m in sim.reporter.messages if m.kind == "error"]
+
+
+def test_direct_back_to_an_earlier_waypoint_flies_the_rest_of_the_route():
+    """BlueSky keeps the "last waypoint" flag of the route's end after a DIRECT
+    back to an earlier waypoint and drops LNAV when it gets there."""
+    sim = run("00:00:00.00>CRE X EC35 40.70 -74.00 0 1500 100\n"
+              "00:00:00.00>ADDWPT X 40.72 -74.00\n00:00:00.00>ADDWPT X 40.72 -73.98\n"
+              "00:00:00.00>ADDWPT X 40.70 -73.98\n00:02:40.00>DIRECT X X001\n", 320.0)
+    # BlueSky at 320 s: LNAV off, flying on at 350 deg past X001; aamsim is on its way to X003.
+    assert sim.traffic.B[f.B_SWLNAV, 0] and sim.traffic.routes[0].iactwp == 2
+
+
+def test_vnav_turn_keeps_the_selected_cas():
+    """With VNAV on, BlueSky sets the selected speed to the TAS of the last
+    DIRECT/ADDWPT, read as a CAS, while turning after the first waypoint
+    passed: +2.2 % (1.1 kts) at 1500 ft in this scenario, for good."""
+    sim = run("00:00:00.00>CRE Y EC35 40.70 -74.00 0 1500 100\n00:00:00.00>ADDWPT Y 40.72 -74.00\n"
+              "00:00:00.00>ADDWPT Y 40.72 -73.97\n00:00:00.00>ADDWPT Y 40.75 -73.97\n00:00:00.00>VNAV Y ON\n", 120.0)
+    assert sim.traffic.cas[0] == pytest.approx(100 * KTS, abs=1e-9)
+    assert sim.traffic.routes[0].iactwp == 2  # two turns flown
+
+
+def test_direct_and_delwpt_use_the_true_next_leg():
+    """BlueSky's DIRECT (also via DELWPT of the active waypoint and LNAV ON)
+    keeps the direction of the next leg from before the route changed, so it
+    anticipates the wrong turn; aamsim recomputes it."""
+    sim = run("00:00:00.00>CRE D EC35 40.80 -74.00 90 1500 90\n00:00:00.00>ADDWPT D 40.80 -73.96\n"
+              "00:00:00.00>ADDWPT D 40.83 -73.94\n00:00:00.00>ADDWPT D 40.86 -73.96\n"
+              "00:00:30.00>DELWPT D D002\n00:00:50.00>DIRECT D D001\n", 50.05)
+    F = sim.traffic.F
+    wp1, wp3 = sim.traffic.routes[0].waypoints
+    next_leg, _ = qdrdist(wp1.lat, wp1.lon, wp3.lat, wp3.lon)
+    assert F[f.WP_NEXTQDR, 0] == pytest.approx(next_leg)  # BlueSky: still towards the deleted D002
+    assert F[f.WP_TURNDIST, 0] == pytest.approx(
+        turn_distance(F[f.TAS, 0], F[f.BANKDEF, 0], F[f.WP_CURLEGDIR, 0], next_leg, True))
+
+
+def test_pcall_rel_and_abs_mean_what_they_say(tmp_path):
+    """BlueSky swaps them: PCALL f REL reads the times as absolute."""
+    (tmp_path / "sub.scn").write_text("00:00:30.00>CRE %0 EC35 40.70 -74.00 90 1500 100\n")
+    main = tmp_path / "main.scn"
+    main.write_text("00:01:00.00>PCALL sub REL RR\n00:01:00.00>PCALL sub ABS AA\n")
+    sim = Simulation(seed=0, use_bluesky_navdata=False)
+    sim.load_scenario(main)
+    sim.run_until(80.0)
+    assert "AA" in sim.traffic and "RR" not in sim.traffic  # ABS: 00:00:30 has passed, runs at once
+    sim.run_until(95.0)
+    assert sim.traffic.flights[sim.traffic.index("RR")].created_s == pytest.approx(90.0)
+
+
+def test_a_slow_speed_in_knots_is_never_mach():
+    """BlueSky reads any selected speed between 0.1 and 2 m/s as a Mach number:
+    a drone created at 3 kts flies at Mach 1.5 (EC35: 489 m/s TAS)."""
+    sim = run("00:00:00.00>CRE Z EC35 40.70 -74.00 90 500 3\n00:00:00.00>CRE W EC35 40.71 -74.00 90 500 20\n"
+              "00:00:01.00>SPD W 3.5\n", 30.0)
+    assert sim.traffic.cas[sim.traffic.index("Z")] == pytest.approx(3 * KTS, rel=1e-9)
+    assert sim.traffic.cas[sim.traffic.index("W")] == pytest.approx(3.5 * KTS, rel=1e-9)
+
+
+def test_at_alt_spd_sets_both_constraints(sim):
+    """BlueSky's ``AT acid wp alt/spd`` stores the speed as the altitude constraint."""
+    sim.stack("CRE A EC35 40.70 -74.00 0 1500 100")
+    sim.stack("ADDWPT A 40.75 -74.00")
+    sim.stack("AT A A001 2000/80")
+    wp = sim.traffic.routes[0].waypoints[0]
+    assert wp.alt == pytest.approx(2000 * 0.3048) and wp.spd == pytest.approx(80 * KTS)
+
+
+def test_ec135_is_the_ec35_and_unknown_types_are_reported(sim):
+    """BlueSky silently flies EC135/H135 (and any unknown type) as a B744,
+    whose 72 m/s minimum speed turns a 100 kt helicopter into a 140 kt one."""
+    sim.stack("CRE H EC135 40.70 -74.00 90 1500 100")
+    sim.stack("CRE U XYZ9 40.70 -74.00 90 1500 100")
+    assert sim.traffic.B[f.B_ROTOR, 0] and sim.traffic.F[f.VMAX, 0] == pytest.approx(71.95)
+    assert any("unknown aircraft type XYZ9" in str(m) for m in sim.reporter.messages)
+    sim.run_until(60.0)
+    assert sim.traffic.cas[0] == pytest.approx(100 * KTS, rel=1e-9)
+
+
+def test_short_lines_and_unknown_commands_are_not_dropped_silently(sim):
+    """BlueSky skips any line under 10 characters and forwards unknown commands without a word."""
+    sim.load_text("0:0:0>OP\n0:0:1>HOLD\n00:00:02.00>FOOBAR 1 2\n")
+    sim.run_until(1.5)
+    assert sim.state == sim.STATE_HOLD
+    sim.state = sim.STATE_OP
+    sim.run_until(3.0)
+    assert any("unknown command FOOBAR" in e and ":3:" in e for e in errors(sim))
+
+
+def test_unsupported_features_are_refused_not_ignored(sim):
+    """No wind or turbulence, no FLYTURN-family waypoints: an error, never a silent approximation."""
+    sim.stack("CRE A EC35 40.70 -74.00 0 1500 100")
+    for text in ("NOISE ON", "ADDWPT A FLYTURN", "ADDWPT A TURNRAD 0.5", "ADDWPT A TURNSPD 30", "ADDWPT A TAKEOFF"):
+        assert not sim.stack(text), text
+    assert len(errors(sim)) == 5
+
+
+def test_flat_earth_position_update_error_against_wgs84():
+    """aamsim keeps BlueSky's flat-earth Euler update on a 6371 km sphere (the
+    documented choice): a 100 km constant-heading leg at 40.7N ends 0.12 %
+    (north) to 0.26 % (east) of its length from the WGS-84 end point."""
+    lat0, lon0, length = 40.7, -74.0, 100_000.0
+    speed_kt = 120.0
+    t = round(length / (speed_kt * KTS) / 0.05) * 0.05
+    sim = run(f"00:00:00.00>CRE N EC35 {lat0} {lon0} 0 0 {speed_kt}\n"
+              f"00:00:00.00>CRE E EC35 {lat0} {lon0} 90 0 {speed_kt}\n", t)
+    flown = sim.traffic.F[f.DISTFLOWN, 0]
+    # North: the meridian is both the rhumb line and the geodesic.
+    north = geodesic_forward(lat0, lon0, 0.0, flown)
+    _, err_n = geodesic_inverse(*north, sim.traffic.lat[0], sim.traffic.lon[0])
+    # East: a constant heading keeps the latitude; the prime-vertical radius gives the longitude.
+    e2 = 1.0 - (WGS84_B / WGS84_A) ** 2
+    normal = WGS84_A / math.sqrt(1.0 - e2 * math.sin(math.radians(lat0)) ** 2)
+    east_lon = lon0 + math.degrees(flown / (normal * math.cos(math.radians(lat0))))
+    _, err_e = geodesic_inverse(lat0, east_lon, sim.traffic.lat[1], sim.traffic.lon[1])
+    assert 0.0011 * length < err_n < 0.0014 * length
+    assert 0.0024 * length < err_e < 0.0027 * length
+    assert sim.traffic.lat[1] == lat0  # due east stays on the parallel, as with BlueSky
