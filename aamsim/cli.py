@@ -119,9 +119,9 @@ def run(scenario: str, until: str | None, out_dir: Path | None, dt: float, seed:
         raise click.BadParameter(f"--threads must be between 1 and {available}")
     until_s = _time_option(until)
     groups = tuple(g.strip() for g in metrics.split(",") if g.strip())
+    from aamsim.metrics.registry import MetricRegistry
     from aamsim.metrics.service import metrics_of  # noqa: F401  (registry of known groups)
     from aamsim.metrics.standard import register_standard_metrics
-    from aamsim.metrics.registry import MetricRegistry
 
     known = MetricRegistry()
     register_standard_metrics(known)
@@ -134,9 +134,7 @@ def run(scenario: str, until: str | None, out_dir: Path | None, dt: float, seed:
                     volumes, threads)
 
     def listener(msg: Any) -> None:
-        if msg.kind in ("error", "warning"):
-            click.echo(str(msg), err=True)
-        elif not quiet and msg.kind in ("echo", "note"):
+        if msg.kind in ("error", "warning") or not quiet and msg.kind in ("echo", "note"):
             click.echo(str(msg), err=True)
 
     path = resolve_scenario(scenario)

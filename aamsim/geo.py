@@ -128,13 +128,13 @@ def destination_flat(lat: float, lon: float, bearing_deg: float, dist_m: float) 
 
 __all__ = [
     "NM",
-    "wgs84_radius",
-    "qdrdist_scalar",
-    "qdrdist",
     "degto180",
-    "kwik_qdrdist",
-    "geodesic_inverse",
-    "geodesic_forward",
-    "geodesic_path_length",
     "destination_flat",
+    "geodesic_forward",
+    "geodesic_inverse",
+    "geodesic_path_length",
+    "kwik_qdrdist",
+    "qdrdist",
+    "qdrdist_scalar",
+    "wgs84_radius",
 ]

@@ -142,8 +142,7 @@ def run_scenario(
     write_flights(out_dir / "flights.csv", iter_flights(sim))
     (out_dir / "summary.json").write_text(json.dumps(summary, indent=2, sort_keys=False) + "\n")
     with open(out_dir / "messages.log", "w", encoding="utf-8") as fh:
-        for msg in sim.reporter.messages:
-            fh.write(f"{msg.simt:10.2f} {msg}\n")
+        fh.writelines(f"{msg.simt:10.2f} {msg}\n" for msg in sim.reporter.messages)
     return RunResult(sim, out_dir, summary, wall)
 
 

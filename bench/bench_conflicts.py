@@ -23,8 +23,8 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from aamsim import Simulation  # noqa: E402
-from aamsim.conflicts import conflicts_of  # noqa: E402
+from aamsim import Simulation
+from aamsim.conflicts import conflicts_of
 
 
 def box_scenario(n: int, seed: int = 0, half_box_m: float = 30000.0) -> str:

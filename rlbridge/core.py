@@ -29,7 +29,6 @@ from aamsim.stack.parser import ParsedScenario, TimedCommand
 from aamsim.stack.tokens import next_arg
 from rlbridge.usecases.registry import Observations, UseCase, make_usecase
 
-
 TRAFFIC_STATE_FIELDS = ("lat", "lon", "alt", "tas", "gs", "trk", "vs")
 DEFAULT_EXTRA_TIME_S = 7200.0  # default episode limit: last scheduled command + 2 h
 
@@ -104,7 +103,7 @@ class EpisodeCore:
         self.sim: Simulation | None = None
         self.agents: list[str] = []
         self.seed: int | None = None
-        self._interval = float(getattr(self.usecase, "params").decision_interval_s) \
+        self._interval = float(self.usecase.params.decision_interval_s) \
             if hasattr(self.usecase, "params") else 10.0
         self._left: dict[str, dict[str, Any]] = {}
 

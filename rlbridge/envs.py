@@ -72,11 +72,11 @@ class AamParallelEnv(ParallelEnv):
         self._seed_rng = np.random.default_rng()
         self.last_result: StepResult | None = None
 
-    @functools.lru_cache(maxsize=None)
+    @functools.cache
     def observation_space(self, agent: str) -> gym.Space:
         return self._usecase.observation_space()
 
-    @functools.lru_cache(maxsize=None)
+    @functools.cache
     def action_space(self, agent: str) -> gym.Space:
         return self._usecase.action_space()
 

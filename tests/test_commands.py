@@ -5,13 +5,12 @@ from __future__ import annotations
 import math
 
 import pytest
+from conftest import errors_of
 
 from aamsim import Simulation
 from aamsim.aero import cas2tas
 from aamsim.traffic import fields as f
 from aamsim.units import FPM, FT, KTS, NM
-
-from conftest import errors_of
 
 
 def test_cre_defaults_and_units(sim):

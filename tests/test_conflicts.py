@@ -12,8 +12,8 @@ from hypothesis import strategies as st
 from aamsim import Simulation
 from aamsim.conflicts import SeparationVolume, closest_intruders, conflicts_of
 from aamsim.conflicts.pairs import slant_distances, statebased, volume_encounters
-from aamsim.conflicts.service import traffic_snapshot, search_pairs
-from aamsim.units import FT, NM
+from aamsim.conflicts.service import search_pairs, traffic_snapshot
+from aamsim.units import FT
 
 DEG_PER_M = 1.0 / (6371000.0 * math.pi / 180.0)  # latitude degrees per metre (flat-earth sphere)
 

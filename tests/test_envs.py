@@ -5,7 +5,6 @@ from __future__ import annotations
 from pathlib import Path
 
 import gymnasium
-import numpy as np
 import pytest
 from gymnasium.utils.env_checker import check_env
 from pettingzoo.test import parallel_api_test, parallel_seed_test
@@ -77,7 +76,7 @@ def run_episode(env, seed, policy):
 
 
 def test_determinism_and_independent_envs():
-    policy = lambda a, k: (hash(a) + k) % 3  # noqa: E731 - deterministic per run (PYTHONHASHSEED irrelevant within a run)
+    policy = lambda a, k: (hash(a) + k) % 3
     e1 = rlbridge.parallel_env(SCN, alt_noise_ft=100)
     e2 = rlbridge.parallel_env(SCN, alt_noise_ft=100)
     # Interleave two environments in one process: each must match a solo run.

@@ -220,13 +220,10 @@ def proximity_pass(
         j = pj[k]
         dx, dy, dz, du, dv, dw = relative_state(lat, lon, alt, u, v, w, i, j)
         d = math.sqrt(dx * dx + dy * dy + dz * dz)
-        if d < dmin_now:
-            dmin_now = d
+        dmin_now = min(dmin_now, d)
         if d <= closest_range:
-            if d < closest[i]:
-                closest[i] = d
-            if d < closest[j]:
-                closest[j] = d
+            closest[i] = min(closest[i], d)
+            closest[j] = min(closest[j], d)
         lo = -min(lookback[i], lookback[j])
         for q in range(nv):
             ok, a, b, dm, tau = _encounter(dx, dy, dz, du, dv, dw, lo, cylinder[q], radii[q], half_heights[q])
@@ -287,8 +284,6 @@ def max_per_aircraft(n: int, pi: np.ndarray, pj: np.ndarray, values: np.ndarray)
     out = np.zeros(n)
     for k in range(pi.shape[0]):
         v = values[k]
-        if v > out[pi[k]]:
-            out[pi[k]] = v
-        if v > out[pj[k]]:
-            out[pj[k]] = v
+        out[pi[k]] = max(out[pi[k]], v)
+        out[pj[k]] = max(out[pj[k]], v)
     return out

@@ -87,4 +87,4 @@ def validate_scenario(
     return errors
 
 
-__all__ = ["validate_scenario", "SourceRef"]
+__all__ = ["SourceRef", "validate_scenario"]

@@ -25,7 +25,7 @@ import numpy as np
 
 from aamsim.conflicts import SeparationVolume, conflicts_of
 from aamsim.conflicts.pairs import slant_distances
-from aamsim.conflicts.service import traffic_snapshot, search_pairs
+from aamsim.conflicts.service import search_pairs, traffic_snapshot
 from aamsim.metrics import record_advisory
 from aamsim.traffic import fields as f
 from aamsim.units import FT, KTS

@@ -14,12 +14,12 @@ from aamsim.stack.argtypes import (
     WPINROUTE,
     AcIndex,
     OnOff,
+    Position,
     PositionValue,
     RestOfLine,
     RouteWaypoint,
     Seconds,
     SpeedArg,
-    Position,
 )
 from aamsim.stack.context import LiveContext
 from aamsim.stack.registry import command, raw_arguments, static_validator
@@ -103,8 +103,7 @@ def add_waypoint(
             index = len(route) - 1 if route.has_dest else len(route)
             route.insert(index, wp)
     route.plan()
-    if route.iactwp < 0:
-        route.iactwp = 0
+    route.iactwp = max(route.iactwp, 0)
     if 0 <= route.iactwp < len(route):
         activate_waypoint(traffic, i, route.iactwp)
     return index
