@@ -70,6 +70,14 @@ def nearest_neighbours(
     return nbr, nbr_d
 
 
+@njit(cache=True, inline="always")
+def _to_frame(x: float, y: float, sin_t: float, cos_t: float, rotate: bool) -> tuple[float, float]:
+    """East/north -> (along-track, right of track) when ``rotate``; unchanged otherwise."""
+    if rotate:
+        return x * sin_t + y * cos_t, x * cos_t - y * sin_t
+    return x, y
+
+
 @njit(cache=True)
 def corridor_features(
     agents: np.ndarray,
@@ -77,6 +85,7 @@ def corridor_features(
     lon: np.ndarray,
     alt: np.ndarray,
     hdg: np.ndarray,
+    trk: np.ndarray,
     ax: np.ndarray,
     gs: np.ndarray,
     ddest: np.ndarray,
@@ -85,23 +94,31 @@ def corridor_features(
     nbr: np.ndarray,
     nbr_d: np.ndarray,
     scales: np.ndarray,
+    track_frame: bool,
+    relative_velocity: bool,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Ownship and intruder feature arrays of the corridor use case (already scaled).
 
     scales = [hdg, alt, acc, spd, pos, dalt] divisors.
     Ownship (5 + 2 N_wpt): hdg, z, a, v, d_dest, then (x_wpt - x_o, y_wpt - y_o) per waypoint.
     Intruder (7 + 2 N_wpt): x_i - x_o, y_i - y_o, z_i - z_o, a_i, v_i, d_dest_i, d_io, then the
-    intruder's waypoints relative to the ownship.
+    intruder's waypoints relative to the ownship; with ``relative_velocity`` two more: the
+    intruder's velocity relative to the ownship. Horizontal vectors are east/north (the paper)
+    or, with ``track_frame``, along and right of the ownship's track.
     """
     hs, zs, acs, vs, ps, dzs = scales[0], scales[1], scales[2], scales[3], scales[4], scales[5]
     na = agents.shape[0]
     nw = wpt_lat.shape[1]
     k = nbr.shape[1]
+    extra = 2 if relative_velocity else 0
     own = np.zeros((na, 5 + 2 * nw), dtype=np.float32)
-    intr = np.zeros((na, k, 7 + 2 * nw), dtype=np.float32)
+    intr = np.zeros((na, k, 7 + 2 * nw + extra), dtype=np.float32)
     mask = np.zeros((na, k), dtype=np.float32)
     for q in range(na):
         o = agents[q]
+        t_o = math.radians(trk[o])
+        sin_t, cos_t = math.sin(t_o), math.cos(t_o)
+        u_o, v_o = gs[o] * sin_t, gs[o] * cos_t
         own[q, 0] = hdg[o] / hs
         own[q, 1] = alt[o] / zs
         own[q, 2] = ax[o] / acs
@@ -109,6 +126,7 @@ def corridor_features(
         own[q, 4] = ddest[o] / ps
         for j in range(nw):
             x, y = rel_xy(lat[o], lon[o], wpt_lat[o, j], wpt_lon[o, j])
+            x, y = _to_frame(x, y, sin_t, cos_t, track_frame)
             own[q, 5 + 2 * j] = x / ps
             own[q, 6 + 2 * j] = y / ps
         for m in range(k):
@@ -117,6 +135,7 @@ def corridor_features(
                 break
             mask[q, m] = 1.0
             x, y = rel_xy(lat[o], lon[o], lat[i], lon[i])
+            x, y = _to_frame(x, y, sin_t, cos_t, track_frame)
             intr[q, m, 0] = x / ps
             intr[q, m, 1] = y / ps
             intr[q, m, 2] = (alt[i] - alt[o]) / dzs
@@ -126,6 +145,13 @@ def corridor_features(
             intr[q, m, 6] = nbr_d[q, m] / ps
             for j in range(nw):
                 x, y = rel_xy(lat[o], lon[o], wpt_lat[i, j], wpt_lon[i, j])
+                x, y = _to_frame(x, y, sin_t, cos_t, track_frame)
                 intr[q, m, 7 + 2 * j] = x / ps
                 intr[q, m, 8 + 2 * j] = y / ps
+            if relative_velocity:
+                t_i = math.radians(trk[i])
+                du, dv = _to_frame(gs[i] * math.sin(t_i) - u_o, gs[i] * math.cos(t_i) - v_o, sin_t, cos_t,
+                                   track_frame)
+                intr[q, m, 7 + 2 * nw] = du / vs
+                intr[q, m, 8 + 2 * nw] = dv / vs
     return own, intr, mask

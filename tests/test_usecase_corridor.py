@@ -120,3 +120,24 @@ def test_unknown_parameters_rejected():
         make_usecase("corridor_sa", n_intruder=3)
     with pytest.raises(KeyError):
         make_usecase("no_such_usecase")
+
+
+def test_track_frame_and_relative_velocity_options(scene):
+    # O flies east (trk 90): in its track frame, A (556 m north) is 556 m to the LEFT (negative
+    # "right of track") and 0 ahead; B (2224 m west) is 2224 m behind.
+    uc = make_usecase("corridor_sa", n_intruders=2, frame="track", relative_velocity=True, obs_format="dict")
+    assert uc.intruder_dim == 13
+    obs = uc.observe(scene, ["O"]).parts
+    dy_a = metres(0.005)
+    a, b = obs["intruders"][0]
+    np.testing.assert_allclose(a[:2], [0.0, -dy_a / 5000], atol=1e-6)
+    np.testing.assert_allclose(b[:2], [-metres(0.02) / 5000, 0.0], atol=1e-6)
+    # Waypoints straight ahead along the track.
+    np.testing.assert_allclose(obs["ownship"][0, 5:9], [metres(0.01) / 5000, 0.0, metres(0.02) / 5000, 0.0],
+                               atol=1e-6)
+    # A flies south at 40 m/s: relative to O (east at 50 m/s) that is 50 m/s back and 40 m/s to the right.
+    np.testing.assert_allclose(a[11:13], [-50 / 100, 40 / 100], atol=1e-6)
+    # B flies east at 60 m/s: 10 m/s faster along the track.
+    np.testing.assert_allclose(b[11:13], [10 / 100, 0.0], atol=1e-6)
+    with pytest.raises(ValueError):
+        make_usecase("corridor_sa", frame="polar")

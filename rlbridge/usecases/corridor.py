@@ -54,12 +54,17 @@ class CorridorParams:
     delta: float = 0.0003
     psi: float = 0.001
     omega: float = 0.001
+    nmac_penalty: float = 1.0  # R(s, h) inside NMAC: the paper's -1
     # Not given by the paper (documented choices):
     decision_interval_s: float = 10.0
     intruder_range_m: float = 10000.0
     obs_format: str = "flat"  # "flat" vector or "dict" (ownship, intruders, mask) for attention models
     alt_noise_ft: float = 0.0  # extra uniform altitude noise drawn per episode seed at creation
     reward_interval_nmac: bool = True  # an NMAC during the interval counts even if over by the decision
+    # Extensions beyond the paper's state (off by default): horizontal vectors in the ownship's
+    # track frame instead of east/north, and the intruders' velocity relative to the ownship.
+    frame: str = "paper"  # "paper" (east, north) or "track" (along track, right of track)
+    relative_velocity: bool = False
     # Feature scales (divisors): heading deg, altitude m, acceleration m/s^2, speed m/s, position m, d-alt m.
     scale_hdg: float = 360.0
     scale_alt: float = 1000.0
@@ -71,6 +76,8 @@ class CorridorParams:
     def __post_init__(self) -> None:
         if self.obs_format not in ("flat", "dict"):
             raise ValueError(f"obs_format must be 'flat' or 'dict', not {self.obs_format!r}")
+        if self.frame not in ("paper", "track"):
+            raise ValueError(f"frame must be 'paper' or 'track', not {self.frame!r}")
         for name in ("nmac_m", "lowc_m", "d_max_m", "decision_interval_s", "intruder_range_m"):
             if not getattr(self, name) > 0:
                 raise ValueError(f"{name} must be positive")
@@ -99,7 +106,7 @@ class CorridorSA:
         self.params = CorridorParams.from_dict(params)
         p = self.params
         self.own_dim = 5 + 2 * p.n_wpt
-        self.intruder_dim = 7 + 2 * p.n_wpt
+        self.intruder_dim = 7 + 2 * p.n_wpt + (2 if p.relative_velocity else 0)
         self._scales = np.array([p.scale_hdg, p.scale_alt, p.scale_acc, p.scale_spd, p.scale_pos, p.scale_dalt])
         big = np.float32(1e6)
         if p.obs_format == "flat":
@@ -206,7 +213,8 @@ class CorridorSA:
         ddest, wlat, wlon, _, _ = self._route_arrays(sim)
         t = sim.traffic
         own, intr, mask = corridor_features(
-            slots, t.lat, t.lon, t.alt, t.hdg, t.ax, t.gs, ddest, wlat, wlon, nbr, nbr_d, self._scales
+            slots, t.lat, t.lon, t.alt, t.hdg, t.trk, t.ax, t.gs, ddest, wlat, wlon, nbr, nbr_d, self._scales,
+            self.params.frame == "track", self.params.relative_velocity,
         )
         if self.params.obs_format == "dict":
             return Observations(parts={"ownship": own, "intruders": intr, "mask": mask})
@@ -229,7 +237,7 @@ class CorridorSA:
             for k, a in enumerate(agents):
                 if a in interval_nmac_min_m:
                     d[k] = min(d[k], interval_nmac_min_m[a])
-        r_sh = np.where(d < p.nmac_m, -1.0, np.where(d < p.d_max_m, -p.alpha + p.delta * d, 0.0))
+        r_sh = np.where(d < p.nmac_m, -p.nmac_penalty, np.where(d < p.d_max_m, -p.alpha + p.delta * d, 0.0))
         r_a = np.array([0.0 if actions.get(a, HOLD) == HOLD else -p.psi for a in agents])
         return r_sh + r_a - p.omega
 
