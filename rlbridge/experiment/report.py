@@ -218,16 +218,22 @@ def smooth(x: np.ndarray, window: int) -> np.ndarray:
 
 
 def band(runs: list[TrainRun], key: str, episodes_attr: str) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Iterations, mean and 95 % half-width: over runs when there are several, else over episodes."""
+    """Iterations, mean and 95 % half-width per iteration.
+
+    Over the runs that reached the iteration when there are several, else over the episodes
+    (workers) of the one run that did.
+    """
     n_it = max(len(r.curve["iteration"]) for r in runs)
     it = np.arange(1, n_it + 1)
     mean = np.full(n_it, np.nan)
     half = np.zeros(n_it)
     for k in range(n_it):
-        if len(runs) > 1:
-            xs = [r.curve[key][k] for r in runs if k < len(r.curve[key])]
+        having = [r for r in runs if k < len(r.curve[key])]
+        if len(having) > 1:
+            xs = [r.curve[key][k] for r in having]
         else:
-            xs = getattr(runs[0], episodes_attr)[k] if k < len(getattr(runs[0], episodes_attr)) else []
+            eps = getattr(having[0], episodes_attr)
+            xs = eps[k] if k < len(eps) else [having[0].curve[key][k]]
         xs = [x for x in xs if not math.isnan(x)]
         if xs:
             mean[k] = float(np.mean(xs))
