@@ -181,6 +181,7 @@ class TrainRun:
     episode_nmac: list[list[float]]
     baseline: dict[str, Any] | None
     summary: dict[str, Any] | None
+    workers: int  # rollout workers (0: in-process)
 
 
 def load_train_run(d: Path) -> TrainRun:
@@ -195,18 +196,20 @@ def load_train_run(d: Path) -> TrainRun:
 
     summary = json.loads((d / "training_summary.json").read_text()) if (d / "training_summary.json").exists() else None
     baseline = json.loads((d / "baseline.json").read_text()) if (d / "baseline.json").exists() else None
-    label = (summary or {}).get("label") or _label_from_config(d)
-    return TrainRun(d, label, curve, split("episode_rewards"), split("episode_nmac_per_aircraft"), baseline, summary)
+    label, workers = _from_config(d)
+    return TrainRun(d, (summary or {}).get("label") or label, curve, split("episode_rewards"),
+                    split("episode_nmac_per_aircraft"), baseline, summary, workers)
 
 
-def _label_from_config(d: Path) -> str:
+def _from_config(d: Path) -> tuple[str, int]:
+    """The algorithm's label and the number of workers of a run (from its resolved configuration)."""
     cfg = d / "resolved_config.yaml"
     if cfg.exists():
         from omegaconf import OmegaConf
 
         c = OmegaConf.load(cfg)
-        return str(c.algorithm.get("label", c.algorithm.name))
-    return d.name
+        return str(c.algorithm.get("label", c.algorithm.name)), int(c.get("workers", 1))
+    return d.name, 1
 
 
 def smooth(x: np.ndarray, window: int) -> np.ndarray:
@@ -322,7 +325,7 @@ def figures(train: list[TrainRun], out: Path, window: int) -> list[Path]:
                         color=colors[ci % len(colors)], label=label if k == 0 else None)
         hourly = [3600.0 * r.curve["aircraft_states_total"][-1] / r.curve["wall_s"][-1] for r in runs
                   if len(r.curve["wall_s"]) and r.curve["wall_s"][-1] > 0]
-        workers = [max(int((r.summary or {}).get("workers", 1)), 1) for r in runs]
+        workers = [max(r.workers, 1) for r in runs]
         names.append(label)
         rates.append(float(np.mean(hourly)) if hourly else 0.0)
         per_worker.append(float(np.mean([h / w for h, w in zip(hourly, workers)])) if hourly else 0.0)

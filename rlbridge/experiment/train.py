@@ -54,6 +54,7 @@ class TrainState:
     transitions: int = 0  # aircraft-states collected
     episodes: int = 0
     wall_s: float = 0.0  # training wall-clock time [s], resumed runs included
+    rollout_s: float = 0.0  # of which waiting for the workers' episodes [s]
     rewards: list[float] = field(default_factory=list)  # reward_mean per iteration
     best: float = -float("inf")  # best rolling mean so far
     best_iteration: int = 0
@@ -233,6 +234,7 @@ def run_training(cfg: DictConfig, run_dir: str | Path) -> dict[str, Any]:
             state.transitions += ep["aircraft_states"]
             state.episodes += len(batches)
             state.wall_s = wall0 + (t2 - t_train)
+            state.rollout_s += t1 - t0
             state.rewards.append(ep["reward_mean"])
             row = {"iteration": it, "wall_s": _fmt(state.wall_s), "sim_s": _fmt(ep["sim_s"]),
                    "episodes": len(batches), "reward_mean": _fmt(ep["reward_mean"]), "reward_std": _fmt(ep["reward_std"]),
@@ -272,6 +274,8 @@ def run_training(cfg: DictConfig, run_dir: str | Path) -> dict[str, Any]:
                "aircraft_states": state.transitions, "wall_s": state.wall_s,
                "states_per_s": state.transitions / state.wall_s if state.wall_s > 0 else None,
                "states_per_hour": 3600.0 * state.transitions / state.wall_s if state.wall_s > 0 else None,
+               "rollout_s": state.rollout_s,
+               "rollout_states_per_s": state.transitions / state.rollout_s if state.rollout_s > 0 else None,
                "this_session_s": elapsed, "stopped_by": reason, "best_rolling_reward": state.best,
                "best_iteration": state.best_iteration, "best_window": int(tc.best_window), "device": device}
     (run_dir / "training_summary.json").write_text(json.dumps(summary, indent=2) + "\n")
