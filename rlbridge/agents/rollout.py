@@ -100,6 +100,12 @@ class EpisodeBatch:
     def __len__(self) -> int:
         return int(self.actions.shape[0])
 
+    @classmethod
+    def empty(cls, stats: EpisodeStats) -> EpisodeBatch:
+        """No trajectories, only the statistics (evaluation runs)."""
+        i, f, b = np.zeros(0, np.int64), np.zeros(0, np.float32), np.zeros(0, bool)
+        return cls({}, f, i, i, i, f, f, b, b, np.zeros(0, np.int32), [], stats)
+
     def chains(self) -> tuple[np.ndarray, np.ndarray]:
         """``(next_t, ends)``: each transition's successor in its agent's chain (-1 if none) and chain ends."""
         pos = np.full(self.values.shape[0], -1, dtype=np.int64)
@@ -183,50 +189,21 @@ class RolloutWorker:
 
     def run_episode(self, seed: int, explore: dict[str, Any], record: bool = True,
                     actor: str = "policy") -> EpisodeBatch:
+        """One episode with actor ``actor``; the trajectories (when ``record``) and its statistics."""
         act = self.actors[actor]
         core = self._core_for(act)
         rng = np.random.default_rng(np.random.SeedSequence([seed, 0x5EED]))
         t0 = time.perf_counter()
         result = core.reset(seed)
-        chunks: list[dict[str, np.ndarray]] = []
-        vchunks: list[np.ndarray] = []
-        obs_idx: list[np.ndarray] = []
-        next_idx: list[np.ndarray] = []
-        acts: list[np.ndarray] = []
-        logps: list[np.ndarray] = []
-        rews: list[np.ndarray] = []
-        terms: list[np.ndarray] = []
-        truncs: list[np.ndarray] = []
-        agent_ids: list[np.ndarray] = []
-        agent_index: dict[str, int] = {}
-        m = 0  # rows stored so far
+        rec = TrajectoryRecorder() if record else None
         transitions = 0
         reward_total = 0.0
         pending: dict[str, tuple[int, int, float]] = {}  # agent -> (row, action, logp) of its last decision
         while True:
-            n = len(result.agents)
-            rows = m + np.arange(n)
             out = ActOutput(None) if result.done else act.act(result, core, rng, explore)
-            if record:
-                chunks.append(obs_dict(result.obs))
-                vals = out.values if out.values is not None else np.zeros(n, np.float32)
-                vchunks.append(np.asarray(vals, np.float32))
-                if pending:
-                    row_of = {a: k for k, a in enumerate(result.agents)}
-                    prev = [(a, *pending[a]) for a in pending]
-                    ks = np.array([row_of[a] for a, *_ in prev], dtype=np.int64)
-                    obs_idx.append(np.array([r for _, r, _, _ in prev], dtype=np.int64))
-                    next_idx.append(rows[ks])
-                    acts.append(np.array([x for _, _, x, _ in prev], dtype=np.int64))
-                    logps.append(np.array([lp for *_, lp in prev], dtype=np.float32))
-                    rews.append(result.rewards[ks].astype(np.float32))
-                    terms.append(result.terminated[ks])
-                    truncs.append(result.truncated[ks])
-                    agent_ids.append(np.array([agent_index.setdefault(a, len(agent_index)) for a, *_ in prev],
-                                              dtype=np.int32))
+            rows = rec.add(result, out, pending) if rec is not None else np.zeros(len(result.agents), np.int64)
             transitions += len(pending)
             reward_total += float(np.sum(result.rewards))
-            m += n
             if result.done:
                 break
             alive = set(result.alive)
@@ -251,17 +228,48 @@ class RolloutWorker:
             reward_per_aircraft=reward_total / max(aircraft, 1),
             nmac_events=int(safety.get("nmac_events", 0)), lowc_events=int(safety.get("lowc_events", 0)),
             sim_s=float(result.simt), wall_s=time.perf_counter() - t0, metrics=metrics)
-        if not record:
-            return EpisodeBatch({}, np.zeros(0, np.float32), *(np.zeros(0, np.int64),) * 3, np.zeros(0, np.float32),
-                                np.zeros(0, np.float32), np.zeros(0, bool), np.zeros(0, bool), np.zeros(0, np.int32),
-                                [], stats)
+        return rec.batch(stats) if rec is not None else EpisodeBatch.empty(stats)
 
-        def cat(parts: list[np.ndarray], dtype: Any) -> np.ndarray:
-            return np.concatenate(parts).astype(dtype, copy=False) if parts else np.zeros(0, dtype)
 
-        names = chunks[0].keys()
-        obs = {k: np.concatenate([c[k] for c in chunks]) for k in names}
-        agents = sorted(agent_index, key=agent_index.__getitem__)
-        return EpisodeBatch(obs, cat(vchunks, np.float32), cat(obs_idx, np.int64), cat(next_idx, np.int64),
-                            cat(acts, np.int64), cat(logps, np.float32), cat(rews, np.float32), cat(terms, bool),
-                            cat(truncs, bool), cat(agent_ids, np.int32), agents, stats)
+class TrajectoryRecorder:
+    """Accumulates the rows and transitions of one episode (see the module docstring)."""
+
+    def __init__(self) -> None:
+        self.m = 0  # rows stored so far
+        self.obs: list[dict[str, np.ndarray]] = []
+        self.values: list[np.ndarray] = []
+        self.cols: dict[str, list[np.ndarray]] = {k: [] for k in ("obs_idx", "next_idx", "actions", "logp",
+                                                                   "rewards", "terminated", "truncated", "agent")}
+        self.agent_index: dict[str, int] = {}
+
+    def add(self, result: StepResult, out: ActOutput, pending: dict[str, tuple[int, int, float]]) -> np.ndarray:
+        """Store a step's observations as rows and close the pending decisions; returns the new rows."""
+        n = len(result.agents)
+        rows = self.m + np.arange(n)
+        self.obs.append(obs_dict(result.obs))
+        self.values.append(np.asarray(out.values if out.values is not None else np.zeros(n), np.float32))
+        if pending:
+            row_of = {a: k for k, a in enumerate(result.agents)}
+            names = list(pending)
+            ks = np.array([row_of[a] for a in names], dtype=np.int64)
+            c = self.cols
+            c["obs_idx"].append(np.array([pending[a][0] for a in names], dtype=np.int64))
+            c["next_idx"].append(rows[ks])
+            c["actions"].append(np.array([pending[a][1] for a in names], dtype=np.int64))
+            c["logp"].append(np.array([pending[a][2] for a in names], dtype=np.float32))
+            c["rewards"].append(result.rewards[ks].astype(np.float32))
+            c["terminated"].append(result.terminated[ks])
+            c["truncated"].append(result.truncated[ks])
+            c["agent"].append(np.array([self.agent_index.setdefault(a, len(self.agent_index)) for a in names],
+                                       dtype=np.int32))
+        self.m += n
+        return rows
+
+    def batch(self, stats: EpisodeStats) -> EpisodeBatch:
+        dtypes = {"obs_idx": np.int64, "next_idx": np.int64, "actions": np.int64, "logp": np.float32,
+                  "rewards": np.float32, "terminated": bool, "truncated": bool, "agent": np.int32}
+        cols = {k: np.concatenate(v).astype(dtypes[k], copy=False) if v else np.zeros(0, dtypes[k])
+                for k, v in self.cols.items()}
+        obs = {k: np.concatenate([c[k] for c in self.obs]) for k in self.obs[0]}
+        agents = sorted(self.agent_index, key=self.agent_index.__getitem__)
+        return EpisodeBatch(obs=obs, values=np.concatenate(self.values), agents=agents, stats=stats, **cols)
