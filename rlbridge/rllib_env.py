@@ -54,13 +54,13 @@ class AamMultiAgentEnv(MultiAgentEnv):
         self.observation_spaces = {a: obs_space for a in self.possible_agents}
         self.action_spaces = {a: act_space for a in self.possible_agents}
 
-    def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None
-              ) -> tuple[dict[str, Any], dict[str, Any]]:
+    def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None) -> Any:
         obs, infos = self.env.reset(seed=seed, options=options)
         self.agents = list(self.env.agents)
         return obs, infos
 
-    def step(self, action_dict: dict[str, Any]) -> tuple[dict[str, Any], ...]:
+    def step(self, action_dict: Any) -> Any:
+        """Actions of the agents flying -> (obs, rewards, terminateds, truncateds, infos) with ``__all__``."""
         obs, rewards, terms, truncs, infos = self.env.step({a: int(x) for a, x in action_dict.items()})
         self.agents = list(self.env.agents)
         result = self.env.last_result

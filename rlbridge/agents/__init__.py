@@ -27,8 +27,8 @@ BASELINE_KINDS = ("unequipped", "mvp_speed")
 def usecase_dims(usecase: str, params: dict[str, Any]) -> dict[str, int]:
     """Observation and action sizes of a corridor-style use case (flat and dict formats)."""
     p = {k: v for k, v in params.items() if k != "obs_format"}
-    flat = make_usecase(usecase, **p, obs_format="flat")
-    parts = make_usecase(usecase, **p, obs_format="dict").observation_space()
+    flat: Any = make_usecase(usecase, **p, obs_format="flat")
+    parts: Any = make_usecase(usecase, **p, obs_format="dict").observation_space()
     n_intr, intr_dim = parts["intruders"].shape
     return {"flat_dim": int(flat.observation_space().shape[0]), "own_dim": int(parts["ownship"].shape[0]),
             "intruder_dim": int(intr_dim), "n_intruders": int(n_intr), "n_actions": int(flat.action_space().n)}

@@ -116,7 +116,10 @@ class EpisodeBatch:
 
 
 def obs_dict(obs: Observations) -> dict[str, np.ndarray]:
-    return dict(obs.parts) if obs.parts is not None else {"flat": obs.flat}
+    if obs.parts is not None:
+        return dict(obs.parts)
+    assert obs.flat is not None
+    return {"flat": obs.flat}
 
 
 def to_observations(arrays: dict[str, np.ndarray]) -> Observations:

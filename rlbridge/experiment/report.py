@@ -207,7 +207,7 @@ def _from_config(d: Path) -> tuple[str, int]:
     if cfg.exists():
         from omegaconf import OmegaConf
 
-        c = OmegaConf.load(cfg)
+        c: Any = OmegaConf.load(cfg)
         return str(c.algorithm.get("label", c.algorithm.name)), int(c.get("workers", 1))
     return d.name, 1
 

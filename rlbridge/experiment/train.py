@@ -113,7 +113,7 @@ def save_checkpoint(path: Path, learner: Any, state: TrainState, meta: dict[str,
     tmp.replace(path)
 
 
-def summarize_episodes(stats: list[EpisodeStats]) -> dict[str, float]:
+def summarize_episodes(stats: list[EpisodeStats]) -> dict[str, Any]:
     rewards = np.array([s.reward_per_aircraft for s in stats])
     return {"episodes": len(stats), "reward_mean": float(rewards.mean()), "reward_std": float(rewards.std()),
             "nmac_per_aircraft": float(np.mean([s.nmac_events / max(s.aircraft, 1) for s in stats])),
@@ -165,7 +165,7 @@ def run_training(cfg: DictConfig, run_dir: str | Path) -> dict[str, Any]:
     params = dict(OmegaConf.to_container(algo.params, resolve=True))  # type: ignore[arg-type]
     learner = make_learner(str(algo.kind), params, dims, device, int(cfg.seed))
     state = TrainState()
-    meta = {"algorithm": {"name": str(algo.name), "kind": str(algo.kind), "label": str(algo.get("label", algo.name)),
+    meta: dict[str, Any] = {"algorithm": {"name": str(algo.name), "kind": str(algo.kind), "label": str(algo.get("label", algo.name)),
                           "params": params},
             "dims": dims, "env": asdict(env), "seed": int(cfg.seed), "run_dir": str(run_dir.resolve()),
             "config": OmegaConf.to_container(cfg, resolve=True)}
@@ -208,11 +208,11 @@ def run_training(cfg: DictConfig, run_dir: str | Path) -> dict[str, Any]:
             seeds = [episode_seed(int(cfg.seed), 0, k % slots, k // slots) for k in range(int(tc.baseline_episodes))]
             lists = [seeds[w::slots] for w in range(slots)]
             base = [s for part in pool.collect(lists, "unequipped", record=False) for s in part]
-            summary = summarize_episodes(base)
-            (run_dir / "baseline.json").write_text(json.dumps({"policy": "unequipped", **summary,
+            base_summary = summarize_episodes(base)
+            (run_dir / "baseline.json").write_text(json.dumps({"policy": "unequipped", **base_summary,
                                                                 "seeds": seeds}, indent=2) + "\n")
             log.info("unequipped baseline: reward/aircraft %.4f, NMAC/aircraft %.4f over %d episodes",
-                     summary["reward_mean"], summary["nmac_per_aircraft"], len(base))
+                     base_summary["reward_mean"], base_summary["nmac_per_aircraft"], len(base))
         t_train = time.perf_counter()  # throughput clock: iterations only (not Ray start-up nor baseline)
         while True:
             if max_iter is not None and state.iteration >= int(max_iter):
@@ -269,7 +269,7 @@ def run_training(cfg: DictConfig, run_dir: str | Path) -> dict[str, Any]:
             if state.rewards else float("nan"), state.iteration
         save_checkpoint(ckpt_dir / "best.pt", learner, state, meta)
     elapsed = time.perf_counter() - t_start
-    summary = {"algorithm": str(algo.name), "label": meta["algorithm"]["label"], "scenario": Path(env.scenario).stem,
+    summary: dict[str, Any] = {"algorithm": str(algo.name), "label": meta["algorithm"]["label"], "scenario": Path(env.scenario).stem,
                "workers": n_workers, "iterations": state.iteration, "episodes": state.episodes,
                "aircraft_states": state.transitions, "wall_s": state.wall_s,
                "states_per_s": state.transitions / state.wall_s if state.wall_s > 0 else None,

@@ -75,7 +75,7 @@ class RayPool:
                 ray.init(num_cpus=cpus, include_dashboard=False, runtime_env=runtime_env, log_to_driver=True)
             self._started = True
         remote = ray.remote(num_cpus=cpus_per_worker)(RolloutWorker)
-        self.actors = [remote.remote(env, actors, torch_threads) for _ in range(size)]
+        self.actors: list[Any] = [remote.remote(env, actors, torch_threads) for _ in range(size)]
         self.size = size
 
     def collect(self, seed_lists: list[list[int]], actor: str = "policy", weights: Any = None,
