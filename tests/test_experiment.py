@@ -163,8 +163,8 @@ def test_evaluate_compare_and_report(tmp_path, trained_run):
     # `aamsim compare` reads the same files.
     env = dict(os.environ, PYTHONPATH=str(ROOT))
     proc = subprocess.run([sys.executable, "-m", "aamsim", "compare", str(ev_dir / "episodes" / "mvp_speed"),
-                           str(ev_dir / "episodes" / "unequipped")], check=False, capture_output=True, text=True, env=env,
-                          timeout=120)
+                           str(ev_dir / "episodes" / "unequipped")], check=False, capture_output=True, text=True,
+                          env=env, timeout=120)
     assert proc.returncode == 0, proc.stderr
     assert "risk ratio" in proc.stdout.lower()
     cli(["report", str(ev_dir), "--train", str(trained_run), "-o", "report"], tmp_path)

@@ -128,7 +128,8 @@ def run_evaluation(cfg: DictConfig, out_dir: str | Path) -> dict[str, Any]:
             "label": labels[policy], "learned": policy == name,
             "risk_ratio": comp.to_dict()["risk_ratio"], "lowc_ratio": comp.to_dict()["lowc_ratio"],
             "per_seed": comp.per_seed,
-            "nmac_events": _mean_std([s.nmac_events for s in got]), "lowc_events": _mean_std([s.lowc_events for s in got]),
+            "nmac_events": _mean_std([s.nmac_events for s in got]),
+            "lowc_events": _mean_std([s.lowc_events for s in got]),
             "reward_per_aircraft": _mean_std([s.reward_per_aircraft for s in got]),
             "aircraft_states": int(sum(s.transitions for s in got)), "wall_s": float(sum(s.wall_s for s in got)),
             "safety": group_means(got, "safety"), "operational": group_means(got, "operational")}
@@ -136,7 +137,8 @@ def run_evaluation(cfg: DictConfig, out_dir: str | Path) -> dict[str, Any]:
     evaluation = {"scenario": first.scenario, "scenario_sha256": first.scenario_sha256, "episodes": len(seeds),
                   "seeds": seeds, "alt_noise_ft": float(cfg.alt_noise_ft), "greedy": greedy,
                   "checkpoint": str(ckpt_path), "train_run": ckpt.get("run_dir"), "algorithm": name,
-                  "best_iteration": ckpt["state"].get("best_iteration"), "trained_iterations": ckpt["state"].get("iteration"),
+                  "best_iteration": ckpt["state"].get("best_iteration"),
+                  "trained_iterations": ckpt["state"].get("iteration"),
                   "policies": policies}
     (out / "evaluation.json").write_text(json.dumps(evaluation, indent=2) + "\n")
     rr = policies[name]["risk_ratio"]

@@ -109,7 +109,8 @@ def _episode_rows(d: Path) -> dict[str, dict[int, dict[str, float]]]:
         return out
     for summary in sorted(root.glob("*/seed-*/summary.json")):
         s = json.loads(summary.read_text())
-        flat: dict[str, float] = {"reward_per_aircraft": s.get("reward_total", 0.0) / max(s.get("flights_created", 1), 1)}
+        flights = max(s.get("flights_created", 1), 1)
+        flat: dict[str, float] = {"reward_per_aircraft": s.get("reward_total", 0.0) / flights}
         for group in ("safety", "operational"):
             for k, v in (s.get(group) or {}).items():
                 if isinstance(v, (int, float)):
@@ -382,7 +383,8 @@ def make_report(eval_dirs: list[Path], train_dirs: list[Path], out: Path, window
         written += [out / "training.csv", out / "training.md"]
         written += figures(runs, out, window)
         parts += [(out / "training.md").read_text(), "",
-                  "![reward](reward_curve.png)", "", "![nmac](nmac_curve.png)", "", "![states](states_per_hour.png)", ""]
+                  "![reward](reward_curve.png)", "", "![nmac](nmac_curve.png)", "",
+                  "![states](states_per_hour.png)", ""]
     (out / "report.md").write_text("\n".join(parts))
     written.append(out / "report.md")
     return written

@@ -165,10 +165,11 @@ def run_training(cfg: DictConfig, run_dir: str | Path) -> dict[str, Any]:
     params = dict(OmegaConf.to_container(algo.params, resolve=True))  # type: ignore[arg-type]
     learner = make_learner(str(algo.kind), params, dims, device, int(cfg.seed))
     state = TrainState()
-    meta: dict[str, Any] = {"algorithm": {"name": str(algo.name), "kind": str(algo.kind), "label": str(algo.get("label", algo.name)),
-                          "params": params},
-            "dims": dims, "env": asdict(env), "seed": int(cfg.seed), "run_dir": str(run_dir.resolve()),
-            "config": OmegaConf.to_container(cfg, resolve=True)}
+    meta: dict[str, Any] = {
+        "algorithm": {"name": str(algo.name), "kind": str(algo.kind), "label": str(algo.get("label", algo.name)),
+                      "params": params},
+        "dims": dims, "env": asdict(env), "seed": int(cfg.seed), "run_dir": str(run_dir.resolve()),
+        "config": OmegaConf.to_container(cfg, resolve=True)}
     ckpt_dir = run_dir / "checkpoints"
     if tc.resume:
         src = find_checkpoint(str(tc.resume), "last")
@@ -237,9 +238,11 @@ def run_training(cfg: DictConfig, run_dir: str | Path) -> dict[str, Any]:
             state.rollout_s += t1 - t0
             state.rewards.append(ep["reward_mean"])
             row = {"iteration": it, "wall_s": _fmt(state.wall_s), "sim_s": _fmt(ep["sim_s"]),
-                   "episodes": len(batches), "reward_mean": _fmt(ep["reward_mean"]), "reward_std": _fmt(ep["reward_std"]),
+                   "episodes": len(batches), "reward_mean": _fmt(ep["reward_mean"]),
+                   "reward_std": _fmt(ep["reward_std"]),
                    "episode_rewards": ";".join(_fmt(b.stats.reward_per_aircraft) for b in batches),
-                   "nmac_per_aircraft": _fmt(ep["nmac_per_aircraft"]), "lowc_per_aircraft": _fmt(ep["lowc_per_aircraft"]),
+                   "nmac_per_aircraft": _fmt(ep["nmac_per_aircraft"]),
+                   "lowc_per_aircraft": _fmt(ep["lowc_per_aircraft"]),
                    "episode_nmac_per_aircraft": ";".join(_fmt(b.stats.nmac_events / max(b.stats.aircraft, 1))
                                                          for b in batches),
                    "aircraft_states": ep["aircraft_states"], "aircraft_states_total": state.transitions,
@@ -269,7 +272,8 @@ def run_training(cfg: DictConfig, run_dir: str | Path) -> dict[str, Any]:
             if state.rewards else float("nan"), state.iteration
         save_checkpoint(ckpt_dir / "best.pt", learner, state, meta)
     elapsed = time.perf_counter() - t_start
-    summary: dict[str, Any] = {"algorithm": str(algo.name), "label": meta["algorithm"]["label"], "scenario": Path(env.scenario).stem,
+    summary: dict[str, Any] = {
+               "algorithm": str(algo.name), "label": meta["algorithm"]["label"], "scenario": Path(env.scenario).stem,
                "workers": n_workers, "iterations": state.iteration, "episodes": state.episodes,
                "aircraft_states": state.transitions, "wall_s": state.wall_s,
                "states_per_s": state.transitions / state.wall_s if state.wall_s > 0 else None,
