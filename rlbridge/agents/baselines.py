@@ -1,0 +1,142 @@
+"""Non-learned baselines: the unequipped aircraft and a speed-only MVP conflict resolution.
+
+* :class:`UnequippedActor` — the paper's baseline: no advisory at all; every aircraft flies
+  its pre-departure flight plan (its scenario speeds and route).
+* :class:`SpeedMVPActor` — state-based conflict detection with a look-ahead (BlueSky's
+  STATEBASED method) and the Modified Voltage Potential resolution (Eby 1994; Hoekstra,
+  van Gent & Ruigrok 2002, as in BlueSky's MVP with the speed-only option) projected on the
+  ownship's track, so that it only changes speed, like the agents. The continuous MVP speed
+  change is tracked with the use case's discrete advisories (decelerate / hold / accelerate); a
+  degenerate pair (same point at the same time, collinear paths) is sequenced instead: the
+  aircraft in the lower traffic slot yields. Without
+  a conflict an aircraft that was advised before resumes its flight-plan speed (accelerate
+  or decelerate back into a band around it, then hold); one never advised gets no advisory.
+  docs/algorithms.md describes it.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from aamsim.conflicts.pairs import statebased
+from aamsim.conflicts.service import search_pairs, traffic_snapshot
+from aamsim.traffic import fields as f
+from aamsim.units import KTS
+from rlbridge.agents.rollout import ActOutput
+from rlbridge.core import EpisodeCore, StepResult
+
+DECELERATE, HOLD, ACCELERATE = 0, 1, 2
+
+
+class UnequippedActor:
+    """No advisories: the aircraft fly their flight plans (the paper's baseline)."""
+
+    obs_format: str | None = None
+
+    def set_weights(self, weights: Any) -> None:
+        pass
+
+    def act(self, result: StepResult, core: EpisodeCore, rng: np.random.Generator,
+            explore: dict[str, Any]) -> ActOutput:
+        return ActOutput(None)
+
+
+@dataclass(frozen=True)
+class SpeedMVPConfig:
+    """Parameters of the speed-only MVP baseline (distances in m, times in s, speeds in kt)."""
+
+    lookahead_s: float = 120.0  # conflict detection look-ahead
+    rpz_m: float = 450.0  # protected zone radius (the use case's LoWC distance)
+    hpz_m: float = 450.0  # vertical half-height of the protected zone (sphere-like volumes)
+    margin: float = 1.1  # MVP resolves to margin * rpz at the closest point of approach
+    act_band_kts: float = 2.0  # speed changes smaller than this are a hold
+    resume_band_kts: float = 8.0  # hold once within this band of the flight-plan speed
+
+
+class SpeedMVPActor:
+    """Speed-only Modified Voltage Potential conflict resolution (see the module docstring)."""
+
+    obs_format: str | None = None
+
+    def __init__(self, config: SpeedMVPConfig | None = None):
+        self.config = config or SpeedMVPConfig()
+        self._cruise: dict[str, float] = {}  # flight-plan CAS [m/s] noted before any advisory
+        self._advised: set[str] = set()
+        self._episode: tuple[int | None, int] | None = None
+
+    def set_weights(self, weights: Any) -> None:
+        pass
+
+    def speed_changes(self, core: EpisodeCore) -> np.ndarray:
+        """Per traffic slot: summed MVP speed change along track [m/s] (NaN: no conflict)."""
+        c = self.config
+        sim = core.sim
+        assert sim is not None
+        s = traffic_snapshot(sim)
+        n = len(s.ids)
+        out = np.full(n, np.nan)
+        if n < 2:
+            return out
+        pi, pj = search_pairs(s, np.zeros(n), np.full(n, c.lookahead_s), c.rpz_m)
+        if pi.size == 0:
+            return out
+        conf, tcpa, _, _, _, los = statebased(s.lat, s.lon, s.alt, s.u, s.v, s.w, pi, pj,
+                                                 c.rpz_m, c.hpz_m, c.lookahead_s)
+        sel = np.flatnonzero(conf | los)
+        trk = np.radians(sim.traffic.trk)
+        ex, ey = np.sin(trk), np.cos(trk)
+        for k in sel:
+            i, j = int(pi[k]), int(pj[k])
+            # Position of j relative to i now, and relative velocity (local flat frame).
+            dx, dy = s.x[j] - s.x[i], s.y[j] - s.y[i]
+            du, dv = s.u[j] - s.u[i], s.v[j] - s.v[i]
+            t = max(float(tcpa[k]), 1.0)  # in loss of separation (t <= 0) act within a second
+            cx, cy = dx + du * max(float(tcpa[k]), 0.0), dy + dv * max(float(tcpa[k]), 0.0)
+            dist = math.hypot(cx, cy)
+            if dist < 1.0:
+                # Degenerate geometry (both reach the same point together, collinear paths): MVP has
+                # no direction; sequence the pair instead, the lower traffic slot yields.
+                cx, cy, dist = ex[i], ey[i], 0.0
+            # MVP: each aircraft moves its CPA away from the other to margin * rpz.
+            push = (c.margin * c.rpz_m - dist) / t
+            norm = math.hypot(cx, cy) or 1.0
+            ux, uy = cx / norm, cy / norm  # unit vector from i towards j at CPA
+            for a, sign in ((i, -1.0), (j, 1.0)):
+                dva = sign * push * (ux * ex[a] + uy * ey[a])
+                out[a] = dva if math.isnan(out[a]) else out[a] + dva
+        return out
+
+    def act(self, result: StepResult, core: EpisodeCore, rng: np.random.Generator,
+            explore: dict[str, Any]) -> ActOutput:
+        sim = core.sim
+        assert sim is not None
+        key = (core.seed, id(sim))
+        if key != self._episode:  # a new episode: forget the previous aircraft
+            self._episode, self._cruise, self._advised = key, {}, set()
+        t = sim.traffic
+        band = self.config.resume_band_kts * KTS
+        act_band = self.config.act_band_kts * KTS
+        dv = self.speed_changes(core)
+        actions = np.full(len(result.agents), HOLD, dtype=np.int64)
+        advise = np.zeros(len(result.agents), dtype=bool)
+        alive = set(result.alive)
+        for k, a in enumerate(result.agents):
+            i = t.find(a)
+            if i is None or a not in alive:
+                continue
+            if a not in self._cruise:
+                self._cruise[a] = float(t.F[f.SELSPD, i])
+            if not math.isnan(dv[i]):
+                # Track the MVP resolution speed with the discrete advisories.
+                actions[k] = ACCELERATE if dv[i] > act_band else DECELERATE if dv[i] < -act_band else HOLD
+                advise[k] = True
+                self._advised.add(a)
+            elif a in self._advised:
+                cas, cruise = float(t.F[f.CAS, i]), self._cruise[a]
+                actions[k] = ACCELERATE if cas < cruise - band else DECELERATE if cas > cruise + band else HOLD
+                advise[k] = True
+        return ActOutput(actions, advise=advise)

@@ -1,0 +1,281 @@
+"""DQN and Double DQN with a parameter-shared Q-network over every aircraft's transitions.
+
+One Q-network (flat observation -> 128 -> 128 -> one value per action, ReLU) is shared by
+all aircraft; every agent's transitions go into one replay memory. Exploration is
+epsilon-greedy with a linear schedule over collected transitions (agent decisions). The
+target network is copied from the online one every ``target_update`` transitions.
+``double=True`` uses van Hasselt et al.'s Double-DQN target, ``double=False`` Mnih et al.'s.
+The loss is the Huber loss of Mnih et al. (2015). Defaults are the paper's DDQN table.
+
+Scheduling (a documented choice; the paper does not say): each training iteration first
+stores the iteration's episodes in the replay memory, then makes one gradient step per
+``train_freq`` new transitions (once ``learning_starts`` transitions were collected); the
+workers act with the epsilon reached at the start of the iteration.
+
+The replay memory is a numpy ring of observation *rows* (see
+:mod:`rlbridge.agents.rollout`): an agent's next observation is the row ``next_off`` rows
+later, so each observation is stored once. It is allocated lazily and grows by doubling up
+to ``replay_size`` rows, so small runs never allocate the paper's 5,000,000 rows.
+"""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass
+from typing import Any
+
+import numpy as np
+import torch
+from torch import nn
+
+from rlbridge.agents.core import LinearSchedule, ddqn_target, dqn_target
+from rlbridge.agents.d2mava import load_numpy_state, to_numpy_state
+from rlbridge.agents.rollout import ActOutput, EpisodeBatch
+from rlbridge.core import EpisodeCore, StepResult
+
+
+@dataclass
+class DDQNConfig:
+    """(D)DQN hyper-parameters (paper's Table "DDQN Hyperparameters" as defaults)."""
+
+    double: bool = True  # Double DQN target (False: DQN)
+    lr: float = 1e-4
+    batch_size: int = 512
+    hidden: int = 128  # nodes per layer
+    gamma: float = 0.99
+    eps_start: float = 0.999
+    eps_end: float = 0.0001
+    eps_decay_steps: int = 500_000  # transitions
+    replay_size: int = 5_000_000  # rows
+    target_update: int = 50_000  # transitions between target-network copies
+    learning_starts: int = 10_000  # transitions before the first gradient step (not in the paper)
+    train_freq: int = 4  # transitions per gradient step (not in the paper)
+    max_grad_norm: float = 10.0  # gradient clipping (not in the paper)
+
+
+class QNetwork(nn.Module):
+    def __init__(self, obs_dim: int, n_actions: int, hidden: int):
+        super().__init__()
+        self.net = nn.Sequential(nn.Linear(obs_dim, hidden), nn.ReLU(), nn.Linear(hidden, hidden), nn.ReLU(),
+                                 nn.Linear(hidden, n_actions))
+
+    def forward(self, obs: torch.Tensor) -> torch.Tensor:
+        return self.net(obs)
+
+
+class ReplayMemory:
+    """Ring buffer of observation rows with per-row transition data (see the module docstring)."""
+
+    def __init__(self, capacity: int, initial: int = 4096):
+        if capacity < 1:
+            raise ValueError("replay capacity must be positive")
+        self.capacity = int(capacity)
+        self._initial = int(initial)
+        self.size = 0  # rows held
+        self.pos = 0  # next row to write
+        self.obs: dict[str, np.ndarray] = {}
+        self.actions = np.zeros(0, np.int64)
+        self.rewards = np.zeros(0, np.float32)
+        self.terminated = np.zeros(0, bool)
+        self.next_off = np.zeros(0, np.int64)  # > 0: a transition starts here; 0: a final observation
+
+    @property
+    def allocated(self) -> int:
+        return len(self.actions)
+
+    def _grow(self, rows: int, template: dict[str, np.ndarray]) -> None:
+        new = min(self.capacity, max(self._initial, self.allocated))
+        while new < rows and new < self.capacity:
+            new = min(self.capacity, new * 2)
+        if new == self.allocated:
+            return
+
+        def grow(a: np.ndarray, shape: tuple[int, ...], dtype: Any) -> np.ndarray:
+            out = np.zeros((new,) + shape, dtype)
+            out[: len(a)] = a
+            return out
+
+        self.obs = {k: grow(self.obs.get(k, np.zeros((0,) + v.shape[1:], v.dtype)), v.shape[1:], v.dtype)
+                    for k, v in template.items()}
+        self.actions = grow(self.actions, (), np.int64)
+        self.rewards = grow(self.rewards, (), np.float32)
+        self.terminated = grow(self.terminated, (), bool)
+        self.next_off = grow(self.next_off, (), np.int64)
+
+    def add(self, batch: EpisodeBatch) -> None:
+        m = len(batch.values)
+        if m == 0:
+            return
+        if m > self.capacity:
+            raise ValueError(f"an episode of {m} rows does not fit a replay memory of {self.capacity}")
+        if self.allocated < self.capacity:
+            self._grow(self.size + m, batch.obs)  # before the first wrap pos == size
+        rows = (self.pos + np.arange(m)) % self.allocated
+        for k, v in batch.obs.items():
+            self.obs[k][rows] = v
+        self.next_off[rows] = 0
+        t_rows = rows[batch.obs_idx]
+        self.actions[t_rows] = batch.actions
+        self.rewards[t_rows] = batch.rewards
+        self.terminated[t_rows] = batch.terminated
+        self.next_off[t_rows] = batch.next_idx - batch.obs_idx
+        self.pos = int(rows[-1] + 1)
+        if self.pos == self.capacity:  # wrap only once the ring has its final size
+            self.pos = 0
+        self.size = min(self.size + m, self.capacity)
+
+    def transitions(self) -> int:
+        return int(np.count_nonzero(self.next_off[: self.size]))
+
+    def sample(self, n: int, rng: np.random.Generator) -> dict[str, Any]:
+        """``n`` transitions uniformly: obs, next_obs (dicts), actions, rewards, terminated."""
+        if self.transitions() == 0:
+            raise ValueError("the replay memory holds no transition")
+        picked: list[np.ndarray] = []
+        got = 0
+        while got < n:
+            cand = rng.integers(0, self.size, size=int((n - got) * 1.25) + 8)
+            cand = cand[self.next_off[cand] > 0]
+            picked.append(cand)
+            got += len(cand)
+        idx = np.concatenate(picked)[:n]
+        nxt = (idx + self.next_off[idx]) % max(self.allocated, 1)
+        return {"obs": {k: v[idx] for k, v in self.obs.items()}, "next_obs": {k: v[nxt] for k, v in self.obs.items()},
+                "actions": self.actions[idx], "rewards": self.rewards[idx], "terminated": self.terminated[idx]}
+
+
+def flat_dim(dims: dict[str, Any]) -> int:
+    return int(dims["flat_dim"])
+
+
+class DDQNActor:
+    """Epsilon-greedy action selection with the shared Q-network (one forward pass per step)."""
+
+    obs_format = "flat"
+
+    def __init__(self, config: dict[str, Any], dims: dict[str, Any]):
+        self.config = DDQNConfig(**config)
+        self.q = QNetwork(flat_dim(dims), int(dims["n_actions"]), self.config.hidden)
+        self.q.eval()
+
+    def set_weights(self, weights: dict[str, np.ndarray]) -> None:
+        load_numpy_state(self.q, weights)
+
+    def act(self, result: StepResult, core: EpisodeCore, rng: np.random.Generator,
+            explore: dict[str, Any]) -> ActOutput:
+        obs = result.obs.flat
+        assert obs is not None, "DQN needs obs_format='flat'"
+        with torch.no_grad():
+            q = self.q(torch.from_numpy(obs)).numpy()
+        actions = q.argmax(axis=1)
+        eps = float(explore.get("epsilon", 0.0))
+        if eps > 0:
+            rand = rng.random(len(actions)) < eps
+            actions = np.where(rand, rng.integers(0, q.shape[1], size=len(actions)), actions)
+        return ActOutput(actions, None, q.max(axis=1))
+
+
+class DDQNLearner:
+    """Replay memory, online and target Q-networks, and the gradient steps."""
+
+    obs_format = "flat"
+
+    def __init__(self, config: dict[str, Any], dims: dict[str, Any], device: str = "cpu", seed: int = 0):
+        self.config = DDQNConfig(**config)
+        self.dims = dict(dims)
+        self.device = torch.device(device)
+        torch.manual_seed(seed)
+        n_act = int(dims["n_actions"])
+        self.q = QNetwork(flat_dim(dims), n_act, self.config.hidden).to(self.device)
+        self.q_target = QNetwork(flat_dim(dims), n_act, self.config.hidden).to(self.device)
+        self.q_target.load_state_dict(self.q.state_dict())
+        self.optimizer = torch.optim.Adam(self.q.parameters(), lr=self.config.lr)
+        self.memory = ReplayMemory(self.config.replay_size)
+        self.rng = np.random.default_rng(seed)
+        self.epsilon = LinearSchedule(self.config.eps_start, self.config.eps_end, self.config.eps_decay_steps)
+        self.transitions = 0  # collected so far
+        self.step_credit = 0.0  # transitions not yet paid for by a gradient step
+        self.gradient_steps = 0
+        self.last_sync = 0  # transition count at the last target copy
+
+    # -------------------------------------------------------------- worker side
+    def actor_spec(self, kind: str) -> dict[str, Any]:
+        return {"kind": kind, "config": asdict(self.config), "dims": self.dims}
+
+    def weights(self) -> dict[str, np.ndarray]:
+        return to_numpy_state(self.q)
+
+    def explore(self, transitions: int) -> dict[str, Any]:
+        return {"epsilon": self.epsilon(transitions)}
+
+    def eval_explore(self) -> dict[str, Any]:
+        return {"epsilon": 0.0}
+
+    # ------------------------------------------------------------------ update
+    def targets(self, sample: dict[str, Any]) -> torch.Tensor:
+        """One-step targets of a sample: Double-DQN or DQN (see :mod:`rlbridge.agents.core`)."""
+        c = self.config
+        dev = self.device
+        nxt = torch.as_tensor(sample["next_obs"]["flat"], device=dev)
+        rewards = torch.as_tensor(sample["rewards"], device=dev)
+        term = torch.as_tensor(sample["terminated"], device=dev)
+        with torch.no_grad():
+            q_next_target = self.q_target(nxt)
+            if c.double:
+                return ddqn_target(rewards, self.q(nxt), q_next_target, term, c.gamma)
+            return dqn_target(rewards, q_next_target, term, c.gamma)
+
+    def td_loss(self, sample: dict[str, Any]) -> torch.Tensor:
+        """Huber loss between Q(s, a) and the targets."""
+        obs = torch.as_tensor(sample["obs"]["flat"], device=self.device)
+        actions = torch.as_tensor(sample["actions"], device=self.device)
+        q = self.q(obs).gather(1, actions.unsqueeze(1)).squeeze(1)
+        return nn.functional.smooth_l1_loss(q, self.targets(sample))
+
+    def update(self, batches: list[EpisodeBatch]) -> dict[str, float]:
+        c = self.config
+        new = 0
+        for b in batches:
+            self.memory.add(b)
+            new += len(b)
+        start = self.transitions
+        self.transitions += new
+        if self.transitions < c.learning_starts:
+            return {"epsilon": self.epsilon(self.transitions), "gradient_steps": float(self.gradient_steps)}
+        self.step_credit += self.transitions - max(start, c.learning_starts)
+        steps = int(self.step_credit // c.train_freq)
+        self.step_credit -= steps * c.train_freq
+        losses = []
+        for k in range(steps):
+            loss = self.td_loss(self.memory.sample(c.batch_size, self.rng))
+            self.optimizer.zero_grad()
+            loss.backward()
+            nn.utils.clip_grad_norm_(self.q.parameters(), c.max_grad_norm)
+            self.optimizer.step()
+            self.gradient_steps += 1
+            losses.append(loss.item())
+            # Target copies at the transition counts they belong to, spread over this iteration's steps.
+            reached = start + (k + 1) * (self.transitions - start) / max(steps, 1)
+            if reached - self.last_sync >= c.target_update:
+                self.q_target.load_state_dict(self.q.state_dict())
+                self.last_sync = int(reached)
+        return {"td_loss": float(np.mean(losses)) if losses else float("nan"),
+                "epsilon": self.epsilon(self.transitions), "gradient_steps": float(self.gradient_steps),
+                "replay_rows": float(self.memory.size)}
+
+    # ------------------------------------------------------------- checkpoints
+    def state_dict(self) -> dict[str, Any]:
+        """Networks, optimiser and counters (the replay memory is not saved: it would take GBs)."""
+        return {"model": self.q.state_dict(), "target": self.q_target.state_dict(),
+                "optimizer": self.optimizer.state_dict(), "rng": self.rng.bit_generator.state,
+                "transitions": self.transitions, "step_credit": self.step_credit,
+                "gradient_steps": self.gradient_steps, "last_sync": self.last_sync}
+
+    def load_state_dict(self, state: dict[str, Any]) -> None:
+        self.q.load_state_dict(state["model"])
+        self.q_target.load_state_dict(state["target"])
+        self.optimizer.load_state_dict(state["optimizer"])
+        self.rng.bit_generator.state = state["rng"]
+        self.transitions = int(state["transitions"])
+        self.step_credit = float(state["step_credit"])
+        self.gradient_steps = int(state["gradient_steps"])
+        self.last_sync = int(state["last_sync"])

@@ -1,0 +1,278 @@
+"""Episode collection from :class:`~rlbridge.core.EpisodeCore` with batched inference.
+
+A :class:`RolloutWorker` owns one episode engine and one *actor* (the acting half of an
+algorithm, or a baseline). Every decision step it calls the actor once on the
+observations of all agents reported by the environment (a single batched forward pass,
+no per-agent network calls) and steps the simulation with the actions of the agents that
+continue. The same class runs in-process (``workers=0``) and as a Ray actor
+(``ray.remote(RolloutWorker)``).
+
+Trajectories come back as an :class:`EpisodeBatch` of numpy arrays. Every observation the
+environment returned is stored once, as one *row* (``M`` rows); a transition ``t`` (``T`` of
+them) refers to the row it acted on (``obs_idx``) and the row of the agent's next
+observation (``next_idx``), which is either the row it acts on next or its final
+observation (arrival or truncation). Learners recover per-agent chains from the indices
+(:meth:`EpisodeBatch.chains`), so agents that appear and leave need no padding.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import time
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+from typing import Any, Protocol
+
+import numpy as np
+
+from rlbridge.core import EpisodeCore, StepResult
+from rlbridge.usecases.registry import Observations
+
+
+@dataclass
+class ActOutput:
+    """An actor's answer for the rows of one step (None: not provided)."""
+
+    actions: np.ndarray | None  # (n,) int; None = no advisory for anyone (unequipped)
+    logp: np.ndarray | None = None  # (n,) log-probability of the chosen action
+    values: np.ndarray | None = None  # (n,) state value of every row (final rows included)
+    advise: np.ndarray | None = None  # (n,) bool: rows that get an advisory (None: all of them)
+
+
+class Actor(Protocol):
+    """The acting half of an algorithm or a baseline, run inside a worker."""
+
+    obs_format: str | None  # "flat" / "dict" required from the use case (None: any)
+
+    def set_weights(self, weights: Any) -> None: ...
+
+    def act(self, result: StepResult, core: EpisodeCore, rng: np.random.Generator,
+            explore: dict[str, Any]) -> ActOutput: ...
+
+
+@dataclass
+class EpisodeStats:
+    """What one episode produced (units in the names; rewards are the use case's)."""
+
+    seed: int
+    scenario: str
+    scenario_sha256: str
+    aircraft: int  # flights created during the episode
+    transitions: int  # aircraft-states generated for learning (agent decisions)
+    reward_total: float  # sum of every agent's rewards
+    reward_per_aircraft: float  # reward_total / aircraft (the learning-curve reward)
+    nmac_events: int
+    lowc_events: int
+    sim_s: float
+    wall_s: float
+    metrics: dict[str, Any] = field(default_factory=dict)  # standard safety/operational groups
+
+    def to_dict(self) -> dict[str, Any]:
+        return asdict(self)
+
+    def summary(self) -> dict[str, Any]:
+        """The ``aamsim run`` summary.json schema (what ``aamsim compare`` reads)."""
+        out: dict[str, Any] = {"scenario": self.scenario, "scenario_sha256": self.scenario_sha256,
+                               "seed": self.seed, "sim_time_s": self.sim_s, "wall_time_s": round(self.wall_s, 4),
+                               "flights_created": self.aircraft, "aircraft_states": self.transitions,
+                               "reward_total": self.reward_total}
+        out.update(self.metrics)
+        return out
+
+
+@dataclass
+class EpisodeBatch:
+    """The trajectories of every agent of one episode (see the module docstring)."""
+
+    obs: dict[str, np.ndarray]  # name -> (M, ...); a flat use case gives {"flat": (M, dim)}
+    values: np.ndarray  # (M,) float32, the actor's value of each row (zeros without a critic)
+    obs_idx: np.ndarray  # (T,) int64
+    next_idx: np.ndarray  # (T,) int64, > obs_idx
+    actions: np.ndarray  # (T,) int64
+    logp: np.ndarray  # (T,) float32
+    rewards: np.ndarray  # (T,) float32
+    terminated: np.ndarray  # (T,) bool: the agent left (arrived/deleted) after this transition
+    truncated: np.ndarray  # (T,) bool: the episode was cut with the agent still flying
+    agent: np.ndarray  # (T,) int32, index in ``agents``
+    agents: list[str]
+    stats: EpisodeStats
+
+    def __len__(self) -> int:
+        return int(self.actions.shape[0])
+
+    @classmethod
+    def empty(cls, stats: EpisodeStats) -> EpisodeBatch:
+        """No trajectories, only the statistics (evaluation runs)."""
+        i, f, b = np.zeros(0, np.int64), np.zeros(0, np.float32), np.zeros(0, bool)
+        return cls({}, f, i, i, i, f, f, b, b, np.zeros(0, np.int32), [], stats)
+
+    def chains(self) -> tuple[np.ndarray, np.ndarray]:
+        """``(next_t, ends)``: each transition's successor in its agent's chain (-1 if none) and chain ends."""
+        pos = np.full(self.values.shape[0], -1, dtype=np.int64)
+        pos[self.obs_idx] = np.arange(len(self))
+        next_t = pos[self.next_idx]
+        ends = self.terminated | self.truncated | (next_t < 0)
+        return next_t, ends
+
+
+def obs_dict(obs: Observations) -> dict[str, np.ndarray]:
+    if obs.parts is not None:
+        return dict(obs.parts)
+    assert obs.flat is not None
+    return {"flat": obs.flat}
+
+
+def to_observations(arrays: dict[str, np.ndarray]) -> Observations:
+    if set(arrays) == {"flat"}:
+        return Observations(flat=arrays["flat"])
+    return Observations(parts=arrays)
+
+
+@dataclass(frozen=True)
+class EnvSpec:
+    """Everything a worker needs to build its episode engine (plain data: it crosses processes)."""
+
+    scenario: str  # a path (absolute for remote workers) or a shipped scenario name
+    usecase: str = "corridor_sa"
+    params: dict[str, Any] = field(default_factory=dict)  # use-case parameters
+    time_limit_s: float | None = None  # None: the engine's default (last command + 2 h)
+    dt: float = 0.05  # simulation step [s]
+    metrics: tuple[str, ...] = ("safety", "operational")  # metric groups of each episode
+
+    def make(self, obs_format: str | None = None) -> EpisodeCore:
+        params = dict(self.params)
+        if obs_format is not None:
+            params["obs_format"] = obs_format
+        return EpisodeCore(self.scenario, self.usecase, params, time_limit_s=self.time_limit_s, dt=self.dt)
+
+
+class RolloutWorker:
+    """One simulation per observation format + named actors; collects whole episodes.
+
+    Args:
+        env: how to build the episode engine.
+        actors: name -> actor spec (what :func:`rlbridge.agents.make_actor` builds), e.g.
+            ``{"policy": learner.actor_spec(...), "unequipped": {"kind": "unequipped"}}``.
+        torch_threads: intra-op threads of the worker's PyTorch (1 is fastest on few cores).
+    """
+
+    def __init__(self, env: EnvSpec, actors: dict[str, dict[str, Any]], torch_threads: int = 1):
+        from rlbridge.agents import make_actor
+
+        if torch_threads > 0:
+            import torch
+
+            torch.set_num_threads(torch_threads)
+        self.env = env
+        self.actors: dict[str, Actor] = {name: make_actor(spec) for name, spec in actors.items()}
+        self._cores: dict[str | None, EpisodeCore] = {}
+        first = self._core_for(next(iter(self.actors.values())) if self.actors else None)
+        self.scenario_name = Path(first.path).stem
+        self.scenario_sha256 = hashlib.sha256(first.text.encode("utf-8")).hexdigest()
+
+    def _core_for(self, actor: Actor | None) -> EpisodeCore:
+        fmt = None if actor is None else actor.obs_format
+        if fmt not in self._cores:
+            self._cores[fmt] = self.env.make(fmt)
+        return self._cores[fmt]
+
+    def set_weights(self, weights: Any, actor: str = "policy") -> None:
+        self.actors[actor].set_weights(weights)
+
+    def collect(self, seeds: list[int], actor: str = "policy", weights: Any = None,
+                explore: dict[str, Any] | None = None, record: bool = True) -> list[Any]:
+        """Run one episode per seed: :class:`EpisodeBatch` each when ``record`` else :class:`EpisodeStats`."""
+        if weights is not None:
+            self.actors[actor].set_weights(weights)
+        out: list[Any] = []
+        for s in seeds:
+            batch = self.run_episode(int(s), explore or {}, record, actor)
+            out.append(batch if record else batch.stats)
+        return out
+
+    def run_episode(self, seed: int, explore: dict[str, Any], record: bool = True,
+                    actor: str = "policy") -> EpisodeBatch:
+        """One episode with actor ``actor``; the trajectories (when ``record``) and its statistics."""
+        act = self.actors[actor]
+        core = self._core_for(act)
+        rng = np.random.default_rng(np.random.SeedSequence([seed, 0x5EED]))
+        t0 = time.perf_counter()
+        result = core.reset(seed)
+        rec = TrajectoryRecorder() if record else None
+        transitions = 0
+        reward_total = 0.0
+        pending: dict[str, tuple[int, int, float]] = {}  # agent -> (row, action, logp) of its last decision
+        while True:
+            out = ActOutput(None) if result.done else act.act(result, core, rng, explore)
+            rows = rec.add(result, out, pending) if rec is not None else np.zeros(len(result.agents), np.int64)
+            transitions += len(pending)
+            reward_total += float(np.sum(result.rewards))
+            if result.done:
+                break
+            alive = set(result.alive)
+            acting = [k for k, a in enumerate(result.agents) if a in alive]
+            if out.actions is None:
+                actions: dict[str, int] = {}
+                act_rows = np.ones(len(acting), np.int64)  # recorded as hold (1): no advisory given
+            else:
+                act_rows = np.asarray(out.actions, np.int64)[acting]
+                given = np.ones(len(acting), bool) if out.advise is None else np.asarray(out.advise, bool)[acting]
+                actions = {result.agents[k]: int(a) for k, a, g in zip(acting, act_rows, given) if g}
+            lp = np.zeros(len(acting), np.float32) if out.logp is None else np.asarray(out.logp)[acting]
+            pending = {result.agents[k]: (int(rows[k]), int(act_rows[i]), float(lp[i]))
+                       for i, k in enumerate(acting)}
+            result = core.step(actions)
+        metrics = core.metrics(tuple(dict.fromkeys(("safety",) + tuple(self.env.metrics))))
+        safety = metrics.get("safety", {})
+        aircraft = int(metrics.get("operational", {}).get("flights") or len(core.possible_agents))
+        stats = EpisodeStats(
+            seed=seed, scenario=self.scenario_name, scenario_sha256=self.scenario_sha256, aircraft=aircraft,
+            transitions=transitions, reward_total=reward_total,
+            reward_per_aircraft=reward_total / max(aircraft, 1),
+            nmac_events=int(safety.get("nmac_events", 0)), lowc_events=int(safety.get("lowc_events", 0)),
+            sim_s=float(result.simt), wall_s=time.perf_counter() - t0, metrics=metrics)
+        return rec.batch(stats) if rec is not None else EpisodeBatch.empty(stats)
+
+
+class TrajectoryRecorder:
+    """Accumulates the rows and transitions of one episode (see the module docstring)."""
+
+    def __init__(self) -> None:
+        self.m = 0  # rows stored so far
+        self.obs: list[dict[str, np.ndarray]] = []
+        self.values: list[np.ndarray] = []
+        self.cols: dict[str, list[np.ndarray]] = {k: [] for k in ("obs_idx", "next_idx", "actions", "logp",
+                                                                   "rewards", "terminated", "truncated", "agent")}
+        self.agent_index: dict[str, int] = {}
+
+    def add(self, result: StepResult, out: ActOutput, pending: dict[str, tuple[int, int, float]]) -> np.ndarray:
+        """Store a step's observations as rows and close the pending decisions; returns the new rows."""
+        n = len(result.agents)
+        rows = self.m + np.arange(n)
+        self.obs.append(obs_dict(result.obs))
+        self.values.append(np.asarray(out.values if out.values is not None else np.zeros(n), np.float32))
+        if pending:
+            row_of = {a: k for k, a in enumerate(result.agents)}
+            names = list(pending)
+            ks = np.array([row_of[a] for a in names], dtype=np.int64)
+            c = self.cols
+            c["obs_idx"].append(np.array([pending[a][0] for a in names], dtype=np.int64))
+            c["next_idx"].append(rows[ks])
+            c["actions"].append(np.array([pending[a][1] for a in names], dtype=np.int64))
+            c["logp"].append(np.array([pending[a][2] for a in names], dtype=np.float32))
+            c["rewards"].append(result.rewards[ks].astype(np.float32))
+            c["terminated"].append(result.terminated[ks])
+            c["truncated"].append(result.truncated[ks])
+            c["agent"].append(np.array([self.agent_index.setdefault(a, len(self.agent_index)) for a in names],
+                                       dtype=np.int32))
+        self.m += n
+        return rows
+
+    def batch(self, stats: EpisodeStats) -> EpisodeBatch:
+        dtypes = {"obs_idx": np.int64, "next_idx": np.int64, "actions": np.int64, "logp": np.float32,
+                  "rewards": np.float32, "terminated": bool, "truncated": bool, "agent": np.int32}
+        cols = {k: np.concatenate(v).astype(dtypes[k], copy=False) if v else np.zeros(0, dtypes[k])
+                for k, v in self.cols.items()}
+        obs = {k: np.concatenate([c[k] for c in self.obs]) for k in self.obs[0]}
+        agents = sorted(self.agent_index, key=self.agent_index.__getitem__)
+        return EpisodeBatch(obs=obs, values=np.concatenate(self.values), agents=agents, stats=stats, **cols)

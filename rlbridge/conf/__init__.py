@@ -1,0 +1,1 @@
+"""Hydra configuration of the AAM-Gym experiment runner (YAML files; a package so Hydra finds it)."""

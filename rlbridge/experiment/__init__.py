@@ -1,0 +1,1 @@
+"""The AAM-Gym experiment runner: ``aamgym train | evaluate | report`` (Hydra configuration)."""

@@ -1,0 +1,49 @@
+"""``aamgym``: one command per step of the paper's study.
+
+    aamgym train algorithm=d2mava_a scenario=nyc_train_100 workers=2 train.hours=1
+    aamgym train --multirun algorithm=d2mava_a,d2mava_a_shared,ddqn seed=0,1,2
+    aamgym evaluate run=runs/train/<run> scenario=nyc_eval_678 episodes=100
+    aamgym report runs/eval/<run> runs/eval/<run> --train runs/train/<run> ... -o report/
+
+``train`` and ``evaluate`` are Hydra applications (overrides, ``--multirun`` sweeps,
+``--cfg job`` to print the configuration, ``--help``); ``report`` is a plain command.
+"""
+
+from __future__ import annotations
+
+import sys
+
+USAGE = """usage: aamgym {train,evaluate,report} [args...]
+
+  train     train an algorithm (Hydra overrides: algorithm=ddqn scenario=... workers=2 train.hours=1)
+  evaluate  evaluate a training run's best weights against the baselines (run=RUN_DIR scenario=...)
+  report    tables and figures from evaluation and training runs (EVAL_DIR... --train TRAIN_DIR... -o OUT)
+
+'aamgym <command> --help' describes each command."""
+
+
+def main(argv: list[str] | None = None) -> None:
+    args = list(sys.argv[1:] if argv is None else argv)
+    if not args or args[0] in ("-h", "--help", "help"):
+        print(USAGE)
+        sys.exit(0 if args else 2)
+    command, rest = args[0], args[1:]
+    if command == "report":
+        from rlbridge.experiment.report import main as report_main
+
+        report_main(rest)
+        return
+    if command not in ("train", "evaluate"):
+        print(f"aamgym: unknown command {command!r}\n\n{USAGE}", file=sys.stderr)
+        sys.exit(2)
+    # Hydra parses sys.argv itself: hand it the arguments after the sub-command.
+    sys.argv = [f"aamgym {command}", *rest]
+    if command == "train":
+        from rlbridge.experiment.train import hydra_entry
+    else:
+        from rlbridge.experiment.evaluate import hydra_entry
+    hydra_entry()
+
+
+if __name__ == "__main__":
+    main()

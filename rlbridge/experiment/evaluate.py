@@ -1,0 +1,165 @@
+"""``aamgym evaluate``: frozen weights against the baselines on the same seeds (Hydra app).
+
+Runs ``episodes`` episodes (seeds ``seed .. seed + episodes - 1``; each seed draws its own
+altitude noise, ``alt_noise_ft``) of the trained policy loaded from the run's
+``checkpoints/best.pt``, and of each baseline on the same seeds. Writes:
+
+* ``episodes/<policy>/seed-NNNN/summary.json`` — the ``aamsim run`` schema, so that
+  ``aamsim compare <eval>/episodes/<policy> <eval>/episodes/unequipped`` works too;
+* ``episodes.csv`` — one row per (policy, seed) with the main metrics;
+* ``evaluation.json`` — risk ratio and LoWC ratio (mean, std and pooled over seed pairs,
+  :mod:`aamsim.metrics.compare`) and mean safety/operational metrics per policy.
+
+The frozen policy acts greedily by default (D2MAV-A: its most likely action, DDQN: argmax Q);
+``greedy=false`` samples D2MAV-A's stochastic policy instead.
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+import logging
+from dataclasses import replace
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from omegaconf import DictConfig, OmegaConf
+
+from aamsim.metrics.compare import compare_runs, expand_runs
+from rlbridge.agents.rollout import EnvSpec, EpisodeStats
+from rlbridge.experiment.train import find_checkpoint, load_checkpoint, resolve_scenario_path
+from rlbridge.experiment.workers import make_pool
+
+log = logging.getLogger("aamgym.evaluate")
+
+BASELINE_LABELS = {"unequipped": "Unequipped", "mvp_speed": "MVP speed-only (rule-based)"}
+CSV_COLUMNS = ("policy", "seed", "nmac_events", "lowc_events", "reward_per_aircraft", "aircraft", "aircraft_states",
+               "sim_s", "wall_s", "flights_completed", "alert_rate_per_flight_hour", "airborne_holding_s",
+               "mean_flight_time_s", "mean_delay_s", "min_separation_m")
+
+
+def numpy_weights(state: dict[str, Any]) -> dict[str, np.ndarray]:
+    return {k: v.detach().cpu().numpy() for k, v in state.items()}
+
+
+def _mean_std(values: list[Any]) -> dict[str, float | None]:
+    xs = [float(v) for v in values if v is not None]
+    if not xs:
+        return {"mean": None, "std": None}
+    return {"mean": float(np.mean(xs)), "std": float(np.std(xs))}
+
+
+def group_means(stats: list[EpisodeStats], group: str) -> dict[str, dict[str, float | None]]:
+    keys = sorted({k for s in stats for k in s.metrics.get(group, {})})
+    return {k: _mean_std([s.metrics.get(group, {}).get(k) for s in stats]) for k in keys}
+
+
+def run_evaluation(cfg: DictConfig, out_dir: str | Path) -> dict[str, Any]:
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    (out / "resolved_config.yaml").write_text(OmegaConf.to_yaml(cfg, resolve=True))
+    which = str(cfg.checkpoint)
+    ckpt_path = Path(which) if which not in ("best", "last") else find_checkpoint(str(cfg.run), which)
+    ckpt = load_checkpoint(ckpt_path)
+    algo = ckpt["algorithm"]
+    trained_env = EnvSpec(**{**ckpt["env"], "metrics": tuple(ckpt["env"]["metrics"])})
+    scenario = resolve_scenario_path(str(cfg.scenario)) if cfg.scenario else trained_env.scenario
+    params = dict(trained_env.params, alt_noise_ft=float(cfg.alt_noise_ft))
+    env = replace(trained_env, scenario=scenario, params=params, metrics=tuple(cfg.metrics),
+                  time_limit_s=None if cfg.env.time_limit_s is None else float(cfg.env.time_limit_s),
+                  dt=trained_env.dt if cfg.env.dt is None else float(cfg.env.dt))
+    name = str(algo["name"])
+    label = str(cfg.name or algo.get("label", name))
+    if algo["kind"] == "d2mava":
+        greedy = bool(algo["params"].get("greedy_eval", True)) if cfg.greedy is None else bool(cfg.greedy)
+        explore: dict[str, Any] = {"greedy": greedy}
+    else:
+        greedy = True if cfg.greedy is None else bool(cfg.greedy)
+        explore = {"epsilon": 0.0 if greedy else float(algo["params"].get("eps_end", 0.0))}
+    actors = {name: {"kind": algo["kind"], "config": algo["params"], "dims": ckpt["dims"]},
+              "unequipped": {"kind": "unequipped"}}
+    for b in cfg.baselines:
+        actors[str(b)] = {"kind": str(b)}
+    labels = {name: label, **{b: BASELINE_LABELS.get(b, b) for b in actors if b != name}}
+    seeds = list(range(int(cfg.seed), int(cfg.seed) + int(cfg.episodes)))
+    weights = numpy_weights(ckpt["learner"]["model"])
+    log.info("evaluating %s (%s, iteration %s) on %s: %d episodes each for %s", label, ckpt_path,
+             ckpt["state"].get("best_iteration"), Path(scenario).name, len(seeds), ", ".join(actors))
+    from tqdm import tqdm
+
+    results: dict[str, list[EpisodeStats]] = {}
+    pool = make_pool(int(cfg.workers), env, actors, cfg.ray)
+    try:
+        for policy in actors:
+            w = weights if policy == name else None
+            ex = explore if policy == name else {}
+            got: list[EpisodeStats] = []
+            bar = tqdm(total=len(seeds), desc=policy, unit="ep", leave=False, disable=None, mininterval=2.0)
+            for stats in pool.map_episodes(seeds, policy, w, ex, record=False):
+                d = out / "episodes" / policy / f"seed-{stats.seed:04d}"
+                d.mkdir(parents=True, exist_ok=True)
+                (d / "summary.json").write_text(json.dumps({**stats.summary(), "policy": policy}, indent=2) + "\n")
+                got.append(stats)
+                bar.update(1)
+            bar.close()
+            got.sort(key=lambda s: s.seed)
+            results[policy] = got
+            log.info("%s: NMAC %.2f +- %.2f, LoWC %.2f per episode, reward/aircraft %.4f", policy,
+                     np.mean([s.nmac_events for s in got]), np.std([s.nmac_events for s in got]),
+                     np.mean([s.lowc_events for s in got]), np.mean([s.reward_per_aircraft for s in got]))
+    finally:
+        pool.shutdown()
+    with open(out / "episodes.csv", "w", newline="") as fh:
+        wr = csv.writer(fh)
+        wr.writerow(CSV_COLUMNS)
+        for policy, got in results.items():
+            for s in got:
+                op, sa = s.metrics.get("operational", {}), s.metrics.get("safety", {})
+                wr.writerow([policy, s.seed, s.nmac_events, s.lowc_events, f"{s.reward_per_aircraft:.6g}", s.aircraft,
+                             s.transitions, s.sim_s, f"{s.wall_s:.3f}", op.get("flights_completed"),
+                             op.get("alert_rate_per_flight_hour"), op.get("airborne_holding_s"),
+                             op.get("mean_flight_time_s"), op.get("mean_delay_s"), sa.get("min_separation_m")])
+    base_runs = expand_runs([out / "episodes" / "unequipped"])
+    policies: dict[str, Any] = {}
+    for policy, got in results.items():
+        comp = compare_runs(expand_runs([out / "episodes" / policy]), base_runs)
+        policies[policy] = {
+            "label": labels[policy], "learned": policy == name,
+            "risk_ratio": comp.to_dict()["risk_ratio"], "lowc_ratio": comp.to_dict()["lowc_ratio"],
+            "per_seed": comp.per_seed,
+            "nmac_events": _mean_std([s.nmac_events for s in got]),
+            "lowc_events": _mean_std([s.lowc_events for s in got]),
+            "reward_per_aircraft": _mean_std([s.reward_per_aircraft for s in got]),
+            "aircraft_states": int(sum(s.transitions for s in got)), "wall_s": float(sum(s.wall_s for s in got)),
+            "safety": group_means(got, "safety"), "operational": group_means(got, "operational")}
+    first = next(iter(results.values()))[0]
+    evaluation = {"scenario": first.scenario, "scenario_sha256": first.scenario_sha256, "episodes": len(seeds),
+                  "seeds": seeds, "alt_noise_ft": float(cfg.alt_noise_ft), "greedy": greedy,
+                  "checkpoint": str(ckpt_path), "train_run": ckpt.get("run_dir"), "algorithm": name,
+                  "best_iteration": ckpt["state"].get("best_iteration"),
+                  "trained_iterations": ckpt["state"].get("iteration"),
+                  "policies": policies}
+    (out / "evaluation.json").write_text(json.dumps(evaluation, indent=2) + "\n")
+    rr = policies[name]["risk_ratio"]
+    log.info("%s on %s: risk ratio %s, LoWC ratio %s (evaluation.json in %s)", label, first.scenario,
+             _ratio_text(rr), _ratio_text(policies[name]["lowc_ratio"]), out)
+    return evaluation
+
+
+def _ratio_text(r: dict[str, Any]) -> str:
+    if r.get("mean") is None:
+        return "undefined (no baseline events)"
+    return f"{r['mean']:.4f} +- {r['std']:.4f} (pooled {r['pooled']:.4f})"
+
+
+def hydra_entry() -> None:
+    """The Hydra app (``aamgym evaluate ...``)."""
+    import hydra
+    from hydra.core.hydra_config import HydraConfig
+
+    @hydra.main(config_path="../conf", config_name="evaluate", version_base="1.3")
+    def _main(cfg: DictConfig) -> None:
+        run_evaluation(cfg, HydraConfig.get().runtime.output_dir)
+
+    _main()

@@ -1,0 +1,409 @@
+"""``aamgym report``: the paper's tables and figures from evaluation and training runs.
+
+    aamgym report EVAL_DIR [EVAL_DIR ...] [--train TRAIN_DIR ...] [-o OUT] [--smooth N]
+
+Tables (CSV and Markdown; rows: algorithms, columns: scenarios; cells ``mean ± std`` over
+seed-paired episodes, as in the paper's tables):
+
+* ``risk_ratio.csv/.md`` — NMAC events / unequipped NMAC events on the same seed;
+* ``lowc_ratio.csv/.md`` — the same with LoWC events;
+* ``operational.csv/.md`` — safety counts and operational metrics per algorithm and scenario.
+
+Figures (PNG, from the training runs' ``learning_curve.csv``):
+
+* ``reward_curve.png`` — mean reward per aircraft per iteration with a 95 % confidence band
+  (over training runs of the same algorithm, or over the iteration's episodes for a single
+  run), zoomed view on top and full view below, the unequipped baseline dashed;
+* ``nmac_curve.png`` — NMAC events per aircraft per iteration, 95 % band;
+* ``states_per_hour.png`` — aircraft-states generated per wall-clock hour (and cumulative).
+
+``report.md`` gathers everything. Several evaluation runs of the same algorithm and
+scenario (e.g. training seeds) are pooled; baselines evaluated twice on a seed count once.
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import json
+import math
+from collections import defaultdict
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+Z95 = 1.959964  # two-sided 95 % normal quantile
+OPERATIONAL_COLUMNS = (
+    ("nmac_events", "NMAC / episode"), ("lowc_events", "LoWC / episode"),
+    ("safety.nmac_per_flight", "NMAC / flight"), ("operational.flights_completed", "flights completed"),
+    ("operational.alert_rate_per_flight_hour", "alerts / flight hour"),
+    ("operational.airborne_holding_s", "airborne holding [s]"),
+    ("operational.holding_flight_share", "holding flight share"),
+    ("operational.mean_flight_time_s", "mean flight time [s]"), ("operational.mean_delay_s", "mean delay [s]"),
+    ("reward_per_aircraft", "reward / aircraft"))
+
+
+# ------------------------------------------------------------------------------- tables
+@dataclass
+class Cell:
+    """Seed-paired ratios and per-episode values of one (algorithm, scenario)."""
+
+    risk: dict[tuple[str, Any], float | None] = field(default_factory=dict)  # (eval dir or "", seed) -> ratio
+    lowc: dict[tuple[str, Any], float | None] = field(default_factory=dict)
+    values: dict[str, list[float]] = field(default_factory=lambda: defaultdict(list))
+    seen: set[str] = field(default_factory=set)  # episodes already counted (owner|seed)
+
+
+def mean_std(xs: list[float]) -> tuple[float, float] | None:
+    xs = [x for x in xs if x is not None and not (isinstance(x, float) and math.isnan(x))]
+    if not xs:
+        return None
+    return float(np.mean(xs)), float(np.std(xs))
+
+
+def fmt_pm(ms: tuple[float, float] | None, digits: int = 4) -> str:
+    return "n/a" if ms is None else f"{ms[0]:.{digits}f} ± {ms[1]:.{digits}f}"
+
+
+def load_evaluations(dirs: list[Path]) -> tuple[dict[str, dict[str, Cell]], list[str], list[str]]:
+    """label -> scenario -> Cell; plus the label and scenario orders."""
+    cells: dict[str, dict[str, Cell]] = defaultdict(lambda: defaultdict(Cell))
+    labels: list[str] = []
+    scenarios: list[str] = []
+    learned: list[str] = []
+    for d in dirs:
+        ev = json.loads((d / "evaluation.json").read_text())
+        scen = ev["scenario"]
+        if scen not in scenarios:
+            scenarios.append(scen)
+        episodes = _episode_rows(d)
+        for policy, p in ev["policies"].items():
+            label = p["label"]
+            if label not in labels:
+                labels.append(label)
+                if p.get("learned"):
+                    learned.append(label)
+            cell = cells[label][scen]
+            owner = str(d) if p.get("learned") else ""  # baselines: the same seed counts once
+            for row in p["per_seed"]:
+                cell.risk[(owner, row["seed"])] = row["risk_ratio"]
+                cell.lowc[(owner, row["seed"])] = row["lowc_ratio"]
+            for seed, values in episodes.get(policy, {}).items():
+                key = f"{owner}|{seed}"
+                if key in cell.seen:
+                    continue
+                cell.seen.add(key)
+                for k, v in values.items():
+                    cell.values[k].append(v)
+    order = learned + [lb for lb in labels if lb not in learned]
+    return cells, order, scenarios
+
+
+def _episode_rows(d: Path) -> dict[str, dict[int, dict[str, float]]]:
+    """policy -> seed -> flat metrics, from the per-episode summary.json files."""
+    out: dict[str, dict[int, dict[str, float]]] = defaultdict(dict)
+    root = d / "episodes"
+    if not root.is_dir():
+        return out
+    for summary in sorted(root.glob("*/seed-*/summary.json")):
+        s = json.loads(summary.read_text())
+        flights = max(s.get("flights_created", 1), 1)
+        flat: dict[str, float] = {"reward_per_aircraft": s.get("reward_total", 0.0) / flights}
+        for group in ("safety", "operational"):
+            for k, v in (s.get(group) or {}).items():
+                if isinstance(v, (int, float)):
+                    flat[f"{group}.{k}"] = float(v)
+        flat["nmac_events"] = flat.get("safety.nmac_events", float("nan"))
+        flat["lowc_events"] = flat.get("safety.lowc_events", float("nan"))
+        out[summary.parent.parent.name][int(s["seed"])] = flat
+    return out
+
+
+def write_table(path: Path, header: list[str], rows: list[list[str]], title: str) -> None:
+    with open(path.with_suffix(".csv"), "w", newline="") as fh:
+        w = csv.writer(fh)
+        w.writerow(header)
+        w.writerows(rows)
+    lines = [f"### {title}", "", "| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
+    lines += ["| " + " | ".join(r) + " |" for r in rows]
+    path.with_suffix(".md").write_text("\n".join(lines) + "\n")
+
+
+def ratio_tables(cells: dict[str, dict[str, Cell]], labels: list[str], scenarios: list[str], out: Path) -> list[Path]:
+    written = []
+    for name, attr, title in (("risk_ratio", "risk", "Risk ratio (NMAC / unequipped NMAC), mean ± std over seeds"),
+                              ("lowc_ratio", "lowc", "LoWC ratio (LoWC / unequipped LoWC), mean ± std over seeds")):
+        header = ["Algorithm"] + [f"{name.replace('_', ' ').title().replace('Lowc', 'LoWC')} - {s}" for s in scenarios]
+        rows = []
+        for label in labels:
+            if label == "Unequipped":
+                continue
+            row = [label]
+            for s in scenarios:
+                c = cells[label].get(s)
+                vals = list(getattr(c, attr).values()) if c else []
+                n_undef = sum(v is None for v in vals)
+                txt = fmt_pm(mean_std([v for v in vals if v is not None]))
+                if c and vals:
+                    txt += f" (n={len(vals) - n_undef}" + (f", {n_undef} undefined)" if n_undef else ")")
+                row.append(txt)
+            rows.append(row)
+        write_table(out / name, header, rows, title)
+        written += [out / f"{name}.csv", out / f"{name}.md"]
+    return written
+
+
+def operational_table(cells: dict[str, dict[str, Cell]], labels: list[str], scenarios: list[str], out: Path) -> None:
+    header = ["Algorithm", "Scenario", "episodes"] + [title for _, title in OPERATIONAL_COLUMNS]
+    rows = []
+    for s in scenarios:
+        for label in labels:
+            c = cells[label].get(s)
+            if c is None:
+                continue
+            n = len(c.values.get("nmac_events", []))
+            row = [label, s, str(n)]
+            for key, _ in OPERATIONAL_COLUMNS:
+                digits = 4 if ("per_flight" in key or "share" in key or "reward" in key) else 2
+                row.append(fmt_pm(mean_std(c.values.get(key, [])), digits))
+            rows.append(row)
+    write_table(out / "operational", header, rows, "Safety and operational metrics, mean ± std over episodes")
+
+
+# ------------------------------------------------------------------------------ figures
+@dataclass
+class TrainRun:
+    path: Path
+    label: str
+    curve: dict[str, np.ndarray]
+    episode_rewards: list[list[float]]
+    episode_nmac: list[list[float]]
+    baseline: dict[str, Any] | None
+    summary: dict[str, Any] | None
+    workers: int  # rollout workers (0: in-process)
+
+
+def load_train_run(d: Path) -> TrainRun:
+    with open(d / "learning_curve.csv", newline="") as fh:
+        rows = list(csv.DictReader(fh))
+    numeric = ("iteration", "wall_s", "reward_mean", "nmac_per_aircraft", "lowc_per_aircraft", "aircraft_states",
+               "aircraft_states_total", "states_per_s")
+    curve = {k: np.array([float(r[k]) if r.get(k) not in (None, "") else np.nan for r in rows]) for k in numeric}
+
+    def split(col: str) -> list[list[float]]:
+        return [[float(x) for x in r[col].split(";") if x] for r in rows]
+
+    summary = json.loads((d / "training_summary.json").read_text()) if (d / "training_summary.json").exists() else None
+    baseline = json.loads((d / "baseline.json").read_text()) if (d / "baseline.json").exists() else None
+    label, workers = _from_config(d)
+    return TrainRun(d, (summary or {}).get("label") or label, curve, split("episode_rewards"),
+                    split("episode_nmac_per_aircraft"), baseline, summary, workers)
+
+
+def _from_config(d: Path) -> tuple[str, int]:
+    """The algorithm's label and the number of workers of a run (from its resolved configuration)."""
+    cfg = d / "resolved_config.yaml"
+    if cfg.exists():
+        from omegaconf import OmegaConf
+
+        c: Any = OmegaConf.load(cfg)
+        return str(c.algorithm.get("label", c.algorithm.name)), int(c.get("workers", 1))
+    return d.name, 1
+
+
+def smooth(x: np.ndarray, window: int) -> np.ndarray:
+    if window <= 1 or len(x) == 0:
+        return x
+    from rlbridge.agents.core import rolling_mean
+
+    return rolling_mean(x, window)
+
+
+def band(runs: list[TrainRun], key: str, episodes_attr: str) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Iterations, mean and 95 % half-width per iteration.
+
+    Over the runs that reached the iteration when there are several, else over the episodes
+    (workers) of the one run that did.
+    """
+    n_it = max(len(r.curve["iteration"]) for r in runs)
+    it = np.arange(1, n_it + 1)
+    mean = np.full(n_it, np.nan)
+    half = np.zeros(n_it)
+    for k in range(n_it):
+        having = [r for r in runs if k < len(r.curve[key])]
+        if len(having) > 1:
+            xs = [r.curve[key][k] for r in having]
+        else:
+            eps = getattr(having[0], episodes_attr)
+            xs = eps[k] if k < len(eps) else [having[0].curve[key][k]]
+        xs = [x for x in xs if not math.isnan(x)]
+        if xs:
+            mean[k] = float(np.mean(xs))
+            half[k] = Z95 * float(np.std(xs, ddof=1)) / math.sqrt(len(xs)) if len(xs) > 1 else 0.0
+    return it, mean, half
+
+
+def _baseline_value(runs: list[TrainRun], key: str) -> float | None:
+    vals = [r.baseline[key] for r in runs if r.baseline and key in r.baseline]
+    return float(np.mean(vals)) if vals else None
+
+
+def figures(train: list[TrainRun], out: Path, window: int) -> list[Path]:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    groups: dict[str, list[TrainRun]] = defaultdict(list)
+    for r in train:
+        groups[r.label].append(r)
+    colors = plt.rcParams["axes.prop_cycle"].by_key()["color"]
+    written = []
+    note = f" (rolling mean over {window} iterations)" if window > 1 else ""
+
+    # Reward: zoomed (top) and full (bottom) views.
+    fig, (ax_zoom, ax_full) = plt.subplots(2, 1, figsize=(9, 8))
+    tails = []
+    for ci, (label, runs) in enumerate(groups.items()):
+        it, m, h = band(runs, "reward_mean", "episode_rewards")
+        m, h = smooth(m, window), smooth(h, window)
+        for ax in (ax_zoom, ax_full):
+            ax.plot(it, m, color=colors[ci % len(colors)], label=f"{label} ({len(runs)} run{'s' * (len(runs) > 1)})")
+            ax.fill_between(it, m - h, m + h, color=colors[ci % len(colors)], alpha=0.25, linewidth=0)
+        cut = len(m) // 5
+        tails.append((m - h)[cut:])
+        tails.append((m + h)[cut:])
+    base = [_baseline_value(runs, "reward_mean") for runs in groups.values()]
+    base_v = [b for b in base if b is not None]
+    for ax in (ax_zoom, ax_full):
+        if base_v:
+            ax.axhline(float(np.mean(base_v)), color="k", linestyle="--", label="Unequipped")
+        ax.set_xlabel("training iteration")
+        ax.set_ylabel("mean reward per aircraft")
+        ax.grid(alpha=0.3)
+    vals = np.concatenate([t[np.isfinite(t)] for t in tails] + [np.array(base_v)]) if tails else np.array(base_v)
+    if vals.size:
+        lo, hi = float(np.min(vals)), float(np.max(vals))
+        pad = 0.05 * (hi - lo or 1.0)
+        ax_zoom.set_ylim(lo - pad, hi + pad)
+        ax_full.axhspan(lo - pad, hi + pad, color="grey", alpha=0.12, label="zoomed region")
+    ax_zoom.set_title("Mean reward learning curve, 95 % confidence band" + note + " — zoomed")
+    ax_full.set_title("Full learning curve")
+    ax_full.legend(loc="lower right", fontsize=8)
+    fig.tight_layout()
+    fig.savefig(out / "reward_curve.png", dpi=130)
+    plt.close(fig)
+    written.append(out / "reward_curve.png")
+
+    # Normalised NMAC.
+    fig, ax = plt.subplots(figsize=(9, 4.5))
+    for ci, (label, runs) in enumerate(groups.items()):
+        it, m, h = band(runs, "nmac_per_aircraft", "episode_nmac")
+        m, h = smooth(m, window), smooth(h, window)
+        ax.plot(it, m, color=colors[ci % len(colors)], label=label)
+        ax.fill_between(it, np.maximum(m - h, 0), m + h, color=colors[ci % len(colors)], alpha=0.25, linewidth=0)
+    b = [x for x in (_baseline_value(runs, "nmac_per_aircraft") for runs in groups.values()) if x is not None]
+    if b:
+        ax.axhline(float(np.mean(b)), color="k", linestyle="--", label="Unequipped")
+    ax.set_xlabel("training iteration")
+    ax.set_ylabel("NMAC events / aircraft")
+    ax.set_title("Normalised NMAC learning curve, 95 % confidence band" + note)
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    fig.savefig(out / "nmac_curve.png", dpi=130)
+    plt.close(fig)
+    written.append(out / "nmac_curve.png")
+
+    # Aircraft-states per hour.
+    fig, (ax_cum, ax_bar) = plt.subplots(1, 2, figsize=(11, 4.5))
+    names, rates, per_worker = [], [], []
+    for ci, (label, runs) in enumerate(groups.items()):
+        for k, r in enumerate(runs):
+            ax_cum.plot(r.curve["wall_s"] / 3600.0, r.curve["aircraft_states_total"] / 1e6,
+                        color=colors[ci % len(colors)], label=label if k == 0 else None)
+        hourly = [3600.0 * r.curve["aircraft_states_total"][-1] / r.curve["wall_s"][-1] for r in runs
+                  if len(r.curve["wall_s"]) and r.curve["wall_s"][-1] > 0]
+        workers = [max(r.workers, 1) for r in runs]
+        names.append(label)
+        rates.append(float(np.mean(hourly)) if hourly else 0.0)
+        per_worker.append(float(np.mean([h / w for h, w in zip(hourly, workers)])) if hourly else 0.0)
+    ax_cum.set_xlabel("wall-clock time [h]")
+    ax_cum.set_ylabel("aircraft-states generated [millions]")
+    ax_cum.set_title("Cumulative aircraft-states")
+    ax_cum.grid(alpha=0.3)
+    ax_cum.legend(fontsize=8)
+    x = np.arange(len(names))
+    bars = ax_bar.bar(x - 0.2, np.array(rates) / 1e6, 0.4, label="total")
+    ax_bar.bar(x + 0.2, np.array(per_worker) / 1e6, 0.4, label="per worker")
+    for rect, v in zip(bars, rates):
+        ax_bar.annotate(f"{v / 1e6:.2f} M/h", (rect.get_x() + rect.get_width() / 2, rect.get_height()),
+                        ha="center", va="bottom", fontsize=8)
+    ax_bar.set_xticks(x, names, rotation=15, fontsize=8)
+    ax_bar.set_ylabel("aircraft-states per hour [millions]")
+    ax_bar.set_title("Aircraft-states generated per hour")
+    ax_bar.legend(fontsize=8)
+    fig.tight_layout()
+    fig.savefig(out / "states_per_hour.png", dpi=130)
+    plt.close(fig)
+    written.append(out / "states_per_hour.png")
+    return written
+
+
+def training_table(train: list[TrainRun], out: Path) -> None:
+    header = ["Algorithm", "run", "iterations", "wall-clock [h]", "aircraft-states", "states/s", "states/h",
+              "best rolling reward", "best iteration"]
+    rows = []
+    for r in train:
+        s = r.summary or {}
+        rows.append([r.label, r.path.name, str(s.get("iterations", len(r.curve["iteration"]))),
+                     f"{s.get('wall_s', float('nan')) / 3600.0:.2f}", f"{s.get('aircraft_states', 0):,}",
+                     f"{s.get('states_per_s') or 0:.0f}", f"{s.get('states_per_hour') or 0:,.0f}",
+                     f"{s.get('best_rolling_reward', float('nan')):.4f}", str(s.get("best_iteration", ""))])
+    write_table(out / "training", header, rows, "Training runs and wall-clock metrics")
+
+
+def make_report(eval_dirs: list[Path], train_dirs: list[Path], out: Path, window: int = 1) -> list[Path]:
+    out.mkdir(parents=True, exist_ok=True)
+    parts: list[str] = ["# AAM-Gym report", ""]
+    written: list[Path] = []
+    if eval_dirs:
+        cells, labels, scenarios = load_evaluations(eval_dirs)
+        written += ratio_tables(cells, labels, scenarios, out)
+        operational_table(cells, labels, scenarios, out)
+        written += [out / "operational.csv", out / "operational.md"]
+        for name in ("risk_ratio", "lowc_ratio", "operational"):
+            parts += [(out / f"{name}.md").read_text(), ""]
+        parts += ["Evaluation runs: " + ", ".join(str(d) for d in eval_dirs), ""]
+    if train_dirs:
+        runs = [load_train_run(d) for d in train_dirs]
+        training_table(runs, out)
+        written += [out / "training.csv", out / "training.md"]
+        written += figures(runs, out, window)
+        parts += [(out / "training.md").read_text(), "",
+                  "![reward](reward_curve.png)", "", "![nmac](nmac_curve.png)", "",
+                  "![states](states_per_hour.png)", ""]
+    (out / "report.md").write_text("\n".join(parts))
+    written.append(out / "report.md")
+    return written
+
+
+def main(argv: list[str] | None = None) -> None:
+    ap = argparse.ArgumentParser(prog="aamgym report", description=__doc__.split("\n\n")[0])
+    ap.add_argument("eval_dirs", nargs="*", type=Path, help="evaluation run directories (with evaluation.json)")
+    ap.add_argument("--train", nargs="+", type=Path, default=[], help="training run directories (learning curves)")
+    ap.add_argument("-o", "--out", type=Path, default=Path("report"), help="output directory (default: report)")
+    ap.add_argument("--smooth", type=int, default=1, help="rolling-mean window of the curves [iterations]")
+    args = ap.parse_args(argv)
+    if not args.eval_dirs and not args.train:
+        ap.error("give evaluation directories and/or --train directories")
+    for d in args.eval_dirs:
+        if not (d / "evaluation.json").exists():
+            ap.error(f"{d}: no evaluation.json (not an 'aamgym evaluate' run)")
+    for d in args.train:
+        if not (d / "learning_curve.csv").exists():
+            ap.error(f"{d}: no learning_curve.csv (not an 'aamgym train' run)")
+    for p in make_report(args.eval_dirs, args.train, args.out, args.smooth):
+        print(p)

@@ -1,0 +1,301 @@
+"""``aamgym train``: the training loop (Hydra app; config in ``rlbridge/conf/config.yaml``).
+
+One iteration = every worker returns ``train.episodes_per_worker`` episodes played with the
+current weights (the paper: "each training iteration is composed of N_workers simulation
+returns"), then the learner updates on them. The run directory receives:
+
+* ``resolved_config.yaml`` — the full configuration of the run;
+* ``learning_curve.csv`` — one row per iteration (:data:`CURVE_COLUMNS`);
+* ``baseline.json`` — the unequipped aircraft on the training scenario (reference line);
+* ``checkpoints/last.pt`` every ``train.checkpoint_every`` iterations and at the end;
+  ``checkpoints/best.pt`` — the weights at the best ``train.best_window``-iteration rolling
+  mean of the reward (the paper: 25);
+* ``training_summary.json`` — totals, aircraft-states per second, the best iteration.
+
+``train.resume=<run dir or .pt>`` continues from a checkpoint (iteration, weights,
+optimiser, counters and RNG states; the DDQN replay memory starts empty).
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+import logging
+import shutil
+import time
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import torch
+from omegaconf import DictConfig, OmegaConf
+
+from rlbridge.agents import make_learner, usecase_dims
+from rlbridge.agents.core import episode_seed, rolling_mean
+from rlbridge.agents.rollout import EnvSpec, EpisodeBatch, EpisodeStats
+from rlbridge.experiment.workers import make_pool
+
+log = logging.getLogger("aamgym.train")
+
+CHECKPOINT_FORMAT = 1
+LEARNER_STATS = ("policy_loss", "value_loss", "entropy", "approx_kl", "clip_fraction", "explained_variance",
+                 "td_loss", "epsilon", "gradient_steps")
+CURVE_COLUMNS = ("iteration", "wall_s", "sim_s", "episodes", "reward_mean", "reward_std", "episode_rewards",
+                 "nmac_per_aircraft", "lowc_per_aircraft", "episode_nmac_per_aircraft", "aircraft_states",
+                 "aircraft_states_total", "states_per_s", "rollout_s", "update_s") + LEARNER_STATS
+
+
+@dataclass
+class TrainState:
+    """Counters carried across checkpoints."""
+
+    iteration: int = 0
+    transitions: int = 0  # aircraft-states collected
+    episodes: int = 0
+    wall_s: float = 0.0  # training wall-clock time [s], resumed runs included
+    rollout_s: float = 0.0  # of which waiting for the workers' episodes [s]
+    rewards: list[float] = field(default_factory=list)  # reward_mean per iteration
+    best: float = -float("inf")  # best rolling mean so far
+    best_iteration: int = 0
+
+
+def resolve_device(name: str) -> str:
+    if name == "auto":
+        return "cuda" if torch.cuda.is_available() else "cpu"
+    if name.startswith("cuda") and not torch.cuda.is_available():
+        raise RuntimeError(f"device={name} but CUDA is not available")
+    return name
+
+
+def resolve_scenario_path(name: str) -> str:
+    """Absolute path of a scenario name or path (remote workers may run elsewhere)."""
+    from aamsim.scenarios import resolve_scenario
+
+    path = resolve_scenario(name)
+    if path is None:
+        raise FileNotFoundError(f"scenario not found: {name} (neither a file nor a scenario shipped in aamsim/scn)")
+    return str(Path(path).resolve())
+
+
+def env_spec_from(cfg: DictConfig, scenario: str | None = None, **params: Any) -> EnvSpec:
+    up = dict(OmegaConf.to_container(cfg.usecase.params, resolve=True))  # type: ignore[arg-type]
+    up.update(params)
+    return EnvSpec(resolve_scenario_path(scenario or cfg.scenario), str(cfg.usecase.name), up,
+                   None if cfg.env.time_limit_s is None else float(cfg.env.time_limit_s), float(cfg.env.dt),
+                   tuple(cfg.metrics))
+
+
+def find_checkpoint(path: str | Path, which: str = "last") -> Path:
+    """A checkpoint file, or ``<run dir>/checkpoints/<which>.pt``."""
+    p = Path(path)
+    if p.is_file():
+        return p
+    cand = p / "checkpoints" / f"{which}.pt"
+    if cand.is_file():
+        return cand
+    raise FileNotFoundError(f"no checkpoint {cand}")
+
+
+def load_checkpoint(path: str | Path) -> dict[str, Any]:
+    """Read a checkpoint written by :func:`save_checkpoint` (a trusted file: full unpickling)."""
+    ckpt = torch.load(Path(path), map_location="cpu", weights_only=False)
+    if ckpt.get("format") != CHECKPOINT_FORMAT:
+        raise ValueError(f"{path}: not an aamgym checkpoint (format {ckpt.get('format')})")
+    return ckpt
+
+
+def save_checkpoint(path: Path, learner: Any, state: TrainState, meta: dict[str, Any]) -> None:
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_suffix(".tmp")
+    torch.save({"format": CHECKPOINT_FORMAT, **meta, "learner": learner.state_dict(), "state": asdict(state),
+                "torch_rng": torch.get_rng_state()}, tmp)
+    tmp.replace(path)
+
+
+def summarize_episodes(stats: list[EpisodeStats]) -> dict[str, Any]:
+    rewards = np.array([s.reward_per_aircraft for s in stats])
+    return {"episodes": len(stats), "reward_mean": float(rewards.mean()), "reward_std": float(rewards.std()),
+            "nmac_per_aircraft": float(np.mean([s.nmac_events / max(s.aircraft, 1) for s in stats])),
+            "lowc_per_aircraft": float(np.mean([s.lowc_events / max(s.aircraft, 1) for s in stats])),
+            "aircraft_states": int(sum(s.transitions for s in stats)),
+            "sim_s": float(sum(s.sim_s for s in stats)), "wall_s": float(sum(s.wall_s for s in stats))}
+
+
+def _fmt(x: float) -> str:
+    return f"{x:.6g}"
+
+
+class CurveWriter:
+    """Appends rows to learning_curve.csv (the header once)."""
+
+    def __init__(self, path: Path):
+        self.path = path
+        if not path.exists():
+            with open(path, "w", newline="") as fh:
+                csv.writer(fh).writerow(CURVE_COLUMNS)
+
+    def write(self, row: dict[str, Any]) -> None:
+        with open(self.path, "a", newline="") as fh:
+            csv.DictWriter(fh, CURVE_COLUMNS, restval="", extrasaction="ignore").writerow(row)
+
+
+def copy_curve(src: Path, dst: Path, upto: int) -> None:
+    """The rows of a previous run's curve up to iteration ``upto`` (resumed runs)."""
+    if not src.exists():
+        return
+    with open(src, newline="") as fh:
+        rows = [r for r in csv.DictReader(fh) if int(r["iteration"]) <= upto]
+    writer = CurveWriter(dst)
+    for r in rows:
+        writer.write(r)
+
+
+def run_training(cfg: DictConfig, run_dir: str | Path) -> dict[str, Any]:
+    """Train ``cfg.algorithm`` on ``cfg.scenario``; everything goes to ``run_dir``."""
+    run_dir = Path(run_dir)
+    run_dir.mkdir(parents=True, exist_ok=True)
+    (run_dir / "resolved_config.yaml").write_text(OmegaConf.to_yaml(cfg, resolve=True))
+    tc = cfg.train
+    torch.set_num_threads(int(tc.torch_threads))
+    device = resolve_device(str(cfg.device))
+    algo = cfg.algorithm
+    env = env_spec_from(cfg)
+    dims = usecase_dims(env.usecase, env.params)
+    params = dict(OmegaConf.to_container(algo.params, resolve=True))  # type: ignore[arg-type]
+    learner = make_learner(str(algo.kind), params, dims, device, int(cfg.seed))
+    state = TrainState()
+    meta: dict[str, Any] = {
+        "algorithm": {"name": str(algo.name), "kind": str(algo.kind), "label": str(algo.get("label", algo.name)),
+                      "params": params},
+        "dims": dims, "env": asdict(env), "seed": int(cfg.seed), "run_dir": str(run_dir.resolve()),
+        "config": OmegaConf.to_container(cfg, resolve=True)}
+    ckpt_dir = run_dir / "checkpoints"
+    if tc.resume:
+        src = find_checkpoint(str(tc.resume), "last")
+        ckpt = load_checkpoint(src)
+        if ckpt["algorithm"]["kind"] != algo.kind:
+            raise ValueError(f"cannot resume a {ckpt['algorithm']['kind']} checkpoint as {algo.kind}")
+        learner.load_state_dict(ckpt["learner"])
+        torch.set_rng_state(ckpt["torch_rng"])
+        state = TrainState(**ckpt["state"])
+        src_run = Path(ckpt["run_dir"])
+        if src_run.resolve() != run_dir.resolve():
+            copy_curve(src_run / "learning_curve.csv", run_dir / "learning_curve.csv", state.iteration)
+            for name in ("baseline.json",):
+                if (src_run / name).exists():
+                    shutil.copy(src_run / name, run_dir / name)
+            if (src_run / "checkpoints" / "best.pt").exists():
+                ckpt_dir.mkdir(exist_ok=True)
+                shutil.copy(src_run / "checkpoints" / "best.pt", ckpt_dir / "best.pt")
+        log.info("resumed from %s at iteration %d (%d aircraft-states)", src, state.iteration, state.transitions)
+    n_workers = int(cfg.workers)
+    slots = max(n_workers, 1)
+    epw = int(tc.episodes_per_worker)
+    max_iter = tc.iterations
+    hours = tc.hours
+    if max_iter is None and hours is None:
+        max_iter = 100
+    curve = CurveWriter(run_dir / "learning_curve.csv")
+    actors = {"policy": learner.actor_spec(str(algo.kind)), "unequipped": {"kind": "unequipped"}}
+    log.info("training %s on %s with %s, device %s; output in %s", algo.name, Path(env.scenario).name,
+             f"{n_workers} Ray workers" if n_workers else "an in-process worker", device, run_dir)
+    pool = make_pool(n_workers, env, actors, cfg.ray, int(tc.torch_threads))
+    t_start = time.perf_counter()
+    wall0 = state.wall_s
+    reason = "iterations"
+    try:
+        if int(tc.baseline_episodes) > 0 and not (run_dir / "baseline.json").exists():
+            seeds = [episode_seed(int(cfg.seed), 0, k % slots, k // slots) for k in range(int(tc.baseline_episodes))]
+            lists = [seeds[w::slots] for w in range(slots)]
+            base = [s for part in pool.collect(lists, "unequipped", record=False) for s in part]
+            base_summary = summarize_episodes(base)
+            (run_dir / "baseline.json").write_text(json.dumps({"policy": "unequipped", **base_summary,
+                                                                "seeds": seeds}, indent=2) + "\n")
+            log.info("unequipped baseline: reward/aircraft %.4f, NMAC/aircraft %.4f over %d episodes",
+                     base_summary["reward_mean"], base_summary["nmac_per_aircraft"], len(base))
+        t_train = time.perf_counter()  # throughput clock: iterations only (not Ray start-up nor baseline)
+        while True:
+            if max_iter is not None and state.iteration >= int(max_iter):
+                reason = "iterations"
+                break
+            if hours is not None and time.perf_counter() - t_start >= float(hours) * 3600.0:
+                reason = "hours"
+                break
+            it = state.iteration + 1
+            t0 = time.perf_counter()
+            lists = [[episode_seed(int(cfg.seed), it, w, e) for e in range(epw)] for w in range(slots)]
+            results = pool.collect(lists, "policy", learner.weights(), learner.explore(state.transitions))
+            batches: list[EpisodeBatch] = [b for part in results for b in part]
+            t1 = time.perf_counter()
+            lstats = learner.update(batches)
+            t2 = time.perf_counter()
+            ep = summarize_episodes([b.stats for b in batches])
+            state.iteration = it
+            state.transitions += ep["aircraft_states"]
+            state.episodes += len(batches)
+            state.wall_s = wall0 + (t2 - t_train)
+            state.rollout_s += t1 - t0
+            state.rewards.append(ep["reward_mean"])
+            row = {"iteration": it, "wall_s": _fmt(state.wall_s), "sim_s": _fmt(ep["sim_s"]),
+                   "episodes": len(batches), "reward_mean": _fmt(ep["reward_mean"]),
+                   "reward_std": _fmt(ep["reward_std"]),
+                   "episode_rewards": ";".join(_fmt(b.stats.reward_per_aircraft) for b in batches),
+                   "nmac_per_aircraft": _fmt(ep["nmac_per_aircraft"]),
+                   "lowc_per_aircraft": _fmt(ep["lowc_per_aircraft"]),
+                   "episode_nmac_per_aircraft": ";".join(_fmt(b.stats.nmac_events / max(b.stats.aircraft, 1))
+                                                         for b in batches),
+                   "aircraft_states": ep["aircraft_states"], "aircraft_states_total": state.transitions,
+                   "states_per_s": _fmt(ep["aircraft_states"] / max(t2 - t0, 1e-9)), "rollout_s": _fmt(t1 - t0),
+                   "update_s": _fmt(t2 - t1)}
+            row.update({k: _fmt(v) for k, v in lstats.items() if k in LEARNER_STATS})
+            curve.write(row)
+            window = int(tc.best_window)
+            roll = float(rolling_mean(state.rewards, window)[-1])
+            improved = len(state.rewards) >= window and roll > state.best
+            if improved:
+                state.best, state.best_iteration = roll, it
+                save_checkpoint(ckpt_dir / "best.pt", learner, state, meta)
+            log.info("it %d | episodes %d | reward/ac %.4f | NMAC/ac %.4f | LoWC/ac %.4f | states %d | %.0f states/s"
+                     " | rollout %.1fs update %.1fs | rolling(%d) %.4f%s", it, state.episodes, ep["reward_mean"],
+                     ep["nmac_per_aircraft"], ep["lowc_per_aircraft"], ep["aircraft_states"],
+                     ep["aircraft_states"] / max(t2 - t0, 1e-9), t1 - t0, t2 - t1, window, roll,
+                     " *best*" if improved else "")
+            if int(tc.checkpoint_every) > 0 and it % int(tc.checkpoint_every) == 0:
+                save_checkpoint(ckpt_dir / "last.pt", learner, state, meta)
+    finally:
+        pool.shutdown()
+    save_checkpoint(ckpt_dir / "last.pt", learner, state, meta)
+    if not (ckpt_dir / "best.pt").exists():
+        # Fewer iterations than the rolling window: the final weights stand in for the best.
+        state.best, state.best_iteration = float(rolling_mean(state.rewards, int(tc.best_window))[-1]) \
+            if state.rewards else float("nan"), state.iteration
+        save_checkpoint(ckpt_dir / "best.pt", learner, state, meta)
+    elapsed = time.perf_counter() - t_start
+    summary: dict[str, Any] = {
+               "algorithm": str(algo.name), "label": meta["algorithm"]["label"], "scenario": Path(env.scenario).stem,
+               "workers": n_workers, "iterations": state.iteration, "episodes": state.episodes,
+               "aircraft_states": state.transitions, "wall_s": state.wall_s,
+               "states_per_s": state.transitions / state.wall_s if state.wall_s > 0 else None,
+               "states_per_hour": 3600.0 * state.transitions / state.wall_s if state.wall_s > 0 else None,
+               "rollout_s": state.rollout_s,
+               "rollout_states_per_s": state.transitions / state.rollout_s if state.rollout_s > 0 else None,
+               "this_session_s": elapsed, "stopped_by": reason, "best_rolling_reward": state.best,
+               "best_iteration": state.best_iteration, "best_window": int(tc.best_window), "device": device}
+    (run_dir / "training_summary.json").write_text(json.dumps(summary, indent=2) + "\n")
+    log.info("done: %d iterations, %d aircraft-states in %.0f s (%.0f states/s); best rolling reward %.4f at "
+             "iteration %d", state.iteration, state.transitions, state.wall_s, summary["states_per_s"] or 0.0,
+             state.best, state.best_iteration)
+    return summary
+
+
+def hydra_entry() -> None:
+    """The Hydra app (``aamgym train ...``): composes the config and calls :func:`run_training`."""
+    import hydra
+    from hydra.core.hydra_config import HydraConfig
+
+    @hydra.main(config_path="../conf", config_name="config", version_base="1.3")
+    def _main(cfg: DictConfig) -> None:
+        run_training(cfg, HydraConfig.get().runtime.output_dir)
+
+    _main()

@@ -1,0 +1,218 @@
+"""The experiment runner: Hydra configuration, training runs, checkpoints, evaluation, reports, Ray."""
+
+from __future__ import annotations
+
+import csv
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+import torch
+from hydra import compose, initialize_config_module
+
+from rlbridge.agents import make_learner, usecase_dims
+from rlbridge.experiment.train import TrainState, find_checkpoint, load_checkpoint, run_training, save_checkpoint
+
+ROOT = Path(__file__).resolve().parent.parent
+TINY = str(Path(__file__).parent / "data" / "tiny_conflict.scn")
+# Small and quick: tiny scenario, 4 intruders, 10-minute episodes, in-process worker.
+QUICK = [f"scenario={TINY}", "workers=0", "env.time_limit_s=600", "usecase.params.n_intruders=4",
+         "train.baseline_episodes=1", "train.best_window=2", "train.checkpoint_every=1"]
+
+
+def compose_train(overrides: list[str]):
+    with initialize_config_module("rlbridge.conf", version_base="1.3"):
+        return compose("config", overrides=QUICK + overrides)
+
+
+def cli(args: list[str], cwd: Path, timeout: float = 300) -> subprocess.CompletedProcess:
+    env = dict(os.environ, PYTHONPATH=str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", ""))
+    proc = subprocess.run([sys.executable, "-m", "rlbridge.experiment", *args], cwd=cwd, env=env, check=False,
+                          capture_output=True, text=True, timeout=timeout)
+    assert proc.returncode == 0, proc.stdout[-3000:] + proc.stderr[-3000:]
+    return proc
+
+
+def curve_rows(run: Path) -> list[dict[str, str]]:
+    with open(run / "learning_curve.csv", newline="") as fh:
+        return list(csv.DictReader(fh))
+
+
+@pytest.fixture(scope="module")
+def trained_run(tmp_path_factory) -> Path:
+    run = tmp_path_factory.mktemp("train") / "d2mava"
+    run_training(compose_train(["algorithm=d2mava_a", "train.iterations=3"]), run)
+    return run
+
+
+# --------------------------------------------------------------------------- configuration
+def test_defaults_are_the_papers_tables():
+    with initialize_config_module("rlbridge.conf", version_base="1.3"):
+        cfg = compose("config")
+        ddqn = compose("config", overrides=["algorithm=ddqn"])
+    assert cfg.algorithm.name == "d2mava_a" and cfg.usecase.name == "corridor_sa"
+    p = cfg.algorithm.params
+    assert (p.lr, p.batch_size, p.epochs, p.ent_coef, p.clip, p.hidden, p.gamma, p.lam, p.leaky_slope, p.shared) == \
+        (1e-5, 512, 6, 1e-4, 0.1, 128, 0.99, 0.95, 0.2, False)
+    q = ddqn.algorithm.params
+    assert (q.batch_size, q.hidden, q.gamma, q.eps_decay_steps, q.eps_start, q.eps_end, q.replay_size, q.lr,
+            q.target_update, q.double) == (512, 128, 0.99, 500000, 0.999, 0.0001, 5000000, 1e-4, 50000, True)
+    u = cfg.usecase.params
+    assert (u.nmac_m, u.lowc_m, u.n_wpt, u.n_intruders, u.d_max_m, u.alpha, u.delta, u.psi, u.omega) == \
+        (150.0, 450.0, 2, 30, 3000.0, 1.0, 0.0003, 0.001, 0.001)
+
+
+def test_config_overrides_reach_the_algorithm_and_use_case(tmp_path):
+    cfg = compose_train(["algorithm=ddqn", "algorithm.params.lr=0.0123", "algorithm.params.hidden=32",
+                         "usecase.params.n_intruders=3", "train.iterations=1", "seed=7"])
+    run_training(cfg, tmp_path)
+    ckpt = load_checkpoint(tmp_path / "checkpoints" / "last.pt")
+    assert ckpt["algorithm"]["params"]["lr"] == 0.0123
+    assert ckpt["learner"]["optimizer"]["param_groups"][0]["lr"] == 0.0123
+    w = ckpt["learner"]["model"]["net.0.weight"]
+    assert tuple(w.shape) == (32, 9 + 3 * 11)  # hidden 32; ownship 9 + 3 intruders x 11
+    resolved = (tmp_path / "resolved_config.yaml").read_text()
+    assert "lr: 0.0123" in resolved and "n_intruders: 3" in resolved and "seed: 7" in resolved
+
+
+def test_unknown_algorithm_parameter_is_rejected(tmp_path):
+    cfg = compose_train(["+algorithm.params.learning_rat=0.1", "train.iterations=1"])
+    with pytest.raises(TypeError, match="learning_rat"):
+        run_training(cfg, tmp_path)
+
+
+# ------------------------------------------------------------------------------ checkpoints
+@pytest.mark.parametrize("kind", ["d2mava", "dqn"])
+def test_checkpoint_round_trip(tmp_path, kind):
+    d = usecase_dims("corridor_sa", {"n_intruders": 4})
+    a = make_learner(kind, {"learning_starts": 0} if kind == "dqn" else {}, d, seed=1)
+    # Give the optimiser a state, then save.
+    params = list(a.model.parameters()) if kind == "d2mava" else list(a.q.parameters())
+    sum(p.sum() for p in params).backward()
+    a.optimizer.step()
+    state = TrainState(iteration=5, transitions=123, rewards=[1.0, 2.0], best=1.5, best_iteration=4)
+    save_checkpoint(tmp_path / "c.pt", a, state, {"algorithm": {"kind": kind}})
+    ckpt = load_checkpoint(tmp_path / "c.pt")
+    b = make_learner(kind, {"learning_starts": 0} if kind == "dqn" else {}, d, seed=99)
+    b.load_state_dict(ckpt["learner"])
+    assert TrainState(**ckpt["state"]) == state
+    for (ka, va), (kb, vb) in zip(a.state_dict()["model"].items(), b.state_dict()["model"].items()):
+        assert ka == kb and torch.equal(va, vb)
+    assert b.optimizer.state_dict()["state"].keys() == a.optimizer.state_dict()["state"].keys()
+    np.testing.assert_equal(a.weights(), b.weights())
+
+
+def test_training_run_outputs(trained_run):
+    for name in ("resolved_config.yaml", "learning_curve.csv", "baseline.json", "training_summary.json",
+                 "checkpoints/last.pt", "checkpoints/best.pt"):
+        assert (trained_run / name).exists(), name
+    rows = curve_rows(trained_run)
+    assert [int(r["iteration"]) for r in rows] == [1, 2, 3]
+    assert all(float(r["states_per_s"]) > 0 and int(r["aircraft_states"]) > 0 for r in rows)
+    summary = json.loads((trained_run / "training_summary.json").read_text())
+    assert summary["iterations"] == 3 and summary["aircraft_states"] == sum(int(r["aircraft_states"]) for r in rows)
+    best = load_checkpoint(trained_run / "checkpoints" / "best.pt")
+    assert best["state"]["best_iteration"] in (2, 3)  # window 2: first candidate at iteration 2
+
+
+def test_train_cli_and_resume(tmp_path):
+    base = ["train", *QUICK, "algorithm=d2mava_a", "out_dir=runs"]
+    cli(base + ["train.iterations=2", "hydra.run.dir=runs/first"], tmp_path)
+    first = tmp_path / "runs" / "first"
+    assert len(curve_rows(first)) == 2
+    proc = cli(base + ["train.iterations=4", f"train.resume={first}", "hydra.run.dir=runs/second"], tmp_path)
+    second = tmp_path / "runs" / "second"
+    assert "resumed from" in proc.stdout + proc.stderr
+    assert [int(r["iteration"]) for r in curve_rows(second)] == [1, 2, 3, 4]
+    assert load_checkpoint(find_checkpoint(second))["state"]["iteration"] == 4
+    # The resumed iterations 3-4 are those an uninterrupted run would have produced.
+    cli(base + ["train.iterations=4", "hydra.run.dir=runs/straight"], tmp_path)
+    straight = curve_rows(tmp_path / "runs" / "straight")
+    resumed = curve_rows(second)
+    for k in (2, 3):
+        assert straight[k]["episode_rewards"] == resumed[k]["episode_rewards"]
+
+
+def test_multirun_sweep(tmp_path):
+    cli(["train", "--multirun", *QUICK, "algorithm=d2mava_a_shared,ddqn", "train.iterations=1", "out_dir=runs",
+         "hydra.sweep.dir=runs/sweep"], tmp_path)
+    runs = sorted(p.name for p in (tmp_path / "runs" / "sweep").iterdir() if p.is_dir())
+    assert runs == ["0_d2mava_a_shared_s0", "1_ddqn_s0"]
+    for r in runs:
+        assert len(curve_rows(tmp_path / "runs" / "sweep" / r)) == 1
+
+
+# ---------------------------------------------------------------------- evaluation, report
+def test_evaluate_compare_and_report(tmp_path, trained_run):
+    cli(["evaluate", f"run={trained_run}", "episodes=3", "workers=0", "env.time_limit_s=600",
+         "hydra.run.dir=eval"], tmp_path)
+    ev_dir = tmp_path / "eval"
+    ev = json.loads((ev_dir / "evaluation.json").read_text())
+    assert ev["scenario"] == "tiny_conflict" and ev["episodes"] == 3 and ev["seeds"] == [0, 1, 2]
+    assert set(ev["policies"]) == {"d2mava_a", "unequipped", "mvp_speed"}
+    assert ev["policies"]["unequipped"]["risk_ratio"]["mean"] == 1.0
+    for policy in ev["policies"]:
+        summaries = sorted((ev_dir / "episodes" / policy).glob("seed-*/summary.json"))
+        assert len(summaries) == 3
+        s = json.loads(summaries[0].read_text())
+        assert {"scenario", "scenario_sha256", "seed", "safety", "operational"} <= set(s)
+    # `aamsim compare` reads the same files.
+    env = dict(os.environ, PYTHONPATH=str(ROOT))
+    proc = subprocess.run([sys.executable, "-m", "aamsim", "compare", str(ev_dir / "episodes" / "mvp_speed"),
+                           str(ev_dir / "episodes" / "unequipped")], check=False, capture_output=True, text=True,
+                          env=env, timeout=120)
+    assert proc.returncode == 0, proc.stderr
+    assert "risk ratio" in proc.stdout.lower()
+    cli(["report", str(ev_dir), "--train", str(trained_run), "-o", "report"], tmp_path)
+    rep = tmp_path / "report"
+    for name in ("risk_ratio.csv", "risk_ratio.md", "lowc_ratio.csv", "lowc_ratio.md", "operational.csv",
+                 "operational.md", "training.md", "report.md", "reward_curve.png", "nmac_curve.png",
+                 "states_per_hour.png"):
+        assert (rep / name).stat().st_size > 0, name
+    with open(rep / "risk_ratio.csv", newline="") as fh:
+        table = list(csv.reader(fh))
+    assert table[0] == ["Algorithm", "Risk Ratio - tiny_conflict"]
+    assert [r[0] for r in table[1:]] == ["D2MAV-A No Shared Layers", "MVP speed-only (rule-based)"]
+    assert "±" in table[1][1]
+    assert (rep / "reward_curve.png").read_bytes()[:4] == b"\x89PNG"
+
+
+def test_aamgym_usage():
+    proc = subprocess.run([sys.executable, "-m", "rlbridge.experiment", "--help"], check=False, capture_output=True,
+                          text=True,
+                          env=dict(os.environ, PYTHONPATH=str(ROOT)), timeout=60)
+    assert proc.returncode == 0 and "train" in proc.stdout and "report" in proc.stdout
+    assert "aamgym = rlbridge.experiment.cli:main" in (ROOT / "setup.cfg").read_text()
+
+
+# ------------------------------------------------------------------------------------ Ray
+@pytest.mark.slow
+def test_ray_workers_produce_the_same_transitions_as_in_process():
+    import ray
+
+    from rlbridge.agents.core import episode_seed
+    from rlbridge.agents.rollout import EnvSpec
+    from rlbridge.experiment.workers import InProcessPool, RayPool
+
+    d = usecase_dims("corridor_sa", {"n_intruders": 4})
+    learner = make_learner("d2mava", {}, d, seed=0)
+    env = EnvSpec(TINY, params={"n_intruders": 4, "alt_noise_ft": 100.0}, time_limit_s=600.0)
+    actors = {"policy": learner.actor_spec("d2mava")}
+    lists = [[episode_seed(0, 1, w)] for w in range(2)]  # iteration 1 of a 2-worker run
+    local = InProcessPool(env, actors).collect(lists, "policy", learner.weights(), {"greedy": False})
+    pool = RayPool(2, env, actors, num_cpus=2)
+    try:
+        remote = pool.collect(lists, "policy", learner.weights(), {"greedy": False})
+    finally:
+        pool.shutdown()
+    assert not ray.is_initialized()
+    assert [len(b) for part in remote for b in part] == [len(b) for part in local for b in part]
+    assert sum(len(b) for part in remote for b in part) > 0
+    for part_l, part_r in zip(local, remote):
+        for bl, br in zip(part_l, part_r):
+            np.testing.assert_array_equal(bl.actions, br.actions)
+            np.testing.assert_array_equal(bl.rewards, br.rewards)
