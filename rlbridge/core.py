@@ -156,6 +156,7 @@ class EpisodeCore:
 
     def _interval_events(self, t0: float) -> tuple[dict[str, float], set[str]]:
         """Per callsign, the smallest NMAC distance, and the LoWC set, over events overlapping [t0, now]."""
+        assert self.sim is not None
         service = conflicts_of(self.sim)
         return service.involved_since("nmac", t0), set(service.involved_since("lowc", t0))
 
@@ -247,15 +248,17 @@ class EpisodeCore:
             parts = {name: np.zeros((len(rows),) + sub.shape, dtype=sub.dtype) for name, sub in space.spaces.items()}
             for k, (kind, ref) in enumerate(rows):
                 src = live if kind == "live" else (self._left[ref]["obs"] if kind == "left" else None)
-                if src is None:
+                if src is None or src.parts is None:
                     continue
                 j = ref if kind == "live" else 0
                 for name in parts:
                     parts[name][k] = src.parts[name][j]
             return Observations(parts=parts)
+        assert space.shape is not None
         flat = np.zeros((len(rows),) + space.shape, dtype=space.dtype)
         for k, (kind, ref) in enumerate(rows):
             if kind == "live":
+                assert live is not None and live.flat is not None
                 flat[k] = live.flat[ref]
             elif kind == "left":
                 flat[k] = self._left[ref]["obs"].flat[0]

@@ -216,8 +216,8 @@ class Traffic:
         if i != last:
             self.F[:, i] = self.F[:, last]
             self.B[:, i] = self.B[:, last]
-            for seq in (self.ids, self.types, self.routes, self.flights):
-                seq[i] = seq[last]  # type: ignore[index]
+            self.ids[i], self.types[i] = self.ids[last], self.types[last]
+            self.routes[i], self.flights[i] = self.routes[last], self.flights[last]
             self._index[self.ids[i]] = i
         for seq in (self.ids, self.types, self.routes, self.flights):
             seq.pop()  # type: ignore[attr-defined]

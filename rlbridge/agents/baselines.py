@@ -51,7 +51,12 @@ class SpeedMVPConfig:
 
     lookahead_s: float = 120.0  # conflict detection look-ahead
     rpz_m: float = 450.0  # protected zone radius (the use case's LoWC distance)
-    hpz_m: float = 450.0  # vertical half-height of the protected zone (sphere-like volumes)
+    # Vertical half-height of the protected zone. Not the LoWC sphere's 450 m: corridor layers
+    # are 700 ft (213 m) apart, and a speed change cannot separate two flights crossing in
+    # different layers; reacting to them stalls whole corridors (3 seeds of nyc_train_100:
+    # hpz 450 m -> 20 NMAC per episode and aircraft still flying at the time limit; 150 m -> 6.3;
+    # unequipped 14.3).
+    hpz_m: float = 150.0
     margin: float = 1.1  # MVP resolves to margin * rpz at the closest point of approach
     act_band_kts: float = 2.0  # speed changes smaller than this are a hold
     resume_band_kts: float = 8.0  # hold once within this band of the flight-plan speed

@@ -118,7 +118,7 @@ class CorridorSA:
                 "intruders": gym.spaces.Box(-big, big, shape=(p.n_intruders, self.intruder_dim), dtype=np.float32),
                 "mask": gym.spaces.Box(0.0, 1.0, shape=(p.n_intruders,), dtype=np.float32),
             })
-        self._act_space = gym.spaces.Discrete(3)
+        self._act_space: gym.spaces.Discrete = gym.spaces.Discrete(3)
         self._pairs_memo: tuple[tuple[np.ndarray, ...], tuple[int, np.ndarray, np.ndarray, np.ndarray]] | None = None
 
     # ------------------------------------------------------------------ spaces

@@ -53,7 +53,13 @@ class UseCase(Protocol):
 
     def observe(self, sim: Simulation, agents: list[str]) -> Observations: ...
 
-    def rewards(self, sim: Simulation, agents: list[str], actions: dict[str, Any]) -> np.ndarray: ...
+    def closest_distances(self, sim: Simulation, agents: list[str]) -> np.ndarray:
+        """Per agent, the distance to its closest intruder [m] (inf when none is in range)."""
+
+    def rewards(self, sim: Simulation, agents: list[str], actions: dict[str, Any],
+                closest_m: np.ndarray, interval_nmac_min_m: dict[str, float]) -> np.ndarray:
+        """Per agent reward, given its closest-intruder distance now and the smallest NMAC
+        distance it reached during the interval (agents with no NMAC event are absent)."""
 
     def apply_actions(self, sim: Simulation, actions: dict[str, Any]) -> None: ...
 

@@ -93,8 +93,8 @@ def delete(sim: Simulation, *targets: Word) -> None:
         raise CommandError("DEL needs a callsign (or * for all aircraft)")
     names = [t.upper() for t in targets if t]
     if "*" in names:
-        for i in range(sim.traffic.n - 1, -1, -1):
-            sim.delete_aircraft(i)
+        for slot in range(sim.traffic.n - 1, -1, -1):
+            sim.delete_aircraft(slot)
         return
     missing = [name for name in names if name not in sim.traffic]
     for name in names:
