@@ -159,6 +159,8 @@ def _sim_with(traffic) -> Simulation:
         from aamsim.traffic import fields as f
         F[f.GS, i] = gs
         F[f.TRK, i] = trk
+        F[f.GSEAST, i] = gs * math.sin(math.radians(trk))
+        F[f.GSNORTH, i] = gs * math.cos(math.radians(trk))
         F[f.VS, i] = vs
     return sim
 
@@ -202,6 +204,48 @@ def test_grid_volumes_and_closest_equal_brute_force(traffic, radius, lookback, c
             brute[a] = min(brute[a], dd)
             brute[b] = min(brute[b], dd)
     assert np.array_equal(dist, brute)
+
+
+@settings(max_examples=60, deadline=None)
+@given(traffic_strategy, st.floats(100, 3000), st.floats(0, 300), st.floats(0, 5), st.booleans(),
+       st.sampled_from([0, 1, 100000]))
+def test_fused_check_equals_brute_force(traffic, rpz, tlook, lookback, cylinder, cap_hint):
+    """The one-pass check (what the service runs) against every pair tested one by one."""
+    from aamsim.conflicts.fused import detect_all
+    from aamsim.conflicts.service import _SNAPSHOT_ROWS
+    from aamsim.units import R_EARTH
+
+    sim = _sim_with(traffic)
+    s = traffic_snapshot(sim)
+    n = len(s.ids)
+    back = np.full(n, lookback)
+    radii, half = np.array([150.0, 450.0]), np.array([60.0, 150.0])
+    cyl = np.array([cylinder, False])
+    out = detect_all(sim.traffic.F, n, _SNAPSHOT_ROWS, R_EARTH, back, True, rpz, 150.0, tlook, radii, cyl, half,
+                     1000.0, cap_hint)
+    ci, cj, tcpa, _dcpa, _tin, li, lj, inconf, tcpamax, eq, ei, ej = out[:12]
+    closest = out[18]
+    ai, aj = _all_pairs(n)
+    conf, tcpa_a, _, _, _, los = statebased(s.lat, s.lon, s.alt, s.u, s.v, s.w, ai, aj, rpz, 150.0, tlook)
+    brute = dict(zip(zip(ai[conf].tolist(), aj[conf].tolist()), tcpa_a[conf].tolist()))
+    assert dict(zip(zip(ci.tolist(), cj.tolist()), tcpa.tolist())) == pytest.approx(brute)
+    assert len(ci) == len(brute)
+    assert set(zip(li.tolist(), lj.tolist())) == set(zip(ai[los].tolist(), aj[los].tolist()))
+    assert set(np.flatnonzero(inconf).tolist()) == set(ai[conf].tolist()) | set(aj[conf].tolist())
+    for k in range(n):
+        mine = [t for (a, b), t in brute.items() if k in (a, b)]
+        assert tcpamax[k] == pytest.approx(max(mine + [0.0]))  # BlueSky's tcpamax starts at 0
+    for q in range(2):
+        ins = volume_encounters(s.lat, s.lon, s.alt, s.u, s.v, s.w, back, ai, aj, bool(cyl[q]), radii[q], half[q])[0]
+        got = set(zip(ei[eq == q].tolist(), ej[eq == q].tolist()))
+        assert got == set(zip(ai[ins].tolist(), aj[ins].tolist()))
+    d = slant_distances(s.lat, s.lon, s.alt, ai, aj)
+    brute_closest = np.full(n, math.inf)
+    for a, b, dd in zip(ai, aj, d):
+        if dd <= 1000.0:
+            brute_closest[a] = min(brute_closest[a], dd)
+            brute_closest[b] = min(brute_closest[b], dd)
+    np.testing.assert_allclose(closest, brute_closest, rtol=1e-9, atol=1e-6)
 
 
 def test_metrics_are_deterministic():

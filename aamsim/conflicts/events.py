@@ -1,4 +1,4 @@
-"""Columnar log of loss-of-separation events, updated with numpy per check.
+"""Columnar log of loss-of-separation events, updated by one compiled merge per check.
 
 Dense traffic can have thousands of pairs inside a volume at once; keeping
 one Python object per pair and updating them one by one would cost more than
@@ -12,6 +12,7 @@ import math
 from dataclasses import dataclass, field
 
 import numpy as np
+from numba import njit
 
 
 @dataclass
@@ -34,6 +35,79 @@ class SeparationEvent:
 
     def duration_s(self, now_s: float) -> float:
         return (now_s if self.active else self.end_s) - self.start_s
+
+
+@njit(cache=True)
+def _merge(open_keys: np.ndarray, open_rows: np.ndarray, ii: np.ndarray, jj: np.ndarray, serial: np.ndarray,
+           rank: np.ndarray, t_in: np.ndarray, t_out: np.ndarray, dmin: np.ndarray, t_min: np.ndarray,
+           pos: np.ndarray, now: float, last: float, n: int, start: np.ndarray, end: np.ndarray,
+           log_dmin: np.ndarray, log_tmin: np.ndarray, log_pos: np.ndarray, close_all_unseen: bool,
+           close_filter: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """One check's inside pairs merged into the open events (sorted keys) and the row arrays.
+
+    Rows from ``n`` on are free (reserved by the caller). Returns the new open
+    keys and rows and, for the events opened, the slots of ac1 and ac2.
+    """
+    m = ii.shape[0]
+    keys = np.empty(m, dtype=np.int64)
+    for k in range(m):
+        a, b = serial[ii[k]], serial[jj[k]]
+        keys[k] = min(a, b) * (np.int64(1) << 32) + max(a, b)
+    order = np.argsort(keys)
+    o = open_keys.shape[0]
+    new_keys = np.empty(o + m, dtype=np.int64)
+    new_rows = np.empty(o + m, dtype=np.int64)
+    first = np.empty(m, dtype=np.int64)
+    second = np.empty(m, dtype=np.int64)
+    n_open = 0
+    n_new = 0
+    a = 0  # walks the open keys (sorted) alongside this check's keys (sorted)
+    f = 0  # walks the close filter (sorted)
+    for r in range(m + 1):
+        key = keys[order[r]] if r < m else np.int64(0x7FFFFFFFFFFFFFFF)
+        # Open events with smaller keys were not inside during this interval.
+        while a < o and (r == m or open_keys[a] < key):
+            k = open_keys[a]
+            closing = close_all_unseen
+            if not closing:
+                while f < close_filter.shape[0] and close_filter[f] < k:
+                    f += 1
+                closing = f < close_filter.shape[0] and close_filter[f] == k
+            if closing:
+                end[open_rows[a]] = last  # ended at the last check
+            else:
+                new_keys[n_open] = k
+                new_rows[n_open] = open_rows[a]
+                n_open += 1
+            a += 1
+        if r == m:
+            break
+        q = order[r]
+        swap = rank[ii[q]] > rank[jj[q]]
+        if a < o and open_keys[a] == key:
+            row = open_rows[a]
+            a += 1
+        else:
+            row = n + n_new
+            first[n_new] = jj[q] if swap else ii[q]
+            second[n_new] = ii[q] if swap else jj[q]
+            n_new += 1
+            start[row] = now + t_in[q]
+            end[row] = np.nan
+            log_dmin[row] = np.inf
+        if dmin[q] < log_dmin[row]:
+            log_dmin[row] = dmin[q]
+            log_tmin[row] = now + t_min[q]
+            for c in range(3):
+                log_pos[row, c] = pos[q, c + 3] if swap else pos[q, c]
+                log_pos[row, c + 3] = pos[q, c] if swap else pos[q, c + 3]
+        if t_out[q] < -1e-9:
+            end[row] = now + t_out[q]  # left the volume inside this interval
+        else:
+            new_keys[n_open] = key
+            new_rows[n_open] = row
+            n_open += 1
+    return new_keys[:n_open].copy(), new_rows[:n_open].copy(), first[:n_new].copy(), second[:n_new].copy()
 
 
 def _grow(arr: np.ndarray, need: int) -> np.ndarray:
@@ -65,9 +139,11 @@ class EventLog:
         self,
         now: float,
         last_check: float,
-        keys: np.ndarray,
-        names1: list[str],
-        names2: list[str],
+        ids: list[str],
+        ii: np.ndarray,
+        jj: np.ndarray,
+        serial: np.ndarray,
+        rank: np.ndarray,
         t_in: np.ndarray,
         t_out: np.ndarray,
         dmin: np.ndarray,
@@ -78,54 +154,23 @@ class EventLog:
         """Merge one check's inside pairs into the log.
 
         Args:
-            keys: pair keys of the pairs inside the volume during the interval.
-            names1, names2: callsigns per pair (ac1 < ac2).
+            ids: callsign per slot; ii, jj: the slots of each pair inside the volume during the interval.
+            serial: per slot, a number unique to the aircraft over the run (pair keys are built from it).
+            rank: per slot, the callsign's rank in sorting order (events name the pair in that order).
             t_in, t_out, dmin, t_min: entry/exit (relative to now), minimum distance and its time.
-            pos: (m, 6) positions of ac1 and ac2 at the minimum.
+            pos: (m, 6) positions of the aircraft in slots ii and jj at the minimum.
             close_unseen: open keys that may be closed when not inside (None: all of them).
         """
-        pos_open = np.searchsorted(self.open_keys, keys)
-        found = np.zeros(len(keys), dtype=bool)
-        inb = pos_open < len(self.open_keys)
-        found[inb] = self.open_keys[pos_open[inb]] == keys[inb]
-        rows = np.empty(len(keys), dtype=np.int64)
-        rows[found] = self.open_rows[pos_open[found]]
-        # New events.
-        new = np.flatnonzero(~found)
-        if len(new):
-            first = self.n
-            self._reserve(self.n + len(new))
-            rows[new] = np.arange(first, first + len(new))
-            self.start[rows[new]] = now + t_in[new]
-            self.end[rows[new]] = np.nan
-            self.dmin[rows[new]] = np.inf
-            for k in new.tolist():
-                self.ac1.append(names1[k])
-                self.ac2.append(names2[k])
-            self.n += len(new)
-        # Closest approach so far.
-        better = dmin < self.dmin[rows]
-        rb = rows[better]
-        self.dmin[rb] = dmin[better]
-        self.tmin[rb] = now + t_min[better]
-        self.pos[rb] = pos[better]
-        # Pairs that left the volume inside this interval.
-        left = t_out < -1e-9
-        self.end[rows[left]] = now + t_out[left]
-        still = keys[~left]
-        still_rows = rows[~left]
-        # Open events not inside during this interval ended at the last check.
-        seen = np.isin(self.open_keys, keys)
-        unseen = ~seen
-        if close_unseen is not None:
-            unseen &= np.isin(self.open_keys, close_unseen)
-        self.end[self.open_rows[unseen]] = last_check if math.isfinite(last_check) else now
-        keep = ~seen & ~unseen
-        merged_keys = np.concatenate([self.open_keys[keep], still])
-        merged_rows = np.concatenate([self.open_rows[keep], still_rows])
-        order = np.argsort(merged_keys, kind="mergesort")
-        self.open_keys = merged_keys[order]
-        self.open_rows = merged_rows[order]
+        self._reserve(self.n + len(ii))
+        last = last_check if math.isfinite(last_check) else now
+        filt = np.sort(close_unseen) if close_unseen is not None else np.empty(0, dtype=np.int64)
+        self.open_keys, self.open_rows, first, second = _merge(
+            self.open_keys, self.open_rows, ii, jj, serial, rank, t_in, t_out, dmin, t_min, pos, now, last, self.n,
+            self.start, self.end, self.dmin, self.tmin, self.pos, close_unseen is None, filt)
+        for a, b in zip(first.tolist(), second.tolist()):
+            self.ac1.append(ids[a])
+            self.ac2.append(ids[b])
+        self.n += len(first)
 
     def _reserve(self, need: int) -> None:
         self.start = _grow(self.start, need)

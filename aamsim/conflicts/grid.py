@@ -1,12 +1,19 @@
-"""A uniform-grid spatial index for pair searches, compiled with Numba.
+"""A spatial index for pair searches, compiled with Numba.
 
 Each aircraft contributes an axis-aligned box in a local flat frame (metres):
 a point grown by the search radius for proximity questions, or the box
 swept by its straight-line path for look-ahead conflict detection. Two
 aircraft are candidates when their boxes overlap; the index returns every
-such pair exactly once (a pair is emitted only in the grid cell holding the
-low corner of the boxes' intersection), so the candidate set is a superset of
-the true answer and the exact test run on it gives the brute-force result.
+such pair exactly once, so the candidate set is a superset of the true answer
+and the exact test run on it gives the brute-force result.
+
+The index is a sweep in strips: boxes are filed into horizontal strips of
+uniform height (a box spanning several strips is filed in each), ordered
+within a strip by the low x edge (a counting sort on x buckets, linear in
+time), and each box is tested only against the boxes after it whose low edge
+lies before its high edge. A pair sharing several strips is emitted in the
+lowest. This beat a square grid by 1.5-2x at 1,000 and 10,000 aircraft
+(bench/bench_conflicts.py).
 """
 
 from __future__ import annotations
@@ -16,7 +23,70 @@ import math
 import numpy as np
 from numba import njit
 
-_KEY_STRIDE = np.int64(1 << 31)
+# build_strips' result: box bounds in strip/x order (x0, x1, y0, y1), the aircraft of each
+# entry, its x bucket, where each strip starts, each aircraft's lowest strip, the x origin
+# and the bucket width.
+Strips = tuple
+
+
+@njit(cache=True)
+def build_strips(xmin: np.ndarray, xmax: np.ndarray, ymin: np.ndarray, ymax: np.ndarray, cell: float) -> Strips:
+    """The strip index of the boxes (at least one box).
+
+    Args:
+        xmin, xmax, ymin, ymax: box per aircraft [m].
+        cell: strip height [m]; about the typical box size is best.
+    """
+    n = xmin.shape[0]
+    y0 = ymin.min()
+    x0 = xmin.min()
+    # Never more strips than a few per box (sparse traffic over a large area, tiny boxes).
+    cell = max(cell, (ymax.max() - y0) / (4 * n + 1024))
+    cy0 = np.empty(n, dtype=np.int64)
+    cy1 = np.empty(n, dtype=np.int64)
+    total = 0
+    for i in range(n):
+        cy0[i] = np.int64((ymin[i] - y0) / cell)
+        cy1[i] = np.int64((ymax[i] - y0) / cell)
+        total += cy1[i] - cy0[i] + 1
+    nstrips = cy1.max() + 1
+    # Buckets of the box's low x edge: a quarter strip wide, fewer if that would
+    # make the counting sort longer than the entries.
+    span = xmin.max() - x0
+    nb = min(np.int64(span / (0.25 * cell)) + 1, max(np.int64(1), (4 * total + 1024) // nstrips))
+    qx = span / nb if span > 0.0 else 1.0
+    bucket = np.empty(n, dtype=np.int64)
+    for i in range(n):
+        bucket[i] = min(np.int64((xmin[i] - x0) / qx), nb - 1)
+    # Counting sort of the entries (one per strip a box touches) by strip, then by bucket.
+    nkeys = nstrips * nb
+    counts = np.zeros(nkeys + 1, dtype=np.int64)
+    for i in range(n):
+        for cy in range(cy0[i], cy1[i] + 1):
+            counts[cy * nb + bucket[i] + 1] += 1
+    for c in range(nkeys):
+        counts[c + 1] += counts[c]
+    strip_start = np.empty(nstrips + 1, dtype=np.int64)
+    for c in range(nstrips + 1):
+        strip_start[c] = counts[c * nb]
+    # Box bounds copied in sorted order: the sweeps below read memory in sequence.
+    sx0 = np.empty(total)
+    sx1 = np.empty(total)
+    sy0 = np.empty(total)
+    sy1 = np.empty(total)
+    sid = np.empty(total, dtype=np.int64)
+    sbk = np.empty(total, dtype=np.int64)
+    for i in range(n):
+        for cy in range(cy0[i], cy1[i] + 1):
+            e = counts[cy * nb + bucket[i]]
+            counts[cy * nb + bucket[i]] += 1
+            sx0[e] = xmin[i]
+            sx1[e] = xmax[i]
+            sy0[e] = ymin[i]
+            sy1[e] = ymax[i]
+            sid[e] = i
+            sbk[e] = bucket[i]
+    return sx0, sx1, sy0, sy1, sid, sbk, strip_start, cy0, x0, qx
 
 
 @njit(cache=True)
@@ -27,94 +97,55 @@ def candidate_pairs(
 
     Args:
         xmin, xmax, ymin, ymax: box per aircraft [m].
-        cell: grid cell size [m]; about the typical box size is best.
+        cell: strip height [m]; about the typical box size is best.
     """
-    n = xmin.shape[0]
-    if n < 2:
+    if xmin.shape[0] < 2:
         return np.empty(0, dtype=np.int64), np.empty(0, dtype=np.int64)
-    cx0 = np.empty(n, dtype=np.int64)
-    cx1 = np.empty(n, dtype=np.int64)
-    cy0 = np.empty(n, dtype=np.int64)
-    cy1 = np.empty(n, dtype=np.int64)
-    for i in range(n):
-        cx0[i] = np.int64(math.floor(xmin[i] / cell))
-        cx1[i] = np.int64(math.floor(xmax[i] / cell))
-        cy0[i] = np.int64(math.floor(ymin[i] / cell))
-        cy1[i] = np.int64(math.floor(ymax[i] / cell))
-    # Shift cell indices to start at 0 so that (cx, cy) packs into one key.
-    bx = cx0.min()
-    by = cy0.min()
-    total = 0
-    for i in range(n):
-        cx0[i] -= bx
-        cx1[i] -= bx
-        cy0[i] -= by
-        cy1[i] -= by
-        total += (cx1[i] - cx0[i] + 1) * (cy1[i] - cy0[i] + 1)
-    ny = cy1.max() + 1
-    ncells = (cx1.max() + 1) * ny
-    keys = np.empty(total, dtype=np.int64)
-    owner = np.empty(total, dtype=np.int64)
-    k = 0
-    for i in range(n):
-        for cx in range(cx0[i], cx1[i] + 1):
-            for cy in range(cy0[i], cy1[i] + 1):
-                keys[k] = cx * _KEY_STRIDE + cy
-                owner[k] = i
-                k += 1
-    if ncells <= 4 * total + 1024:
-        # Dense grid: a counting sort by cell is linear (and stable).
-        dense = np.empty(total, dtype=np.int64)
-        for e in range(total):
-            dense[e] = (keys[e] // _KEY_STRIDE) * ny + keys[e] % _KEY_STRIDE
-        counts = np.zeros(ncells + 1, dtype=np.int64)
-        for e in range(total):
-            counts[dense[e] + 1] += 1
-        for c in range(ncells):
-            counts[c + 1] += counts[c]
-        order = np.empty(total, dtype=np.int64)
-        for e in range(total):
-            order[counts[dense[e]]] = e
-            counts[dense[e]] += 1
-    else:
-        order = np.argsort(keys, kind="mergesort")
-    cap = 1024
+    sx0, sx1, sy0, sy1, sid, sbk, strip_start, cy0, x0, qx = build_strips(xmin, xmax, ymin, ymax, cell)
+    # Arrays are never grown inside the sweep: that makes Numba keep reference
+    # counts in the loop (measured 4x slower). A generous first guess is filled;
+    # when it is too small the sweep runs again with the exact size.
+    cap = 32 * sx0.shape[0] + 1024
     pi = np.empty(cap, dtype=np.int64)
     pj = np.empty(cap, dtype=np.int64)
-    m = 0
-    start = 0
-    while start < total:
-        key = keys[order[start]]
-        stop = start + 1
-        while stop < total and keys[order[stop]] == key:
-            stop += 1
-        cell_x = key // _KEY_STRIDE
-        cell_y = key % _KEY_STRIDE
-        for a in range(start, stop):
-            i = owner[order[a]]
-            for b in range(a + 1, stop):
-                j = owner[order[b]]
-                if xmin[i] > xmax[j] or xmin[j] > xmax[i] or ymin[i] > ymax[j] or ymin[j] > ymax[i]:
-                    continue
-                # Emit in the cell of the intersection's low corner only.
-                if max(cx0[i], cx0[j]) != cell_x or max(cy0[i], cy0[j]) != cell_y:
-                    continue
-                if m == cap:
-                    cap *= 2
-                    pi2 = np.empty(cap, dtype=np.int64)
-                    pj2 = np.empty(cap, dtype=np.int64)
-                    pi2[:m] = pi[:m]
-                    pj2[:m] = pj[:m]
-                    pi, pj = pi2, pj2
-                if i < j:
-                    pi[m] = i
-                    pj[m] = j
-                else:
-                    pi[m] = j
-                    pj[m] = i
-                m += 1
-        start = stop
+    m = _sweep(sx0, sx1, sy0, sy1, sid, sbk, strip_start, cy0, x0, qx, pi, pj)
+    if m > cap:
+        pi = np.empty(m, dtype=np.int64)
+        pj = np.empty(m, dtype=np.int64)
+        _sweep(sx0, sx1, sy0, sy1, sid, sbk, strip_start, cy0, x0, qx, pi, pj)
     return pi[:m], pj[:m]
+
+
+@njit(cache=True)
+def _sweep(sx0: np.ndarray, sx1: np.ndarray, sy0: np.ndarray, sy1: np.ndarray, sid: np.ndarray, sbk: np.ndarray,
+           strip_start: np.ndarray, cy0: np.ndarray, x0: float, qx: float, pi: np.ndarray, pj: np.ndarray) -> int:
+    """Overlapping pairs of the sorted entries, per strip, written to pi, pj while they fit. Returns their number."""
+    cap = pi.shape[0]
+    m = 0
+    for strip in range(strip_start.shape[0] - 1):
+        stop = strip_start[strip + 1]
+        for a in range(strip_start[strip], stop):
+            ax0 = sx0[a]
+            ax1 = sx1[a]
+            ay0 = sy0[a]
+            ay1 = sy1[a]
+            # Later entries from a bucket past the one of this box's high x edge cannot overlap it.
+            last_bucket = np.int64((ax1 - x0) / qx)
+            for b in range(a + 1, stop):
+                if sbk[b] > last_bucket:
+                    break
+                if sx0[b] > ax1 or ax0 > sx1[b] or sy0[b] > ay1 or ay0 > sy1[b]:
+                    continue
+                i = sid[a]
+                j = sid[b]
+                # A pair sharing several strips is emitted in the lowest one only.
+                if max(cy0[i], cy0[j]) != strip:
+                    continue
+                if m < cap:
+                    pi[m] = min(i, j)
+                    pj[m] = max(i, j)
+                m += 1
+    return m
 
 
 def local_frame(lat: np.ndarray, lon: np.ndarray) -> tuple[np.ndarray, np.ndarray, float]:
@@ -141,8 +172,8 @@ def local_frame(lat: np.ndarray, lon: np.ndarray) -> tuple[np.ndarray, np.ndarra
 
 
 @njit(cache=True)
-def snapshot_arrays(F: np.ndarray, n: int, lat_row: int, lon_row: int, alt_row: int, gs_row: int, trk_row: int,
-                    vs_row: int, r_earth: float) -> tuple:
+def snapshot_arrays(F: np.ndarray, n: int, lat_row: int, lon_row: int, alt_row: int, gseast_row: int,
+                    gsnorth_row: int, vs_row: int, r_earth: float) -> tuple:
     """Positions, velocities and the local flat frame of the first ``n`` aircraft in one pass.
 
     Returns lat, lon, alt, u (east), v (north), w (up), x, y and the frame's
@@ -169,10 +200,8 @@ def snapshot_arrays(F: np.ndarray, n: int, lat_row: int, lon_row: int, alt_row: 
     for i in range(n):
         lon[i] = F[lon_row, i]
         alt[i] = F[alt_row, i]
-        trk = math.radians(F[trk_row, i])
-        gs = F[gs_row, i]
-        u[i] = gs * math.sin(trk)
-        v[i] = gs * math.cos(trk)
+        u[i] = F[gseast_row, i]
+        v[i] = F[gsnorth_row, i]
         w[i] = F[vs_row, i]
         dlon = ((lon[i] - lon0) + 180.0) % 360.0 - 180.0
         x[i] = math.radians(dlon) * r_earth * coslat0

@@ -17,17 +17,74 @@ from numba import njit
 from aamsim.units import R_EARTH
 
 
+@njit(cache=True)
+def pair_frame(lat: np.ndarray, lon: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Per-aircraft terms of the pair formulas, computed once per check instead of once per pair.
+
+    Returns latitude and longitude in radians and the cosine and sine of half
+    the latitude: cos((lat_i + lat_j) / 2) = ch_i ch_j - sh_i sh_j.
+    """
+    n = lat.shape[0]
+    latr = np.empty(n)
+    lonr = np.empty(n)
+    ch = np.empty(n)
+    sh = np.empty(n)
+    for i in range(n):
+        latr[i] = math.radians(lat[i])
+        lonr[i] = math.radians(lon[i])
+        ch[i] = math.cos(0.5 * latr[i])
+        sh[i] = math.sin(0.5 * latr[i])
+    return latr, lonr, ch, sh
+
+
 @njit(cache=True, inline="always")
 def relative_state(
-    lat: np.ndarray, lon: np.ndarray, alt: np.ndarray, u: np.ndarray, v: np.ndarray, w: np.ndarray, i: int, j: int
+    latr: np.ndarray, lonr: np.ndarray, ch: np.ndarray, sh: np.ndarray, alt: np.ndarray, u: np.ndarray,
+    v: np.ndarray, w: np.ndarray, i: int, j: int
 ) -> tuple[float, float, float, float, float, float]:
-    """Position [m] and velocity [m/s] of j relative to i: dx, dy, dz, du, dv, dw."""
-    dlat = math.radians(lat[j] - lat[i])
-    dlon = math.radians(((lon[j] - lon[i]) + 180.0) % 360.0 - 180.0)
-    cavelat = math.cos(math.radians(lat[i] + lat[j]) * 0.5)
-    dx = R_EARTH * dlon * cavelat
-    dy = R_EARTH * dlat
-    return dx, dy, alt[j] - alt[i], u[j] - u[i], v[j] - v[i], w[j] - w[i]
+    """Position [m] and velocity [m/s] of j relative to i: dx, dy, dz, du, dv, dw.
+
+    BlueSky's formulas, ``dx = R dlon cos(mean lat)``, from the :func:`pair_frame`
+    terms: no trigonometry per pair.
+    """
+    dlon = lonr[j] - lonr[i]
+    if dlon >= math.pi:
+        dlon -= 2.0 * math.pi
+    elif dlon < -math.pi:
+        dlon += 2.0 * math.pi
+    cavelat = ch[i] * ch[j] - sh[i] * sh[j]
+    return (R_EARTH * dlon * cavelat, R_EARTH * (latr[j] - latr[i]), alt[j] - alt[i], u[j] - u[i], v[j] - v[i],
+            w[j] - w[i])
+
+
+@njit(cache=True, inline="always")
+def statebased_pair(dx: float, dy: float, dz: float, du: float, dv: float, dw: float, rpz: float, hpz: float,
+                    tlook: float) -> tuple[bool, float, float, float, float, bool]:
+    """BlueSky STATEBASED on one pair: (conflict, tcpa, dcpa, tinconf, toutconf, LoS now)."""
+    r2 = rpz * rpz
+    dist2 = dx * dx + dy * dy
+    dv2 = du * du + dv * dv
+    if abs(dv2) < 1e-6:
+        dv2 = 1e-6
+    vrel = math.sqrt(dv2)
+    tcpa = -(du * dx + dv * dy) / dv2
+    dcpa2 = abs(dist2 - tcpa * tcpa * dv2)
+    los = dist2 < r2 and abs(dz) < hpz
+    if dcpa2 >= r2:
+        return False, tcpa, math.sqrt(dcpa2), 0.0, 0.0, los
+    dtinhor = math.sqrt(max(0.0, r2 - dcpa2)) / vrel
+    tinhor = tcpa - dtinhor
+    touthor = tcpa + dtinhor
+    # Vertical, as BlueSky writes it (its floor on |dvs| is not sign-symmetric).
+    dvs = dw
+    if abs(dvs) < 1e-6:
+        dvs = 1e-6
+    tcrosshi = (dz + hpz) / -dvs
+    tcrosslo = (dz - hpz) / -dvs
+    tinconf = max(min(tcrosshi, tcrosslo), tinhor)
+    toutconf = min(max(tcrosshi, tcrosslo), touthor)
+    conf = tinconf <= toutconf and toutconf > 0.0 and tinconf < tlook
+    return conf, tcpa, math.sqrt(dcpa2), tinconf, toutconf, los
 
 
 @njit(cache=True)
@@ -61,40 +118,11 @@ def statebased(
     dcpa_out = np.zeros(m)
     tin_out = np.zeros(m)
     tout_out = np.zeros(m)
-    r2 = rpz * rpz
+    latr, lonr, ch, sh = pair_frame(lat, lon)
     for k in range(m):
-        i = pi[k]
-        j = pj[k]
-        dx, dy, dz, du, dv, dw = relative_state(lat, lon, alt, u, v, w, i, j)
-        dist2 = dx * dx + dy * dy
-        dv2 = du * du + dv * dv
-        if abs(dv2) < 1e-6:
-            dv2 = 1e-6
-        vrel = math.sqrt(dv2)
-        tcpa = -(du * dx + dv * dy) / dv2
-        dcpa2 = abs(dist2 - tcpa * tcpa * dv2)
-        tcpa_out[k] = tcpa
-        dcpa_out[k] = math.sqrt(dcpa2)
-        los[k] = dist2 < r2 and abs(dz) < hpz
-        if dcpa2 >= r2:
-            continue
-        dtinhor = math.sqrt(max(0.0, r2 - dcpa2)) / vrel
-        tinhor = tcpa - dtinhor
-        touthor = tcpa + dtinhor
-        # Vertical, as BlueSky writes it (its floor on |dvs| is not sign-symmetric).
-        dalt = dz
-        dvs = dw
-        if abs(dvs) < 1e-6:
-            dvs = 1e-6
-        tcrosshi = (dalt + hpz) / -dvs
-        tcrosslo = (dalt - hpz) / -dvs
-        tinver = min(tcrosshi, tcrosslo)
-        toutver = max(tcrosshi, tcrosslo)
-        tinconf = max(tinver, tinhor)
-        toutconf = min(toutver, touthor)
-        tin_out[k] = tinconf
-        tout_out[k] = toutconf
-        conf[k] = tinconf <= toutconf and toutconf > 0.0 and tinconf < tlook
+        dx, dy, dz, du, dv, dw = relative_state(latr, lonr, ch, sh, alt, u, v, w, pi[k], pj[k])
+        conf[k], tcpa_out[k], dcpa_out[k], tin_out[k], tout_out[k], los[k] = statebased_pair(
+            dx, dy, dz, du, dv, dw, rpz, hpz, tlook)
     return conf, tcpa_out, dcpa_out, tin_out, tout_out, los
 
 
@@ -116,7 +144,7 @@ def _interval_inside(p: float, q: float, c: float, lo: float, hi: float) -> tupl
 
 
 @njit(cache=True, inline="always")
-def _encounter(dx: float, dy: float, dz: float, du: float, dv: float, dw: float, lo: float, cylinder: bool,
+def encounter_pair(dx: float, dy: float, dz: float, du: float, dv: float, dw: float, lo: float, cylinder: bool,
                radius: float, half_height: float) -> tuple[bool, float, float, float, float]:
     """Inside-interval of one pair in [lo, 0]: (inside, t_in, t_out, min 3-D distance, its time)."""
     if cylinder:
@@ -171,70 +199,15 @@ def volume_encounters(
     t_out = np.zeros(m)
     dmin = np.zeros(m)
     t_min = np.zeros(m)
+    latr, lonr, ch, sh = pair_frame(lat, lon)
     for k in range(m):
         i = pi[k]
         j = pj[k]
-        dx, dy, dz, du, dv, dw = relative_state(lat, lon, alt, u, v, w, i, j)
+        dx, dy, dz, du, dv, dw = relative_state(latr, lonr, ch, sh, alt, u, v, w, i, j)
         lo = -min(lookback[i], lookback[j])
-        inside[k], t_in[k], t_out[k], dmin[k], t_min[k] = _encounter(dx, dy, dz, du, dv, dw, lo, cylinder, radius,
+        inside[k], t_in[k], t_out[k], dmin[k], t_min[k] = encounter_pair(dx, dy, dz, du, dv, dw, lo, cylinder, radius,
                                                                      half_height)
     return inside, t_in, t_out, dmin, t_min
-
-
-@njit(cache=True)
-def proximity_pass(
-    lat: np.ndarray,
-    lon: np.ndarray,
-    alt: np.ndarray,
-    u: np.ndarray,
-    v: np.ndarray,
-    w: np.ndarray,
-    lookback: np.ndarray,
-    pi: np.ndarray,
-    pj: np.ndarray,
-    radii: np.ndarray,
-    cylinder: np.ndarray,
-    half_heights: np.ndarray,
-    closest_range: float,
-) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, float]:
-    """Encounters of every volume and closest-intruder distances in one pass over the candidate pairs.
-
-    Returns per volume (rows) and pair (columns): inside, t_in, t_out, dmin, t_min;
-    the number of inside pairs per volume; per aircraft the distance to its
-    closest intruder within ``closest_range`` (inf beyond); and the smallest
-    pair distance now.
-    """
-    m = pi.shape[0]
-    nv = radii.shape[0]
-    n = lat.shape[0]
-    inside = np.zeros((nv, m), dtype=np.bool_)
-    t_in = np.zeros((nv, m))
-    t_out = np.zeros((nv, m))
-    dmin = np.zeros((nv, m))
-    t_min = np.zeros((nv, m))
-    count = np.zeros(nv, dtype=np.int64)
-    closest = np.full(n, np.inf)
-    dmin_now = np.inf
-    for k in range(m):
-        i = pi[k]
-        j = pj[k]
-        dx, dy, dz, du, dv, dw = relative_state(lat, lon, alt, u, v, w, i, j)
-        d = math.sqrt(dx * dx + dy * dy + dz * dz)
-        dmin_now = min(dmin_now, d)
-        if d <= closest_range:
-            closest[i] = min(closest[i], d)
-            closest[j] = min(closest[j], d)
-        lo = -min(lookback[i], lookback[j])
-        for q in range(nv):
-            ok, a, b, dm, tau = _encounter(dx, dy, dz, du, dv, dw, lo, cylinder[q], radii[q], half_heights[q])
-            if ok:
-                inside[q, k] = True
-                t_in[q, k] = a
-                t_out[q, k] = b
-                dmin[q, k] = dm
-                t_min[q, k] = tau
-                count[q] += 1
-    return inside, t_in, t_out, dmin, t_min, count, closest, dmin_now
 
 
 @njit(cache=True)
@@ -276,14 +249,3 @@ def nearest_per_aircraft(n: int, pi: np.ndarray, pj: np.ndarray, d: np.ndarray,
             dist[b] = dd
             idx[b] = a
     return dist, idx
-
-
-@njit(cache=True)
-def max_per_aircraft(n: int, pi: np.ndarray, pj: np.ndarray, values: np.ndarray) -> np.ndarray:
-    """Per aircraft, the largest value over its pairs (0 if none)."""
-    out = np.zeros(n)
-    for k in range(pi.shape[0]):
-        v = values[k]
-        out[pi[k]] = max(out[pi[k]], v)
-        out[pj[k]] = max(out[pj[k]], v)
-    return out

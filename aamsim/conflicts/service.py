@@ -27,15 +27,9 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from aamsim.conflicts.events import EventLog, SeparationEvent
+from aamsim.conflicts.fused import detect_all
 from aamsim.conflicts.grid import candidate_pairs, snapshot_arrays, swept_boxes
-from aamsim.conflicts.pairs import (
-    max_per_aircraft,
-    nearest_per_aircraft,
-    proximity_pass,
-    slant_distances,
-    statebased,
-    volume_encounters,
-)
+from aamsim.conflicts.pairs import nearest_per_aircraft, slant_distances, volume_encounters
 from aamsim.traffic import fields as f
 from aamsim.units import R_EARTH
 
@@ -43,6 +37,7 @@ if TYPE_CHECKING:
     from aamsim.simulation import Simulation
 
 EXTENSION_KEY = "conflicts"
+_SNAPSHOT_ROWS = np.array([f.LAT, f.LON, f.ALT, f.GSEAST, f.GSNORTH, f.VS], dtype=np.int64)
 
 
 @dataclass(frozen=True)
@@ -108,7 +103,8 @@ class TrafficSnapshot:
 def traffic_snapshot(sim: Simulation) -> TrafficSnapshot:
     """Positions, velocities (east, north, up) and the local frame of all aircraft now."""
     t = sim.traffic
-    lat, lon, alt, u, v, w, x, y, err = snapshot_arrays(t.F, t.n, f.LAT, f.LON, f.ALT, f.GS, f.TRK, f.VS, R_EARTH)
+    lat, lon, alt, u, v, w, x, y, err = snapshot_arrays(t.F, t.n, f.LAT, f.LON, f.ALT, f.GSEAST, f.GSNORTH, f.VS,
+                                                         R_EARTH)
     return TrafficSnapshot(list(t.ids), lat, lon, alt, u, v, w, x, y, err)
 
 
@@ -131,12 +127,16 @@ class ConflictService:
     state: ConflictState | None = None
     conflict_pairs_total: int = 0  # new conflict pairs (i<j) over the run
     min_separation_m: float = math.inf
-    _closest_ids: list[str] = field(default_factory=list)
+    _closest_ids: tuple[str, ...] = ()
     _closest_arr: np.ndarray = field(default_factory=lambda: np.empty(0))
     _conflict_keys: np.ndarray = field(default_factory=lambda: np.empty(0, dtype=np.int64))
     _serials: dict[str, int] = field(default_factory=dict)
     _serial_ids: list[str] = field(default_factory=list)
     _serial_array: np.ndarray = field(default_factory=lambda: np.empty(0, dtype=np.int64))
+    _rank_array: np.ndarray = field(default_factory=lambda: np.empty(0, dtype=np.int64))  # callsign order per slot
+    _volume_cache: tuple | None = None
+    _serial_version: tuple | None = None  # (traffic, layout version) the serial cache was built for
+    _conflicts_hint: int = 0  # conflicts at the last check: sizes the next check's output
     _last_check_s: float = -math.inf
 
     # ------------------------------------------------------------- lifecycle
@@ -151,9 +151,10 @@ class ConflictService:
         self._conflict_keys = np.empty(0, dtype=np.int64)
         self._serials.clear()
         self._serial_ids = []
+        self._serial_version = None
         self._last_check_s = -math.inf
         self.state = None
-        self._closest_ids, self._closest_arr = [], np.empty(0)
+        self._closest_ids, self._closest_arr = (), np.empty(0)
 
     def set_volume(self, volume: SeparationVolume) -> None:
         self.volumes = tuple(v for v in self.volumes if v.name != volume.name) + (volume,)
@@ -173,54 +174,58 @@ class ConflictService:
 
     def check(self, sim: Simulation) -> None:
         """Run all detections on the current state (the post-step hook)."""
-        s = traffic_snapshot(sim)
-        n = len(s.ids)
-        if sim.settings.cd_method != "OFF":
-            self._detect_conflicts(sim, s)
+        t = sim.traffic
+        st = sim.settings
+        n = t.n
+        cd_on = st.cd_method != "OFF"
+        radii, cylinder, half_heights = self._volume_arrays()
+        (ci, cj, tcpa, dcpa, tin, li, lj, inconf, tcpamax, _eq, ei, ej, e_in, e_out, e_dmin, e_tmin, e_pos, count,
+         closest, dnow) = detect_all(t.F, n, _SNAPSHOT_ROWS, R_EARTH, self._lookback(sim, n), cd_on, st.zoner_m,
+                                     st.zonedh_m, st.dtlook_s, radii, cylinder, half_heights, self.closest_range_m,
+                                     self._conflicts_hint)
+        self._conflicts_hint = len(ci) + len(ci) // 4
+        ids = t.ids
+        serial = self._serials_of(ids, t)
+        ids_now = tuple(ids)
+        if cd_on:
+            self.state = ConflictState(ids_now, ci, cj, tcpa, dcpa, tin, li, lj, inconf, tcpamax)
+            self._count_new_conflicts(serial, ci, cj)
         elif self.state is not None:
             self.state = None
             self._conflict_keys = np.empty(0, dtype=np.int64)
-        lookback = self._lookback(sim, n)
-        radius = max([v.radius_m for v in self.volumes] + [self.closest_range_m])
-        pi, pj = search_pairs(s, -lookback, np.zeros(n), radius)
-        vols = self.volumes
-        inside, t_in, t_out, dmin, t_min, count, closest, dnow = proximity_pass(
-            s.lat, s.lon, s.alt, s.u, s.v, s.w, lookback, pi, pj,
-            np.array([v.radius_m for v in vols]), np.array([v.cylinder for v in vols], dtype=np.bool_),
-            np.array([v.half_height_m or 0.0 for v in vols]), self.closest_range_m,
-        )
-        for q, vol in enumerate(vols):
+        lo = 0
+        for q, vol in enumerate(self.volumes):
+            hi = lo + int(count[q])  # inside pairs come grouped by volume
             log = self._log(vol.name)
-            if count[q] == 0 and len(log.open_keys) == 0:
-                continue  # nothing inside and nothing open: the common case
-            ks = np.flatnonzero(inside[q])
-            self._merge_events(log, sim.simt, s, pi[ks], pj[ks], t_in[q, ks], t_out[q, ks], dmin[q, ks],
-                               t_min[q, ks], None)
-        self._closest_ids, self._closest_arr = s.ids, closest
+            if hi > lo or len(log.open_keys):
+                self._merge_events(log, sim.simt, ids, serial, ei[lo:hi], ej[lo:hi], e_in[lo:hi], e_out[lo:hi],
+                                   e_dmin[lo:hi], e_tmin[lo:hi], e_pos[lo:hi], None)
+            lo = hi
+        self._closest_ids, self._closest_arr = ids_now, closest
         self.min_separation_m = min(self.min_separation_m, dnow)
         for log in self.logs.values():
             if len(log.open_rows):
                 self.min_separation_m = min(self.min_separation_m, float(log.dmin[log.open_rows].min()))
         self._last_check_s = sim.simt
 
-    def _detect_conflicts(self, sim: Simulation, s: TrafficSnapshot) -> None:
-        st = sim.settings
-        n = len(s.ids)
-        pi, pj = search_pairs(s, np.zeros(n), np.full(n, st.dtlook_s), st.zoner_m)
-        conf, tcpa, dcpa, tin, _tout, los = statebased(s.lat, s.lon, s.alt, s.u, s.v, s.w, pi, pj,
-                                                       st.zoner_m, st.zonedh_m, st.dtlook_s)
-        ci, cj = pi[conf], pj[conf]
-        inconf = np.zeros(n, dtype=bool)
-        inconf[ci] = True
-        inconf[cj] = True
-        tcpamax = max_per_aircraft(n, ci, cj, tcpa[conf])
-        self.state = ConflictState(tuple(s.ids), ci, cj, tcpa[conf], dcpa[conf], tin[conf], pi[los], pj[los],
-                                   inconf, tcpamax)
-        # Count pairs that were not in conflict at the previous detection.
-        serial = self._serials_of(s.ids)
+    def _volume_arrays(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        vols = self.volumes
+        if self._volume_cache is None or self._volume_cache[0] is not vols:
+            self._volume_cache = (vols, np.array([v.radius_m for v in vols], dtype=np.float64),
+                                  np.array([v.cylinder for v in vols], dtype=np.bool_),
+                                  np.array([v.half_height_m or 0.0 for v in vols], dtype=np.float64))
+        return self._volume_cache[1], self._volume_cache[2], self._volume_cache[3]
+
+    def _count_new_conflicts(self, serial: np.ndarray, ci: np.ndarray, cj: np.ndarray) -> None:
+        """Count conflict pairs that were not in conflict at the previous detection."""
         a, b = serial[ci], serial[cj]
-        keys = np.minimum(a, b) * (1 << 32) + np.maximum(a, b)
-        self.conflict_pairs_total += int(np.count_nonzero(~np.isin(keys, self._conflict_keys)))
+        keys = np.sort(np.minimum(a, b) * (1 << 32) + np.maximum(a, b))
+        prev = self._conflict_keys
+        if len(prev):
+            pos = np.minimum(np.searchsorted(prev, keys), len(prev) - 1)
+            self.conflict_pairs_total += int(np.count_nonzero(prev[pos] != keys))
+        else:
+            self.conflict_pairs_total += len(keys)
         self._conflict_keys = keys
 
     def _serial(self, acid: str) -> int:
@@ -235,37 +240,41 @@ class ConflictService:
             log = self.logs[volume] = EventLog(volume)
         return log
 
-    def _serials_of(self, ids: list[str]) -> np.ndarray:
+    def _serials_of(self, ids: list[str], traffic: object = None) -> np.ndarray:
+        """Serial number per slot (stable over the run, unlike slots); cached while the slots hold the same ids.
+
+        With ``traffic`` (whose ``ids`` these are), its layout version tells whether the slots changed.
+        """
+        if traffic is not None:
+            version = (traffic, traffic.layout_version)  # type: ignore[attr-defined]
+            if self._serial_version is not None and version[0] is self._serial_version[0] \
+                    and version[1] == self._serial_version[1]:
+                return self._serial_array
+            self._serial_version = version
+        else:
+            self._serial_version = None
         if ids != self._serial_ids:
             self._serial_ids = list(ids)
             self._serial_array = np.fromiter((self._serial(a) for a in ids), dtype=np.int64, count=len(ids))
+            self._rank_array = np.empty(len(ids), dtype=np.int64)
+            self._rank_array[np.argsort(np.array(ids, dtype=object), kind="stable")] = np.arange(len(ids))
         return self._serial_array
 
-    def _merge_events(self, log: EventLog, now: float, s: TrafficSnapshot, ii: np.ndarray, jj: np.ndarray,
-                      t_in: np.ndarray, t_out: np.ndarray, dmin: np.ndarray, t_min: np.ndarray,
-                      only: str | None) -> None:
-        """Merge one check's inside pairs (slots ii, jj) into a volume's log.
+    def _merge_events(self, log: EventLog, now: float, ids: list[str], serial: np.ndarray, ii: np.ndarray,
+                      jj: np.ndarray, t_in: np.ndarray, t_out: np.ndarray, dmin: np.ndarray, t_min: np.ndarray,
+                      pos: np.ndarray, only: str | None) -> None:
+        """Merge one check's inside pairs (slots ii, jj; ``pos``: their positions at t_min) into a volume's log.
 
-        ``only``: restrict closing unseen open events to those of this callsign
-        (the last check of a deleted aircraft).
+        ``serial``: :meth:`_serials_of` ``ids``. ``only``: restrict closing unseen open
+        events to those of this callsign (the last check of a deleted aircraft).
         """
-        serial = self._serials_of(s.ids)
-        # Events name the pair in callsign order.
-        swap = np.array([s.ids[a] > s.ids[b] for a, b in zip(ii.tolist(), jj.tolist())], dtype=bool)
-        first = np.where(swap, jj, ii)
-        second = np.where(swap, ii, jj)
-        p1 = _extrapolate(s, first, t_min)
-        p2 = _extrapolate(s, second, t_min)
-        pos = np.column_stack([p1[0], p1[1], p1[2], p2[0], p2[1], p2[2]]) if len(ii) else np.empty((0, 6))
-        sa, sb = serial[first], serial[second]
-        keys = np.minimum(sa, sb) * (1 << 32) + np.maximum(sa, sb)
         unseen_filter = None
         if only is not None:
             mine = self._serial(only)
             hi, lo = log.open_keys >> 32, log.open_keys & 0xFFFFFFFF
             unseen_filter = log.open_keys[(hi == mine) | (lo == mine)]
-        log.update(now, self._last_check_s, keys, [s.ids[a] for a in first.tolist()],
-                   [s.ids[b] for b in second.tolist()], t_in, t_out, dmin, t_min, pos, unseen_filter)
+        log.update(now, self._last_check_s, ids, ii, jj, serial, self._rank_array, t_in, t_out, dmin, t_min, pos,
+                   unseen_filter)
 
     def _track_events(self, now: float, s: TrafficSnapshot, lookback: np.ndarray, pi: np.ndarray, pj: np.ndarray,
                       only: str | None) -> None:
@@ -279,7 +288,11 @@ class ConflictService:
             ks = np.flatnonzero(inside)
             if len(ks) == 0 and len(log.open_keys) == 0:
                 continue
-            self._merge_events(log, now, s, pi[ks], pj[ks], t_in[ks], t_out[ks], dmin[ks], t_min[ks], only)
+            ii, jj, tau = pi[ks], pj[ks], t_min[ks]
+            p1, p2 = _extrapolate(s, ii, tau), _extrapolate(s, jj, tau)
+            pos = np.column_stack(p1 + p2) if len(ks) else np.empty((0, 6))
+            self._merge_events(log, now, s.ids, self._serials_of(s.ids), ii, jj, t_in[ks], t_out[ks], dmin[ks], tau,
+                               pos, only)
 
     def on_deleted(self, sim: Simulation, slot: int, record: object) -> None:
         """Check the deleted aircraft's last interval before it disappears."""

@@ -56,6 +56,7 @@ class Traffic:
 
     capacity: int = 64
     n: int = 0
+    layout_version: int = 0  # changes whenever an aircraft is created or deleted (slots move)
     F: np.ndarray = field(init=False, repr=False)
     B: np.ndarray = field(init=False, repr=False)
     ids: list[str] = field(default_factory=list)
@@ -138,6 +139,7 @@ class Traffic:
             self._grow()
         i = self.n
         self.n += 1
+        self.layout_version += 1
         F, B = self.F, self.B
         F[:, i] = 0.0
         B[:, i] = False
@@ -222,6 +224,7 @@ class Traffic:
         for seq in (self.ids, self.types, self.routes, self.flights):
             seq.pop()  # type: ignore[attr-defined]
         self.n -= 1
+        self.layout_version += 1
         return record
 
     def clear(self) -> list[FlightRecord]:

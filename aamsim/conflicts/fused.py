@@ -1,0 +1,280 @@
+"""Everything a conflict check computes, in one compiled pass.
+
+The traffic kernel advances 1,000 aircraft by one second in about a
+millisecond, so a check that calls a dozen compiled functions and builds the
+intermediate arrays in Python costs as much as the flight itself. This pass
+reads the traffic matrix once and returns only what the service keeps: the
+conflict pairs of state-based detection, the pairs inside each separation
+volume during the last interval (with their closest points), and the
+closest-intruder distances.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+from aamsim.conflicts.grid import Strips, build_strips, candidate_pairs, swept_boxes
+from aamsim.conflicts.pairs import encounter_pair, relative_state, statebased_pair
+
+
+@njit(cache=True)
+def _snapshot(F: np.ndarray, n: int, rows: np.ndarray, r_earth: float) -> tuple:
+    """:func:`~aamsim.conflicts.grid.snapshot_arrays` and :func:`~aamsim.conflicts.pairs.pair_frame` in one loop."""
+    lat = np.empty(n)
+    lon = np.empty(n)
+    alt = np.empty(n)
+    u = np.empty(n)
+    v = np.empty(n)
+    w = np.empty(n)
+    x = np.empty(n)
+    y = np.empty(n)
+    latr = np.empty(n)
+    lonr = np.empty(n)
+    ch = np.empty(n)
+    sh = np.empty(n)
+    if n == 0:
+        return lat, lon, alt, u, v, w, x, y, 0.0, latr, lonr, ch, sh
+    r_lat, r_lon, r_alt, r_east, r_north, r_vs = rows[0], rows[1], rows[2], rows[3], rows[4], rows[5]
+    lat0 = 0.0
+    for i in range(n):
+        lat0 += F[r_lat, i]
+    lat0 /= n
+    lon0 = F[r_lon, 0]
+    coslat0 = math.cos(math.radians(lat0))
+    spread = 0.0
+    for i in range(n):
+        la = F[r_lat, i]
+        lo = F[r_lon, i]
+        lat[i] = la
+        lon[i] = lo
+        alt[i] = F[r_alt, i]
+        u[i] = F[r_east, i]
+        v[i] = F[r_north, i]
+        w[i] = F[r_vs, i]
+        dlon = ((lo - lon0) + 180.0) % 360.0 - 180.0
+        x[i] = math.radians(dlon) * r_earth * coslat0
+        y[i] = math.radians(la - lat0) * r_earth
+        spread = max(spread, abs(la - lat0))
+        latr[i] = math.radians(la)
+        lonr[i] = math.radians(lo)
+        ch[i] = math.cos(0.5 * latr[i])
+        sh[i] = math.sin(0.5 * latr[i])
+    err = abs(math.cos(math.radians(abs(lat0) + spread)) / coslat0 - 1.0) if coslat0 > 0 else 1.0
+    return lat, lon, alt, u, v, w, x, y, err, latr, lonr, ch, sh
+
+
+@njit(cache=True)
+def _sweep_statebased(strips: Strips, latr: np.ndarray, lonr: np.ndarray, ch: np.ndarray, sh: np.ndarray,
+                      alt: np.ndarray, u: np.ndarray, v: np.ndarray, w: np.ndarray, rpz: float, hpz: float,
+                      tlook: float, ci: np.ndarray, cj: np.ndarray, ctcpa: np.ndarray, cdcpa: np.ndarray,
+                      ctin: np.ndarray, li: np.ndarray, lj: np.ndarray, inconf: np.ndarray,
+                      tcpamax: np.ndarray) -> tuple[int, int]:
+    """STATEBASED on every pair of overlapping boxes, as the strip sweep finds them.
+
+    Conflicts and LoS pairs are written while they fit the output arrays; the
+    counts are returned (the caller runs it again with larger arrays if needed).
+    Testing pairs as they are found saves writing and re-reading the candidates.
+    """
+    sx0, sx1, sy0, sy1, sid, sbk, strip_start, cy0, x0, qx = strips
+    ccap = ci.shape[0]
+    lcap = li.shape[0]
+    nc = 0
+    nl = 0
+    for strip in range(strip_start.shape[0] - 1):
+        stop = strip_start[strip + 1]
+        for a in range(strip_start[strip], stop):
+            ax0 = sx0[a]
+            ax1 = sx1[a]
+            ay0 = sy0[a]
+            ay1 = sy1[a]
+            last_bucket = np.int64((ax1 - x0) / qx)
+            for b in range(a + 1, stop):
+                if sbk[b] > last_bucket:
+                    break
+                if sx0[b] > ax1 or ax0 > sx1[b] or sy0[b] > ay1 or ay0 > sy1[b]:
+                    continue
+                i = min(sid[a], sid[b])
+                j = max(sid[a], sid[b])
+                if max(cy0[i], cy0[j]) != strip:
+                    continue
+                dx, dy, dz, du, dv, dw = relative_state(latr, lonr, ch, sh, alt, u, v, w, i, j)
+                conf, tcpa, dcpa, tin, _tout, los = statebased_pair(dx, dy, dz, du, dv, dw, rpz, hpz, tlook)
+                if los:
+                    if nl < lcap:
+                        li[nl] = i
+                        lj[nl] = j
+                    nl += 1
+                if conf:
+                    if nc < ccap:
+                        ci[nc] = i
+                        cj[nc] = j
+                        ctcpa[nc] = tcpa
+                        cdcpa[nc] = dcpa
+                        ctin[nc] = tin
+                    nc += 1
+                    inconf[i] = True
+                    inconf[j] = True
+                    tcpamax[i] = max(tcpamax[i], tcpa)
+                    tcpamax[j] = max(tcpamax[j], tcpa)
+    return nc, nl
+
+
+@njit(cache=True)
+def _conflicts(x: np.ndarray, y: np.ndarray, err: float, latr: np.ndarray, lonr: np.ndarray, ch: np.ndarray,
+               sh: np.ndarray, alt: np.ndarray, u: np.ndarray, v: np.ndarray, w: np.ndarray, rpz: float, hpz: float,
+               tlook: float, cap_hint: int) -> tuple:
+    """State-based conflict detection over [0, tlook]: conflicts, LoS pairs and per-aircraft flags.
+
+    ``cap_hint``: expected number of conflicts (the previous check's), to size the outputs.
+    """
+    n = alt.shape[0]
+    inconf = np.zeros(n, dtype=np.bool_)
+    tcpamax = np.zeros(n)
+    if n < 2:
+        e = np.empty(0, dtype=np.int64)
+        f = np.empty(0)
+        return e, e, f, f, f, e, e, inconf, tcpamax
+    xmin, xmax, ymin, ymax, cell = swept_boxes(x, y, u, v, np.zeros(n), np.full(n, tlook), rpz, err)
+    strips = build_strips(xmin, xmax, ymin, ymax, cell)
+    ccap = max(4 * n, cap_hint) + 64
+    lcap = max(n, cap_hint // 4) + 64
+    while True:
+        ci = np.empty(ccap, dtype=np.int64)
+        cj = np.empty(ccap, dtype=np.int64)
+        ctcpa = np.empty(ccap)
+        cdcpa = np.empty(ccap)
+        ctin = np.empty(ccap)
+        li = np.empty(lcap, dtype=np.int64)
+        lj = np.empty(lcap, dtype=np.int64)
+        nc, nl = _sweep_statebased(strips, latr, lonr, ch, sh, alt, u, v, w, rpz, hpz, tlook, ci, cj, ctcpa, cdcpa,
+                                   ctin, li, lj, inconf, tcpamax)
+        if nc <= ccap and nl <= lcap:
+            return ci[:nc], cj[:nc], ctcpa[:nc], cdcpa[:nc], ctin[:nc], li[:nl], lj[:nl], inconf, tcpamax
+        ccap = max(ccap, nc)
+        lcap = max(lcap, nl)
+
+
+@njit(cache=True)
+def _volume_pass(lat: np.ndarray, lon: np.ndarray, latr: np.ndarray, lonr: np.ndarray, ch: np.ndarray,
+                 sh: np.ndarray, alt: np.ndarray, u: np.ndarray, v: np.ndarray, w: np.ndarray, lookback: np.ndarray,
+                 pi: np.ndarray, pj: np.ndarray, radii: np.ndarray, cylinder: np.ndarray, half_heights: np.ndarray,
+                 closest_range: float, r_earth: float) -> tuple:
+    """Pairs inside each volume over their last interval, closest-intruder distances and the smallest distance."""
+    n = alt.shape[0]
+    m = pi.shape[0]
+    nv = radii.shape[0]
+    inside = np.zeros((nv, m), dtype=np.bool_)
+    t_in = np.empty((nv, m))
+    t_out = np.empty((nv, m))
+    dmin = np.empty((nv, m))
+    t_min = np.empty((nv, m))
+    count = np.zeros(nv, dtype=np.int64)
+    closest = np.full(n, np.inf)
+    dnow = np.inf
+    for k in range(m):
+        i = pi[k]
+        j = pj[k]
+        dx, dy, dz, du, dv, dw = relative_state(latr, lonr, ch, sh, alt, u, v, w, i, j)
+        d = math.sqrt(dx * dx + dy * dy + dz * dz)
+        dnow = min(dnow, d)
+        if d <= closest_range:
+            closest[i] = min(closest[i], d)
+            closest[j] = min(closest[j], d)
+        lo = -min(lookback[i], lookback[j])
+        for q in range(nv):
+            ok, a, b, dm, tau = encounter_pair(dx, dy, dz, du, dv, dw, lo, cylinder[q], radii[q], half_heights[q])
+            inside[q, k] = ok
+            t_in[q, k] = a
+            t_out[q, k] = b
+            dmin[q, k] = dm
+            t_min[q, k] = tau
+            count[q] += ok
+    total = 0
+    for q in range(nv):
+        total += count[q]
+    eq = np.empty(total, dtype=np.int64)
+    ei = np.empty(total, dtype=np.int64)
+    ej = np.empty(total, dtype=np.int64)
+    etin = np.empty(total)
+    etout = np.empty(total)
+    edmin = np.empty(total)
+    etmin = np.empty(total)
+    epos = np.empty((total, 6))
+    e = 0
+    for q in range(nv):
+        for k in range(m):
+            if not inside[q, k]:
+                continue
+            tau = t_min[q, k]
+            eq[e] = q
+            ei[e] = pi[k]
+            ej[e] = pj[k]
+            etin[e] = t_in[q, k]
+            etout[e] = t_out[q, k]
+            edmin[e] = dmin[q, k]
+            etmin[e] = tau
+            # Positions on the straight paths at the closest point.
+            for c in range(2):
+                s = pi[k] if c == 0 else pj[k]
+                epos[e, 3 * c] = lat[s] + math.degrees(v[s] * tau / r_earth)
+                epos[e, 3 * c + 1] = lon[s] + math.degrees(
+                    u[s] * tau / (r_earth * max(1e-6, math.cos(math.radians(lat[s])))))
+                epos[e, 3 * c + 2] = alt[s] + w[s] * tau
+            e += 1
+    return eq, ei, ej, etin, etout, edmin, etmin, epos, count, closest, dnow
+
+
+@njit(cache=True)
+def detect_all(
+    F: np.ndarray,
+    n: int,
+    rows: np.ndarray,
+    r_earth: float,
+    lookback: np.ndarray,
+    cd_on: bool,
+    rpz: float,
+    hpz: float,
+    tlook: float,
+    radii: np.ndarray,
+    cylinder: np.ndarray,
+    half_heights: np.ndarray,
+    closest_range: float,
+    cap_hint: int = 0,
+) -> tuple:
+    """One conflict check on the first ``n`` aircraft of the traffic matrix ``F``.
+
+    Args:
+        rows: row numbers of lat, lon, alt, ground speed east and north, vs in ``F``.
+        lookback: per aircraft, seconds back to the previous check (or its creation).
+        cd_on: run BlueSky STATEBASED detection with ``rpz`` [m], ``hpz`` [m] and ``tlook`` [s].
+        radii, cylinder, half_heights: the separation volumes.
+        closest_range: closest-intruder distances beyond this [m] are inf.
+        cap_hint: expected number of conflicts (sizes the output; any number is correct).
+
+    Returns:
+        Conflicts (i, j, tcpa, dcpa, tinconf), LoS pairs (i, j), per-aircraft
+        in-conflict flag and largest tcpa; inside pairs of every volume
+        (volume, i, j, t_in, t_out, dmin, t_min, positions of i and j at t_min
+        as lat, lon, alt each); per-volume inside counts; per-aircraft closest
+        distance; the smallest pair distance now.
+    """
+    lat, lon, alt, u, v, w, x, y, err, latr, lonr, ch, sh = _snapshot(F, n, rows, r_earth)
+    zeros = np.zeros(n)
+    empty = np.empty(0, dtype=np.int64)
+    conflicts = _conflicts(x, y, err, latr, lonr, ch, sh, alt, u, v, w, rpz, hpz, tlook, cap_hint) if cd_on else \
+        _conflicts(x[:0], y[:0], err, latr[:0], lonr[:0], ch[:0], sh[:0], alt[:0], u[:0], v[:0], w[:0], rpz, hpz,
+                   tlook, 0)
+    radius = closest_range
+    for q in range(radii.shape[0]):
+        radius = max(radius, radii[q])
+    if n >= 2:
+        xmin, xmax, ymin, ymax, cell = swept_boxes(x, y, u, v, -lookback, zeros, radius, err)
+        pi, pj = candidate_pairs(xmin, xmax, ymin, ymax, cell)
+    else:
+        pi, pj = empty, empty
+    volumes = _volume_pass(lat, lon, latr, lonr, ch, sh, alt, u, v, w, lookback, pi, pj, radii, cylinder,
+                           half_heights, closest_range, r_earth)
+    return conflicts + volumes
