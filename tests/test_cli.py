@@ -126,6 +126,14 @@ HEAD_ON = ("00:00:00.00>CRE A EC35 0 0 0 1000 100\n00:00:00.00>CRE B EC35 0.036 
 
 def test_compare_risk_ratio_and_refusals(tmp_path):
     base = _run(tmp_path, "enc", HEAD_ON, 1)
+    with open(base / "conflicts.csv") as fh:
+        events = list(csv.DictReader(fh))
+    # Two head-on pairs (A-B, C-D), one NMAC and one LoWC each; tracks 0 and 180 deg at the closest point.
+    assert sorted((e["volume"], e["ac1"], e["ac2"]) for e in events) == [
+        ("lowc", "A", "B"), ("lowc", "C", "D"), ("nmac", "A", "B"), ("nmac", "C", "D")]
+    assert {e["encounter"] for e in events} == {"head-on"}
+    assert {(float(e["trk1_deg"]), float(e["trk2_deg"])) for e in events} == {(0.0, 180.0)}
+    assert all(float(e["gs1_mps"]) > 50 and float(e["vs2_mps"]) == 0.0 for e in events)
     # "Equipped": the same scenario with one aircraft pair avoided by a speed change.
     equipped_dir = tmp_path / "eq"
     equipped_dir.mkdir()

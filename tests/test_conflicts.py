@@ -11,6 +11,7 @@ from hypothesis import strategies as st
 
 from aamsim import Simulation
 from aamsim.conflicts import SeparationVolume, closest_intruders, conflicts_of
+from aamsim.conflicts.events import encounter_type, track_speed
 from aamsim.conflicts.pairs import slant_distances, statebased, volume_encounters
 from aamsim.conflicts.service import search_pairs, traffic_snapshot
 from aamsim.units import FT
@@ -44,6 +45,8 @@ def test_head_on_same_altitude_one_nmac_one_lowc():
     tas = float(sim.traffic.tas[0])
     assert ev.start_s == pytest.approx((2000 - 75) / tas, abs=0.05)
     assert ev.end_s == pytest.approx((2000 + 75) / tas, abs=0.05)
+    assert ev.encounter == "head-on"
+    assert track_speed(ev.vel1)[:2] == pytest.approx((0.0, tas)) and track_speed(ev.vel2)[0] == pytest.approx(180.0)
 
 
 def test_parallel_tracks_300_m_apart_lowc_only():
@@ -81,6 +84,7 @@ def test_in_trail_overtake_twice_is_two_events():
     assert all(not e.active for e in lowc)
     assert lowc[0].end_s < lowc[1].start_s
     assert counts(sim)[0] == 2  # they also pass within 150 m (same track) twice
+    assert {e.encounter for e in lowc} == {"same-direction"}
 
 
 def test_three_aircraft_cluster_three_pairs():
@@ -95,6 +99,18 @@ def test_three_aircraft_cluster_three_pairs():
     assert (nmac, lowc) == (3, 3)
     pairs = {(e.ac1, e.ac2) for e in conflicts_of(sim).events if e.volume == "lowc"}
     assert pairs == {("A", "B"), ("A", "C"), ("B", "C")}
+    assert {e.encounter for e in conflicts_of(sim).events} == {"crossing"}  # tracks 120 deg apart
+
+
+def test_encounter_types():
+    east, north = (70.0, 0.0, 0.0), (0.0, 70.0, 0.0)
+    assert encounter_type(north, north) == "same-direction"
+    assert encounter_type(north, (0.0, -60.0, 0.0)) == "head-on"
+    assert encounter_type(north, east) == "crossing"
+    assert encounter_type(north, (0.0, 0.5, 0.0)) == "hover"
+    assert encounter_type(north, (0.0, 60.0, 2.0)) == "vertical"
+    assert encounter_type(north, (math.nan,) * 3) == ""
+    assert track_speed((-1.0, 0.0, 0.5)) == pytest.approx((270.0, 1.0, 0.5))
 
 
 def test_short_encounter_between_checks_is_not_missed():

@@ -179,6 +179,15 @@ def test_evaluate_compare_and_report(tmp_path, trained_run):
     assert [r[0] for r in table[1:]] == ["D2MAV-A No Shared Layers", "MVP speed-only (rule-based)"]
     assert "±" in table[1][1]
     assert (rep / "reward_curve.png").read_bytes()[:4] == b"\x89PNG"
+    with open(rep / "nmac_encounters.csv", newline="") as fh:
+        enc = list(csv.DictReader(fh))
+    assert {r["Algorithm"] for r in enc} >= {"Unequipped", "D2MAV-A No Shared Layers"}
+    for r in enc:  # every NMAC has exactly one geometry
+        kinds = ("same-direction", "head-on", "crossing", "vertical", "hover")
+        assert sum(float(r[k].split(" ± ")[0]) for k in kinds) == pytest.approx(
+            float(r["NMAC / episode"].split(" ± ")[0]), abs=0.02)
+    unequipped = next(r for r in enc if r["Algorithm"] == "Unequipped")
+    assert float(unequipped["NMAC / episode"].split(" ± ")[0]) > 0
 
 
 def test_aamgym_usage():

@@ -26,8 +26,10 @@ class SeparationEvent:
     end_s: float = math.nan
     min_dist_m: float = math.inf
     t_min_s: float = math.nan
-    pos1: tuple[float, float, float] = (math.nan, math.nan, math.nan)
+    pos1: tuple[float, float, float] = (math.nan, math.nan, math.nan)  # lat, lon, alt [m]
     pos2: tuple[float, float, float] = (math.nan, math.nan, math.nan)
+    vel1: tuple[float, float, float] = (math.nan, math.nan, math.nan)  # east, north, up [m/s]
+    vel2: tuple[float, float, float] = (math.nan, math.nan, math.nan)
 
     @property
     def active(self) -> bool:
@@ -35,6 +37,40 @@ class SeparationEvent:
 
     def duration_s(self, now_s: float) -> float:
         return (now_s if self.active else self.end_s) - self.start_s
+
+    @property
+    def encounter(self) -> str:
+        """The geometry at the closest point (:func:`encounter_type`)."""
+        return encounter_type(self.vel1, self.vel2)
+
+
+def track_speed(vel: tuple[float, float, float]) -> tuple[float, float, float]:
+    """Track [deg], ground speed and vertical speed [m/s] from an (east, north, up) velocity."""
+    east, north, up = vel
+    return math.degrees(math.atan2(east, north)) % 360.0, math.hypot(east, north), up
+
+
+def encounter_type(vel1: tuple[float, float, float], vel2: tuple[float, float, float]) -> str:
+    """Classify an encounter by the two velocities at the closest point.
+
+    ``hover`` when one aircraft is (almost) stopped, ground speed under 1 m/s;
+    ``vertical`` when one climbs or descends faster than 1 m/s; otherwise by the
+    angle between the tracks: ``same-direction`` under 30 deg (in-trail,
+    overtaking, merging), ``head-on`` over 150 deg, ``crossing`` in between.
+    Empty when the velocities are unknown.
+    """
+    if any(math.isnan(x) for x in vel1 + vel2):
+        return ""
+    trk1, gs1, vs1 = track_speed(vel1)
+    trk2, gs2, vs2 = track_speed(vel2)
+    if min(gs1, gs2) < 1.0:
+        return "hover"
+    if max(abs(vs1), abs(vs2)) > 1.0:
+        return "vertical"
+    angle = abs((trk1 - trk2 + 180.0) % 360.0 - 180.0)
+    if angle < 30.0:
+        return "same-direction"
+    return "head-on" if angle > 150.0 else "crossing"
 
 
 @njit(cache=True)
@@ -98,7 +134,7 @@ def _merge(open_keys: np.ndarray, open_rows: np.ndarray, ii: np.ndarray, jj: np.
         if dmin[q] < log_dmin[row]:
             log_dmin[row] = dmin[q]
             log_tmin[row] = now + t_min[q]
-            for c in range(3):
+            for c in (0, 1, 2, 6, 7, 8):
                 log_pos[row, c] = pos[q, c + 3] if swap else pos[q, c]
                 log_pos[row, c + 3] = pos[q, c] if swap else pos[q, c + 3]
         if t_out[q] < -1e-9:
@@ -130,7 +166,8 @@ class EventLog:
     end: np.ndarray = field(default_factory=lambda: np.empty(0))
     dmin: np.ndarray = field(default_factory=lambda: np.empty(0))
     tmin: np.ndarray = field(default_factory=lambda: np.empty(0))
-    pos: np.ndarray = field(default_factory=lambda: np.empty((0, 6)))  # lat1, lon1, alt1, lat2, lon2, alt2
+    # At the closest point: lat1, lon1, alt1, lat2, lon2, alt2, then east, north, up velocity of ac1 and of ac2.
+    pos: np.ndarray = field(default_factory=lambda: np.empty((0, 12)))
     open_keys: np.ndarray = field(default_factory=lambda: np.empty(0, dtype=np.int64))  # sorted
     open_rows: np.ndarray = field(default_factory=lambda: np.empty(0, dtype=np.int64))
     _cursor: int = 0  # rows before it ended before the last interval query
@@ -158,7 +195,8 @@ class EventLog:
             serial: per slot, a number unique to the aircraft over the run (pair keys are built from it).
             rank: per slot, the callsign's rank in sorting order (events name the pair in that order).
             t_in, t_out, dmin, t_min: entry/exit (relative to now), minimum distance and its time.
-            pos: (m, 6) positions of the aircraft in slots ii and jj at the minimum.
+            pos: (m, 12) state at the minimum: positions (lat, lon, alt) of the aircraft in slots ii
+                and jj, then their velocities (east, north, up).
             close_unseen: open keys that may be closed when not inside (None: all of them).
         """
         self._reserve(self.n + len(ii))
@@ -209,10 +247,10 @@ class EventLog:
         return out
 
     def event(self, r: int) -> SeparationEvent:
-        p = self.pos[r]
+        p = [float(x) for x in self.pos[r]]
         return SeparationEvent(self.volume, self.ac1[r], self.ac2[r], float(self.start[r]), float(self.end[r]),
-                               float(self.dmin[r]), float(self.tmin[r]), (float(p[0]), float(p[1]), float(p[2])),
-                               (float(p[3]), float(p[4]), float(p[5])))
+                               float(self.dmin[r]), float(self.tmin[r]), (p[0], p[1], p[2]), (p[3], p[4], p[5]),
+                               (p[6], p[7], p[8]), (p[9], p[10], p[11]))
 
     def events(self) -> list[SeparationEvent]:
         return [self.event(r) for r in range(self.n)]

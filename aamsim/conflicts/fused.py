@@ -202,7 +202,7 @@ def _volume_pass(lat: np.ndarray, lon: np.ndarray, latr: np.ndarray, lonr: np.nd
     etout = np.empty(total)
     edmin = np.empty(total)
     etmin = np.empty(total)
-    epos = np.empty((total, 6))
+    epos = np.empty((total, 12))
     e = 0
     for q in range(nv):
         for k in range(m):
@@ -216,13 +216,16 @@ def _volume_pass(lat: np.ndarray, lon: np.ndarray, latr: np.ndarray, lonr: np.nd
             etout[e] = t_out[q, k]
             edmin[e] = dmin[q, k]
             etmin[e] = tau
-            # Positions on the straight paths at the closest point.
+            # Positions on the straight paths at the closest point, and the velocities.
             for c in range(2):
                 s = pi[k] if c == 0 else pj[k]
                 epos[e, 3 * c] = lat[s] + math.degrees(v[s] * tau / r_earth)
                 epos[e, 3 * c + 1] = lon[s] + math.degrees(
                     u[s] * tau / (r_earth * max(1e-6, math.cos(math.radians(lat[s])))))
                 epos[e, 3 * c + 2] = alt[s] + w[s] * tau
+                epos[e, 6 + 3 * c] = u[s]
+                epos[e, 7 + 3 * c] = v[s]
+                epos[e, 8 + 3 * c] = w[s]
             e += 1
     return eq, ei, ej, etin, etout, edmin, etmin, epos, count, closest, dnow
 
@@ -257,8 +260,8 @@ def detect_all(
     Returns:
         Conflicts (i, j, tcpa, dcpa, tinconf), LoS pairs (i, j), per-aircraft
         in-conflict flag and largest tcpa; inside pairs of every volume
-        (volume, i, j, t_in, t_out, dmin, t_min, positions of i and j at t_min
-        as lat, lon, alt each); per-volume inside counts; per-aircraft closest
+        (volume, i, j, t_in, t_out, dmin, t_min, the state of i and j at t_min:
+        lat, lon, alt of i, then of j, then east, north, up velocities of i, then of j); per-volume inside counts; per-aircraft closest
         distance; the smallest pair distance now.
     """
     lat, lon, alt, u, v, w, x, y, err, latr, lonr, ch, sh = _snapshot(F, n, rows, r_earth)

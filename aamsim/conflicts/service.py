@@ -263,7 +263,7 @@ class ConflictService:
     def _merge_events(self, log: EventLog, now: float, ids: list[str], serial: np.ndarray, ii: np.ndarray,
                       jj: np.ndarray, t_in: np.ndarray, t_out: np.ndarray, dmin: np.ndarray, t_min: np.ndarray,
                       pos: np.ndarray, only: str | None) -> None:
-        """Merge one check's inside pairs (slots ii, jj; ``pos``: their positions at t_min) into a volume's log.
+        """Merge one check's inside pairs (slots ii, jj; ``pos``: their state at t_min) into a volume's log.
 
         ``serial``: :meth:`_serials_of` ``ids``. ``only``: restrict closing unseen open
         events to those of this callsign (the last check of a deleted aircraft).
@@ -290,7 +290,8 @@ class ConflictService:
                 continue
             ii, jj, tau = pi[ks], pj[ks], t_min[ks]
             p1, p2 = _extrapolate(s, ii, tau), _extrapolate(s, jj, tau)
-            pos = np.column_stack(p1 + p2) if len(ks) else np.empty((0, 6))
+            vel = (s.u[ii], s.v[ii], s.w[ii], s.u[jj], s.v[jj], s.w[jj])
+            pos = np.column_stack(p1 + p2 + vel) if len(ks) else np.empty((0, 12))
             self._merge_events(log, now, s.ids, self._serials_of(s.ids), ii, jj, t_in[ks], t_out[ks], dmin[ks], tau,
                                pos, only)
 

@@ -8,6 +8,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from aamsim.conflicts.events import track_speed
 from aamsim.conflicts.service import conflicts_of
 from aamsim.metrics.registry import MetricContext, MetricRegistry
 from aamsim.metrics.standard import register_standard_metrics
@@ -18,7 +19,8 @@ if TYPE_CHECKING:
 EXTENSION_KEY = "metrics"
 DEFAULT_GROUPS = ("safety", "operational")
 CONFLICT_COLUMNS = ["volume", "ac1", "ac2", "start_s", "end_s", "min_dist_m", "t_min_s",
-                    "lat1", "lon1", "alt1_m", "lat2", "lon2", "alt2_m"]
+                    "lat1", "lon1", "alt1_m", "lat2", "lon2", "alt2_m",
+                    "trk1_deg", "gs1_mps", "vs1_mps", "trk2_deg", "gs2_mps", "vs2_mps", "encounter"]
 
 
 def _standard_registry() -> MetricRegistry:
@@ -82,7 +84,8 @@ def write_conflicts_csv(path: Path, sim: Simulation) -> int:
         writer = csv.writer(fh)
         writer.writerow(CONFLICT_COLUMNS)
         for e in sorted(events, key=lambda ev: (ev.start_s, ev.volume, ev.ac1, ev.ac2)):
+            motion = [num(x, d) for vel in (e.vel1, e.vel2) for x, d in zip(track_speed(vel), (1, 2, 2))]
             writer.writerow([e.volume, e.ac1, e.ac2, num(e.start_s, 2), num(e.end_s, 2), num(e.min_dist_m, 2),
                              num(e.t_min_s, 2), num(e.pos1[0], 7), num(e.pos1[1], 7), num(e.pos1[2], 2),
-                             num(e.pos2[0], 7), num(e.pos2[1], 7), num(e.pos2[2], 2)])
+                             num(e.pos2[0], 7), num(e.pos2[1], 7), num(e.pos2[2], 2), *motion, e.encounter])
     return len(events)

@@ -37,12 +37,21 @@ def _events(volume: str, per: str = "") -> MetricFn:
     return metric
 
 
+ENCOUNTERS = ("same-direction", "head-on", "crossing", "vertical", "hover")
+
+
+def _events_by_encounter(volume: str, kind: str) -> MetricFn:
+    return lambda ctx: sum(1 for e in ctx.events_of(volume) if e.encounter == kind)
+
+
 def register_standard_metrics(reg: MetricRegistry) -> None:
     # ------------------------------------------------------------------ safety
     for vol in ("nmac", "lowc"):
         reg.add("safety", f"{vol}_events", _events(vol))
         reg.add("safety", f"{vol}_per_flight", _events(vol, per="flight"))
         reg.add("safety", f"{vol}_per_flight_hour", _events(vol, per="hour"))
+    for kind in ENCOUNTERS:  # NMAC events by geometry at the closest point (docs/metrics.md)
+        reg.add("safety", f"nmac_{kind.replace('-', '_')}", _events_by_encounter("nmac", kind))
     reg.add("safety", "min_separation_m", lambda c: c.min_separation_m if math.isfinite(c.min_separation_m) else None)
     reg.add("safety", "time_in_lowc_s", lambda c: sum(e.duration_s(c.duration_s) for e in c.events_of("lowc")))
     reg.add("safety", "conflict_pairs", lambda c: c.conflict_pairs)

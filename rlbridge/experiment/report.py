@@ -7,7 +7,10 @@ seed-paired episodes, as in the paper's tables):
 
 * ``risk_ratio.csv/.md`` — NMAC events / unequipped NMAC events on the same seed;
 * ``lowc_ratio.csv/.md`` — the same with LoWC events;
-* ``operational.csv/.md`` — safety counts and operational metrics per algorithm and scenario.
+* ``operational.csv/.md`` — safety counts and operational metrics per algorithm and scenario;
+* ``nmac_encounters.csv/.md`` — NMAC events per episode by their geometry at the closest
+  point (same-direction, head-on, crossing, vertical, hover: docs/metrics.md), which tells
+  what a speed-only resolution could have avoided.
 
 Figures (PNG, from the training runs' ``learning_curve.csv``):
 
@@ -170,6 +173,24 @@ def operational_table(cells: dict[str, dict[str, Cell]], labels: list[str], scen
                 row.append(fmt_pm(mean_std(c.values.get(key, [])), digits))
             rows.append(row)
     write_table(out / "operational", header, rows, "Safety and operational metrics, mean ± std over episodes")
+
+
+def encounter_table(cells: dict[str, dict[str, Cell]], labels: list[str], scenarios: list[str], out: Path) -> None:
+    from aamsim.metrics.standard import ENCOUNTERS
+
+    header = ["Algorithm", "Scenario", "NMAC / episode"] + list(ENCOUNTERS)
+    rows = []
+    for s in scenarios:
+        for label in labels:
+            c = cells[label].get(s)
+            if c is None:
+                continue
+            row = [label, s, fmt_pm(mean_std(c.values.get("nmac_events", [])), 2)]
+            for kind in ENCOUNTERS:
+                row.append(fmt_pm(mean_std(c.values.get(f"safety.nmac_{kind.replace('-', '_')}", [])), 2))
+            rows.append(row)
+    write_table(out / "nmac_encounters", header, rows,
+                "NMAC events per episode by encounter geometry at the closest point, mean ± std over episodes")
 
 
 # ------------------------------------------------------------------------------ figures
@@ -373,8 +394,10 @@ def make_report(eval_dirs: list[Path], train_dirs: list[Path], out: Path, window
         cells, labels, scenarios = load_evaluations(eval_dirs)
         written += ratio_tables(cells, labels, scenarios, out)
         operational_table(cells, labels, scenarios, out)
-        written += [out / "operational.csv", out / "operational.md"]
-        for name in ("risk_ratio", "lowc_ratio", "operational"):
+        encounter_table(cells, labels, scenarios, out)
+        written += [out / "operational.csv", out / "operational.md", out / "nmac_encounters.csv",
+                    out / "nmac_encounters.md"]
+        for name in ("risk_ratio", "lowc_ratio", "operational", "nmac_encounters"):
             parts += [(out / f"{name}.md").read_text(), ""]
         parts += ["Evaluation runs: " + ", ".join(str(d) for d in eval_dirs), ""]
     if train_dirs:
