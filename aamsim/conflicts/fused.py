@@ -18,6 +18,7 @@ from numba import njit
 
 from aamsim.conflicts.grid import Strips, build_strips, candidate_pairs, swept_boxes
 from aamsim.conflicts.pairs import encounter_pair, relative_state, statebased_pair
+from aamsim.units import R_EARTH
 
 
 @njit(cache=True)
@@ -67,13 +68,13 @@ def _snapshot(F: np.ndarray, n: int, rows: np.ndarray, r_earth: float) -> tuple:
 
 
 @njit(cache=True)
-def _sweep_statebased(strips: Strips, latr: np.ndarray, lonr: np.ndarray, ch: np.ndarray, sh: np.ndarray,
-                      alt: np.ndarray, u: np.ndarray, v: np.ndarray, w: np.ndarray, rpz: float, hpz: float,
-                      tlook: float, ci: np.ndarray, cj: np.ndarray, ctcpa: np.ndarray, cdcpa: np.ndarray,
-                      ctin: np.ndarray, li: np.ndarray, lj: np.ndarray, inconf: np.ndarray,
-                      tcpamax: np.ndarray) -> tuple[int, int]:
+def _sweep_statebased(strips: Strips, state: np.ndarray, rpz: float, hpz: float, tlook: float, ci: np.ndarray,
+                      cj: np.ndarray, ctcpa: np.ndarray, cdcpa: np.ndarray, ctin: np.ndarray, li: np.ndarray,
+                      lj: np.ndarray, inconf: np.ndarray, tcpamax: np.ndarray) -> tuple[int, int]:
     """STATEBASED on every pair of overlapping boxes, as the strip sweep finds them.
 
+    ``state``: per strip entry, the aircraft's latr, lonr, ch, sh (:func:`pair_frame`),
+    alt, u, v, w, in entry order, so that the inner loop reads memory in sequence.
     Conflicts and LoS pairs are written while they fit the output arrays; the
     counts are returned (the caller runs it again with larger arrays if needed).
     Testing pairs as they are found saves writing and re-reading the candidates.
@@ -90,18 +91,34 @@ def _sweep_statebased(strips: Strips, latr: np.ndarray, lonr: np.ndarray, ch: np
             ax1 = sx1[a]
             ay0 = sy0[a]
             ay1 = sy1[a]
+            ida = sid[a]
+            la, lo, ca, sa, za, ua, va, wa = (state[a, 0], state[a, 1], state[a, 2], state[a, 3], state[a, 4],
+                                               state[a, 5], state[a, 6], state[a, 7])
             last_bucket = np.int64((ax1 - x0) / qx)
             for b in range(a + 1, stop):
                 if sbk[b] > last_bucket:
                     break
                 if sx0[b] > ax1 or ax0 > sx1[b] or sy0[b] > ay1 or ay0 > sy1[b]:
                     continue
-                i = min(sid[a], sid[b])
-                j = max(sid[a], sid[b])
+                idb = sid[b]
+                i = min(ida, idb)
+                j = max(ida, idb)
                 if max(cy0[i], cy0[j]) != strip:
                     continue
-                dx, dy, dz, du, dv, dw = relative_state(latr, lonr, ch, sh, alt, u, v, w, i, j)
-                conf, tcpa, dcpa, tin, _tout, los = statebased_pair(dx, dy, dz, du, dv, dw, rpz, hpz, tlook)
+                # j relative to i (the pair's order in every output), as relative_state computes it.
+                sign = 1.0 if ida < idb else -1.0
+                dlon = sign * (state[b, 1] - lo)
+                if dlon >= math.pi:
+                    dlon -= 2.0 * math.pi
+                elif dlon < -math.pi:
+                    dlon += 2.0 * math.pi
+                dx = R_EARTH * dlon * (ca * state[b, 2] - sa * state[b, 3])
+                dy = R_EARTH * sign * (state[b, 0] - la)
+                dz = sign * (state[b, 4] - za)
+                du = sign * (state[b, 5] - ua)
+                dv = sign * (state[b, 6] - va)
+                dw = sign * (state[b, 7] - wa)
+                conf, tcpa, dcpa2, tin, _tout, los = statebased_pair(dx, dy, dz, du, dv, dw, rpz, hpz, tlook)
                 if los:
                     if nl < lcap:
                         li[nl] = i
@@ -112,7 +129,7 @@ def _sweep_statebased(strips: Strips, latr: np.ndarray, lonr: np.ndarray, ch: np
                         ci[nc] = i
                         cj[nc] = j
                         ctcpa[nc] = tcpa
-                        cdcpa[nc] = dcpa
+                        cdcpa[nc] = math.sqrt(dcpa2)
                         ctin[nc] = tin
                     nc += 1
                     inconf[i] = True
@@ -139,6 +156,18 @@ def _conflicts(x: np.ndarray, y: np.ndarray, err: float, latr: np.ndarray, lonr:
         return e, e, f, f, f, e, e, inconf, tcpamax
     xmin, xmax, ymin, ymax, cell = swept_boxes(x, y, u, v, np.zeros(n), np.full(n, tlook), rpz, err)
     strips = build_strips(xmin, xmax, ymin, ymax, cell)
+    sid = strips[4]
+    state = np.empty((sid.shape[0], 8))
+    for e in range(sid.shape[0]):
+        k = sid[e]
+        state[e, 0] = latr[k]
+        state[e, 1] = lonr[k]
+        state[e, 2] = ch[k]
+        state[e, 3] = sh[k]
+        state[e, 4] = alt[k]
+        state[e, 5] = u[k]
+        state[e, 6] = v[k]
+        state[e, 7] = w[k]
     ccap = max(4 * n, cap_hint) + 64
     lcap = max(n, cap_hint // 4) + 64
     while True:
@@ -149,8 +178,8 @@ def _conflicts(x: np.ndarray, y: np.ndarray, err: float, latr: np.ndarray, lonr:
         ctin = np.empty(ccap)
         li = np.empty(lcap, dtype=np.int64)
         lj = np.empty(lcap, dtype=np.int64)
-        nc, nl = _sweep_statebased(strips, latr, lonr, ch, sh, alt, u, v, w, rpz, hpz, tlook, ci, cj, ctcpa, cdcpa,
-                                   ctin, li, lj, inconf, tcpamax)
+        nc, nl = _sweep_statebased(strips, state, rpz, hpz, tlook, ci, cj, ctcpa, cdcpa, ctin, li, lj, inconf,
+                                   tcpamax)
         if nc <= ccap and nl <= lcap:
             return ci[:nc], cj[:nc], ctcpa[:nc], cdcpa[:nc], ctin[:nc], li[:nl], lj[:nl], inconf, tcpamax
         ccap = max(ccap, nc)

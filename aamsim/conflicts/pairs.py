@@ -60,19 +60,22 @@ def relative_state(
 @njit(cache=True, inline="always")
 def statebased_pair(dx: float, dy: float, dz: float, du: float, dv: float, dw: float, rpz: float, hpz: float,
                     tlook: float) -> tuple[bool, float, float, float, float, bool]:
-    """BlueSky STATEBASED on one pair: (conflict, tcpa, dcpa, tinconf, toutconf, LoS now)."""
+    """BlueSky STATEBASED on one pair: (conflict, tcpa, dcpa squared, tinconf, toutconf, LoS now).
+
+    The horizontal test comes first: most candidate pairs fail it, and then no
+    square root or vertical computation is needed.
+    """
     r2 = rpz * rpz
     dist2 = dx * dx + dy * dy
     dv2 = du * du + dv * dv
     if abs(dv2) < 1e-6:
         dv2 = 1e-6
-    vrel = math.sqrt(dv2)
     tcpa = -(du * dx + dv * dy) / dv2
     dcpa2 = abs(dist2 - tcpa * tcpa * dv2)
     los = dist2 < r2 and abs(dz) < hpz
     if dcpa2 >= r2:
-        return False, tcpa, math.sqrt(dcpa2), 0.0, 0.0, los
-    dtinhor = math.sqrt(max(0.0, r2 - dcpa2)) / vrel
+        return False, tcpa, dcpa2, 0.0, 0.0, los
+    dtinhor = math.sqrt(max(0.0, r2 - dcpa2)) / math.sqrt(dv2)
     tinhor = tcpa - dtinhor
     touthor = tcpa + dtinhor
     # Vertical, as BlueSky writes it (its floor on |dvs| is not sign-symmetric).
@@ -84,7 +87,7 @@ def statebased_pair(dx: float, dy: float, dz: float, du: float, dv: float, dw: f
     tinconf = max(min(tcrosshi, tcrosslo), tinhor)
     toutconf = min(max(tcrosshi, tcrosslo), touthor)
     conf = tinconf <= toutconf and toutconf > 0.0 and tinconf < tlook
-    return conf, tcpa, math.sqrt(dcpa2), tinconf, toutconf, los
+    return conf, tcpa, dcpa2, tinconf, toutconf, los
 
 
 @njit(cache=True)
@@ -121,8 +124,9 @@ def statebased(
     latr, lonr, ch, sh = pair_frame(lat, lon)
     for k in range(m):
         dx, dy, dz, du, dv, dw = relative_state(latr, lonr, ch, sh, alt, u, v, w, pi[k], pj[k])
-        conf[k], tcpa_out[k], dcpa_out[k], tin_out[k], tout_out[k], los[k] = statebased_pair(
+        conf[k], tcpa_out[k], dcpa2, tin_out[k], tout_out[k], los[k] = statebased_pair(
             dx, dy, dz, du, dv, dw, rpz, hpz, tlook)
+        dcpa_out[k] = math.sqrt(dcpa2)
     return conf, tcpa_out, dcpa_out, tin_out, tout_out, los
 
 
