@@ -38,6 +38,12 @@ def build_strips(xmin: np.ndarray, xmax: np.ndarray, ymin: np.ndarray, ymax: np.
         cell: strip height [m]; about the typical box size is best.
     """
     n = xmin.shape[0]
+    total_extent = 0.0
+    for i in range(n):
+        total_extent += xmax[i] - xmin[i] + ymax[i] - ymin[i]
+    if not math.isfinite(total_extent):
+        # A NaN position would index outside the arrays below.
+        raise ValueError("pair search: an aircraft has a non-finite position or velocity")
     y0 = ymin.min()
     x0 = xmin.min()
     # Never more strips than a few per box (sparse traffic over a large area, tiny boxes).

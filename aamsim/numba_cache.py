@@ -1,0 +1,76 @@
+"""Numba's on-disk cache, in a directory named after the source code that was compiled.
+
+Numba checks a cached function against the modification time of its own file
+only. The step kernel and the conflict pass call compiled functions from other
+modules (navigation maths, pair tests, the spatial index) and inline them, so
+after an update of one of those modules Numba would go on loading the old
+machine code: results from a stale build, without a warning. Keying the cache
+directory by a hash of every source file of the packages makes any change a
+fresh cache (compiled once, about a minute).
+
+``NUMBA_CACHE_DIR`` set by the user is respected. The directory is also passed
+on to subprocesses (Ray workers, the simulation server) through the environment.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import importlib.util
+import os
+import shutil
+from pathlib import Path
+
+_PACKAGES = ("aamsim", "rlbridge", "uamtoolkit_import")
+_KEEP = 3  # cache directories of earlier source versions kept (switching branches back and forth)
+
+
+def package_roots() -> list[Path]:
+    """The source directories of the packages (those installed)."""
+    roots = [Path(__file__).parent]
+    for name in _PACKAGES[1:]:
+        spec = importlib.util.find_spec(name)
+        if spec is not None and spec.origin:
+            roots.append(Path(spec.origin).parent)
+    return roots
+
+
+def source_digest(roots: list[Path]) -> str:
+    """A short hash of every ``.py`` file under ``roots`` (relative name and content)."""
+    h = hashlib.sha256()
+    for root in roots:
+        for path in sorted(root.rglob("*.py")):
+            h.update(f"{root.name}/{path.relative_to(root).as_posix()}\0".encode())
+            h.update(path.read_bytes())
+    return h.hexdigest()[:16]
+
+
+def default_base() -> Path:
+    xdg = os.environ.get("XDG_CACHE_HOME")
+    return (Path(xdg) if xdg else Path.home() / ".cache") / "aamsim" / "numba"
+
+
+def configure() -> str | None:
+    """Point Numba's cache at a directory for this exact source; returns it (None: the user chose one)."""
+    if os.environ.get("NUMBA_CACHE_DIR"):
+        return None
+    base = default_base()
+    directory = base / source_digest(package_roots())
+    try:
+        directory.mkdir(parents=True, exist_ok=True)
+        _prune(base, directory)
+    except OSError:
+        return None  # not writable: Numba's own default (next to the sources, or none)
+    os.environ["NUMBA_CACHE_DIR"] = str(directory)
+    import numba
+
+    numba.config.CACHE_DIR = str(directory)
+    return str(directory)
+
+
+def _prune(base: Path, current: Path) -> None:
+    """Remove all but the most recently used cache directories."""
+    current.touch()
+    others = sorted((p for p in base.iterdir() if p.is_dir() and p != current), key=lambda p: p.stat().st_mtime,
+                    reverse=True)
+    for old in others[_KEEP - 1:]:
+        shutil.rmtree(old, ignore_errors=True)

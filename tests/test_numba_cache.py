@@ -1,0 +1,45 @@
+"""The compiled-code cache is keyed by the source: an edited module never runs stale machine code."""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+from aamsim.numba_cache import package_roots, source_digest
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def test_digest_changes_with_any_source_file(tmp_path):
+    pkg = tmp_path / "pkg"
+    (pkg / "sub").mkdir(parents=True)
+    (pkg / "a.py").write_text("x = 1\n")
+    (pkg / "sub" / "b.py").write_text("y = 2\n")
+    first = source_digest([pkg])
+    assert source_digest([pkg]) == first  # deterministic
+    (pkg / "sub" / "b.py").write_text("y = 3\n")
+    second = source_digest([pkg])
+    assert second != first
+    (pkg / "sub" / "b.py").rename(pkg / "sub" / "c.py")  # same content, other name
+    assert source_digest([pkg]) != second
+
+
+def test_package_roots_cover_the_packages():
+    names = {p.name for p in package_roots()}
+    assert {"aamsim", "rlbridge", "uamtoolkit_import"} <= names
+
+
+def test_cache_directory_follows_the_source_and_respects_the_user(tmp_path):
+    code = "import aamsim, os, numba; print(os.environ['NUMBA_CACHE_DIR'] + '|' + str(numba.config.CACHE_DIR))"
+    env = {k: v for k, v in os.environ.items() if k != "NUMBA_CACHE_DIR"}
+    env.update(PYTHONPATH=str(ROOT), XDG_CACHE_HOME=str(tmp_path / "xdg"))
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, check=True).stdout
+    chosen, configured = out.strip().split("|")
+    assert chosen == configured
+    assert Path(chosen).parent == tmp_path / "xdg" / "aamsim" / "numba"
+    assert Path(chosen).name == source_digest(package_roots())
+    env["NUMBA_CACHE_DIR"] = str(tmp_path / "mine")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, check=True).stdout
+    assert out.strip() == f"{tmp_path / 'mine'}|{tmp_path / 'mine'}"
