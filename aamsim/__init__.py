@@ -4,7 +4,7 @@ from aamsim.numba_cache import configure as _configure_numba_cache
 
 _configure_numba_cache()  # before any compiled function is defined (see aamsim/numba_cache.py)
 
-from aamsim.simulation import Simulation  # noqa: E402
+from aamsim.simulation import Simulation
 
 __version__ = "0.1.0"
 __all__ = ["Simulation", "__version__"]

@@ -63,7 +63,7 @@ def configure() -> str | None:
     os.environ["NUMBA_CACHE_DIR"] = str(directory)
     import numba
 
-    numba.config.CACHE_DIR = str(directory)
+    numba.config.CACHE_DIR = str(directory)  # type: ignore[attr-defined]
     return str(directory)
 
 

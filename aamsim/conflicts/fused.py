@@ -151,9 +151,9 @@ def _conflicts(x: np.ndarray, y: np.ndarray, err: float, latr: np.ndarray, lonr:
     inconf = np.zeros(n, dtype=np.bool_)
     tcpamax = np.zeros(n)
     if n < 2:
-        e = np.empty(0, dtype=np.int64)
-        f = np.empty(0)
-        return e, e, f, f, f, e, e, inconf, tcpamax
+        no_int = np.empty(0, dtype=np.int64)
+        no_float = np.empty(0)
+        return no_int, no_int, no_float, no_float, no_float, no_int, no_int, inconf, tcpamax
     xmin, xmax, ymin, ymax, cell = swept_boxes(x, y, u, v, np.zeros(n), np.full(n, tlook), rpz, err)
     strips = build_strips(xmin, xmax, ymin, ymax, cell)
     sid = strips[4]
