@@ -141,3 +141,27 @@ def test_track_frame_and_relative_velocity_options(scene):
     np.testing.assert_allclose(b[11:13], [10 / 100, 0.0], atol=1e-6)
     with pytest.raises(ValueError):
         make_usecase("corridor_sa", frame="polar")
+
+
+@pytest.mark.parametrize("lanes", [(), (500.0, 1200.0, 1900.0)])
+def test_altitude_noise_added_or_redrawn_around_the_lane(lanes):
+    """A flight converted at lane 1,200 ft + 90 ft: added noise can reach 1,390 ft; noise
+    re-drawn around the lane stays within 1,200 +- 100 ft (the paper's bound)."""
+    from aamsim.units import FT
+
+    uc = make_usecase("corridor_sa", alt_noise_ft=100.0, alt_noise_lanes_ft=list(lanes))
+    offsets = []
+    for seed in range(200):
+        sim = Simulation(seed=seed, use_bluesky_navdata=False)
+        uc.attach(sim)
+        sim.stack("CRE X EC35 40.7 -74.0 0 1290 0")
+        i = sim.traffic.index("X")
+        alt_ft = sim.traffic.F[f.ALT, i] / FT
+        assert sim.traffic.F[f.SELALT, i] == sim.traffic.F[f.ALT, i]
+        offsets.append(alt_ft - (1200.0 if lanes else 1290.0))
+    assert max(abs(o) for o in offsets) <= 100.0 + 1e-6
+    assert min(offsets) < -80 and max(offsets) > 80  # the whole band is used
+    again = Simulation(seed=7, use_bluesky_navdata=False)
+    uc.attach(again)
+    again.stack("CRE X EC35 40.7 -74.0 0 1290 0")
+    assert again.traffic.F[f.ALT, 0] / FT == pytest.approx(offsets[7] + (1200.0 if lanes else 1290.0))

@@ -65,7 +65,8 @@ def run_evaluation(cfg: DictConfig, out_dir: str | Path) -> dict[str, Any]:
     algo = ckpt["algorithm"]
     trained_env = EnvSpec(**{**ckpt["env"], "metrics": tuple(ckpt["env"]["metrics"])})
     scenario = resolve_scenario_path(str(cfg.scenario)) if cfg.scenario else trained_env.scenario
-    params = dict(trained_env.params, alt_noise_ft=float(cfg.alt_noise_ft))
+    params = dict(trained_env.params, alt_noise_ft=float(cfg.alt_noise_ft),
+                  alt_noise_lanes_ft=[float(x) for x in cfg.alt_noise_lanes_ft])
     env = replace(trained_env, scenario=scenario, params=params, metrics=tuple(cfg.metrics),
                   time_limit_s=None if cfg.env.time_limit_s is None else float(cfg.env.time_limit_s),
                   dt=trained_env.dt if cfg.env.dt is None else float(cfg.env.dt))
@@ -135,7 +136,8 @@ def run_evaluation(cfg: DictConfig, out_dir: str | Path) -> dict[str, Any]:
             "safety": group_means(got, "safety"), "operational": group_means(got, "operational")}
     first = next(iter(results.values()))[0]
     evaluation = {"scenario": first.scenario, "scenario_sha256": first.scenario_sha256, "episodes": len(seeds),
-                  "seeds": seeds, "alt_noise_ft": float(cfg.alt_noise_ft), "greedy": greedy,
+                  "seeds": seeds, "alt_noise_ft": float(cfg.alt_noise_ft),
+                  "alt_noise_lanes_ft": [float(x) for x in cfg.alt_noise_lanes_ft], "greedy": greedy,
                   "checkpoint": str(ckpt_path), "train_run": ckpt.get("run_dir"), "algorithm": name,
                   "best_iteration": ckpt["state"].get("best_iteration"),
                   "trained_iterations": ckpt["state"].get("iteration"),

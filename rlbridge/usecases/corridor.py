@@ -59,7 +59,10 @@ class CorridorParams:
     decision_interval_s: float = 10.0
     intruder_range_m: float = 10000.0
     obs_format: str = "flat"  # "flat" vector or "dict" (ownship, intruders, mask) for attention models
-    alt_noise_ft: float = 0.0  # extra uniform altitude noise drawn per episode seed at creation
+    alt_noise_ft: float = 0.0  # uniform altitude noise [ft] drawn per episode seed at creation
+    # The scenario's lanes [ft]: when given, the noise replaces the scenario's own offset from the
+    # nearest lane instead of adding to it (so noise never exceeds alt_noise_ft; see docs).
+    alt_noise_lanes_ft: tuple[float, ...] = ()
     reward_interval_nmac: bool = True  # an NMAC during the interval counts even if over by the decision
     # Extensions beyond the paper's state (off by default): horizontal vectors in the ownship's
     # track frame instead of east/north, and the intruders' velocity relative to the ownship.
@@ -74,6 +77,7 @@ class CorridorParams:
     scale_dalt: float = 100.0
 
     def __post_init__(self) -> None:
+        object.__setattr__(self, "alt_noise_lanes_ft", tuple(float(x) for x in self.alt_noise_lanes_ft))
         if self.obs_format not in ("flat", "dict"):
             raise ValueError(f"obs_format must be 'flat' or 'dict', not {self.obs_format!r}")
         if self.frame not in ("paper", "track"):
@@ -134,8 +138,16 @@ class CorridorSA:
         service = conflicts_of(sim)
         service.volumes = (SeparationVolume("nmac", p.nmac_m), SeparationVolume("lowc", p.lowc_m))
         if p.alt_noise_ft > 0:
+            lanes_m = np.array(p.alt_noise_lanes_ft) * FT
+
             def jitter(sim: Simulation, i: int) -> None:
-                dz = float(sim.rng.uniform(-p.alt_noise_ft, p.alt_noise_ft)) * FT
+                noise = float(sim.rng.uniform(-p.alt_noise_ft, p.alt_noise_ft)) * FT
+                alt = sim.traffic.F[f.ALT, i]
+                if len(lanes_m):
+                    # Re-draw the scenario's altitude noise around the aircraft's lane.
+                    dz = float(lanes_m[np.argmin(np.abs(lanes_m - alt))]) + noise - alt
+                else:
+                    dz = noise
                 sim.traffic.F[f.ALT, i] += dz
                 sim.traffic.F[f.SELALT, i] += dz
             sim.hooks.created.add(jitter, name="corridor.alt_noise")
