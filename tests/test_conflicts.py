@@ -102,6 +102,29 @@ def test_three_aircraft_cluster_three_pairs():
     assert {e.encounter for e in conflicts_of(sim).events} == {"crossing"}  # tracks 120 deg apart
 
 
+def test_deleted_aircraft_closes_only_its_own_events():
+    # A and B head-on (4 km, 2 x 100 kt CAS, 52.2 m/s TAS): inside the NMAC sphere from 36.9 s,
+    # they would meet at 38.3 s, but A is deleted at 37.7 s, between two checks. C and D fly parallel 300 m
+    # apart: one LoWC event that A's deletion must leave open.
+    d = 4000 * DEG_PER_M
+    dlon = 300 * DEG_PER_M
+    sim = Simulation(seed=1, use_bluesky_navdata=False)
+    service = conflicts_of(sim)
+    sim.load_text(f"00:00:00.00>CRE A EC35 0 0 0 1000 100\n00:00:00.00>CRE B EC35 {d} 0 180 1000 100\n"
+                  f"00:00:00.00>CRE C EC35 0.5 0 0 1000 100\n00:00:00.00>CRE D EC35 0.5 {dlon} 0 1000 100\n"
+                  "00:00:37.70>DEL A\n")
+    sim.run_until(60.0)
+    tas = float(sim.traffic.tas[0])
+    ab = [e for e in service.events if e.volume == "nmac"]
+    assert [(e.ac1, e.ac2) for e in ab] == [("A", "B")]
+    assert 4000 - 2 * tas * 37.0 < 150 and 4000 - 2 * tas * 38.0 > 0  # inside NMAC at 37 s, not met at 38 s
+    assert ab[0].end_s == pytest.approx(37.7, abs=1e-6)
+    assert ab[0].min_dist_m == pytest.approx(4000 - 2 * tas * 37.7, abs=1.0)  # closest at the deletion
+    cd = [e for e in service.events if (e.ac1, e.ac2) == ("C", "D")]
+    assert len(cd) == 1 and cd[0].volume == "lowc" and cd[0].active
+    assert service.in_volume_now("lowc") == {"C", "D"}
+
+
 def test_encounter_types():
     east, north = (70.0, 0.0, 0.0), (0.0, 70.0, 0.0)
     assert encounter_type(north, north) == "same-direction"
