@@ -16,55 +16,9 @@ import math
 import numpy as np
 from numba import njit
 
-from aamsim.conflicts.grid import Strips, build_strips, candidate_pairs, swept_boxes
+from aamsim.conflicts.grid import Strips, build_strips, candidate_pairs, snapshot_arrays, swept_boxes
 from aamsim.conflicts.pairs import encounter_pair, relative_state, statebased_pair
 from aamsim.units import R_EARTH
-
-
-@njit(cache=True)
-def _snapshot(F: np.ndarray, n: int, rows: np.ndarray, r_earth: float) -> tuple:
-    """:func:`~aamsim.conflicts.grid.snapshot_arrays` and :func:`~aamsim.conflicts.pairs.pair_frame` in one loop."""
-    lat = np.empty(n)
-    lon = np.empty(n)
-    alt = np.empty(n)
-    u = np.empty(n)
-    v = np.empty(n)
-    w = np.empty(n)
-    x = np.empty(n)
-    y = np.empty(n)
-    latr = np.empty(n)
-    lonr = np.empty(n)
-    ch = np.empty(n)
-    sh = np.empty(n)
-    if n == 0:
-        return lat, lon, alt, u, v, w, x, y, 0.0, latr, lonr, ch, sh
-    r_lat, r_lon, r_alt, r_east, r_north, r_vs = rows[0], rows[1], rows[2], rows[3], rows[4], rows[5]
-    lat0 = 0.0
-    for i in range(n):
-        lat0 += F[r_lat, i]
-    lat0 /= n
-    lon0 = F[r_lon, 0]
-    coslat0 = math.cos(math.radians(lat0))
-    spread = 0.0
-    for i in range(n):
-        la = F[r_lat, i]
-        lo = F[r_lon, i]
-        lat[i] = la
-        lon[i] = lo
-        alt[i] = F[r_alt, i]
-        u[i] = F[r_east, i]
-        v[i] = F[r_north, i]
-        w[i] = F[r_vs, i]
-        dlon = ((lo - lon0) + 180.0) % 360.0 - 180.0
-        x[i] = math.radians(dlon) * r_earth * coslat0
-        y[i] = math.radians(la - lat0) * r_earth
-        spread = max(spread, abs(la - lat0))
-        latr[i] = math.radians(la)
-        lonr[i] = math.radians(lo)
-        ch[i] = math.cos(0.5 * latr[i])
-        sh[i] = math.sin(0.5 * latr[i])
-    err = abs(math.cos(math.radians(abs(lat0) + spread)) / coslat0 - 1.0) if coslat0 > 0 else 1.0
-    return lat, lon, alt, u, v, w, x, y, err, latr, lonr, ch, sh
 
 
 @njit(cache=True)
@@ -187,7 +141,7 @@ def _conflicts(x: np.ndarray, y: np.ndarray, err: float, latr: np.ndarray, lonr:
 
 
 @njit(cache=True)
-def _volume_pass(lat: np.ndarray, lon: np.ndarray, latr: np.ndarray, lonr: np.ndarray, ch: np.ndarray,
+def volume_pass(lat: np.ndarray, lon: np.ndarray, latr: np.ndarray, lonr: np.ndarray, ch: np.ndarray,
                  sh: np.ndarray, alt: np.ndarray, u: np.ndarray, v: np.ndarray, w: np.ndarray, lookback: np.ndarray,
                  pi: np.ndarray, pj: np.ndarray, radii: np.ndarray, cylinder: np.ndarray, half_heights: np.ndarray,
                  closest_range: float, r_earth: float) -> tuple:
@@ -293,7 +247,7 @@ def detect_all(
         lat, lon, alt of i, then of j, then east, north, up velocities of i, then of j); per-volume inside counts; per-aircraft closest
         distance; the smallest pair distance now.
     """
-    lat, lon, alt, u, v, w, x, y, err, latr, lonr, ch, sh = _snapshot(F, n, rows, r_earth)
+    lat, lon, alt, u, v, w, x, y, err, latr, lonr, ch, sh = snapshot_arrays(F, n, rows, r_earth)
     zeros = np.zeros(n)
     empty = np.empty(0, dtype=np.int64)
     conflicts = _conflicts(x, y, err, latr, lonr, ch, sh, alt, u, v, w, rpz, hpz, tlook, cap_hint) if cd_on else \
@@ -307,6 +261,6 @@ def detect_all(
         pi, pj = candidate_pairs(xmin, xmax, ymin, ymax, cell)
     else:
         pi, pj = empty, empty
-    volumes = _volume_pass(lat, lon, latr, lonr, ch, sh, alt, u, v, w, lookback, pi, pj, radii, cylinder,
+    volumes = volume_pass(lat, lon, latr, lonr, ch, sh, alt, u, v, w, lookback, pi, pj, radii, cylinder,
                            half_heights, closest_range, r_earth)
     return conflicts + volumes

@@ -154,36 +154,21 @@ def _sweep(sx0: np.ndarray, sx1: np.ndarray, sy0: np.ndarray, sy1: np.ndarray, s
     return m
 
 
-def local_frame(lat: np.ndarray, lon: np.ndarray) -> tuple[np.ndarray, np.ndarray, float]:
-    """Flat x (east) / y (north) coordinates [m] around the mean position.
-
-    Used only to find candidate pairs; the exact tests use per-pair formulas.
-    Returns x, y and the largest relative scale error of the frame in the
-    set (to grow search boxes by).
-    """
-    from aamsim.units import R_EARTH
-
-    if len(lat) == 0:
-        return np.empty(0), np.empty(0), 0.0
-    lat0 = float(np.mean(lat))
-    lon0 = float(lon[0])
-    dlon = (lon - lon0 + 180.0) % 360.0 - 180.0
-    coslat0 = math.cos(math.radians(lat0))
-    x = np.radians(dlon) * R_EARTH * coslat0
-    y = np.radians(lat - lat0) * R_EARTH
-    spread = float(np.max(np.abs(lat - lat0))) if len(lat) else 0.0
-    # cos(lat) varies over the set; per-pair distances use the mean of the pair.
-    err = abs(math.cos(math.radians(abs(lat0) + spread)) / coslat0 - 1.0) if coslat0 > 0 else 1.0
-    return x, y, err
-
-
 @njit(cache=True)
-def snapshot_arrays(F: np.ndarray, n: int, lat_row: int, lon_row: int, alt_row: int, gseast_row: int,
-                    gsnorth_row: int, vs_row: int, r_earth: float) -> tuple:
-    """Positions, velocities and the local flat frame of the first ``n`` aircraft in one pass.
+def snapshot_arrays(F: np.ndarray, n: int, rows: np.ndarray, r_earth: float) -> tuple:
+    """Positions, velocities, the local flat frame and the pair-formula terms of the first ``n`` aircraft.
 
-    Returns lat, lon, alt, u (east), v (north), w (up), x, y and the frame's
-    largest relative scale error (see :func:`local_frame`).
+    Args:
+        F: the traffic's field matrix; rows: the rows of lat, lon, alt, ground speed east
+            and north, and vertical speed.
+
+    The flat frame (x east, y north, metres) is centred on the mean latitude and
+    the first aircraft's longitude; it only serves the pair search (the exact tests
+    use per-pair formulas), which grows its boxes by the frame's scale error.
+
+    Returns lat, lon, alt, u (east), v (north), w (up), x, y, the frame's largest
+    relative scale error over the set, and the per-aircraft terms of
+    :func:`aamsim.conflicts.pairs.pair_frame` (latr, lonr, ch, sh), all in one loop.
     """
     lat = np.empty(n)
     lon = np.empty(n)
@@ -193,28 +178,39 @@ def snapshot_arrays(F: np.ndarray, n: int, lat_row: int, lon_row: int, alt_row: 
     w = np.empty(n)
     x = np.empty(n)
     y = np.empty(n)
+    latr = np.empty(n)
+    lonr = np.empty(n)
+    ch = np.empty(n)
+    sh = np.empty(n)
     if n == 0:
-        return lat, lon, alt, u, v, w, x, y, 0.0
+        return lat, lon, alt, u, v, w, x, y, 0.0, latr, lonr, ch, sh
+    r_lat, r_lon, r_alt, r_east, r_north, r_vs = rows[0], rows[1], rows[2], rows[3], rows[4], rows[5]
     lat0 = 0.0
     for i in range(n):
-        lat[i] = F[lat_row, i]
-        lat0 += lat[i]
+        lat0 += F[r_lat, i]
     lat0 /= n
-    lon0 = F[lon_row, 0]
+    lon0 = F[r_lon, 0]
     coslat0 = math.cos(math.radians(lat0))
     spread = 0.0
     for i in range(n):
-        lon[i] = F[lon_row, i]
-        alt[i] = F[alt_row, i]
-        u[i] = F[gseast_row, i]
-        v[i] = F[gsnorth_row, i]
-        w[i] = F[vs_row, i]
-        dlon = ((lon[i] - lon0) + 180.0) % 360.0 - 180.0
+        la = F[r_lat, i]
+        lo = F[r_lon, i]
+        lat[i] = la
+        lon[i] = lo
+        alt[i] = F[r_alt, i]
+        u[i] = F[r_east, i]
+        v[i] = F[r_north, i]
+        w[i] = F[r_vs, i]
+        dlon = ((lo - lon0) + 180.0) % 360.0 - 180.0
         x[i] = math.radians(dlon) * r_earth * coslat0
-        y[i] = math.radians(lat[i] - lat0) * r_earth
-        spread = max(spread, abs(lat[i] - lat0))
+        y[i] = math.radians(la - lat0) * r_earth
+        spread = max(spread, abs(la - lat0))
+        latr[i] = math.radians(la)
+        lonr[i] = math.radians(lo)
+        ch[i] = math.cos(0.5 * latr[i])
+        sh[i] = math.sin(0.5 * latr[i])
     err = abs(math.cos(math.radians(abs(lat0) + spread)) / coslat0 - 1.0) if coslat0 > 0 else 1.0
-    return lat, lon, alt, u, v, w, x, y, err
+    return lat, lon, alt, u, v, w, x, y, err, latr, lonr, ch, sh
 
 
 @njit(cache=True)

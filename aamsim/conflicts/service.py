@@ -27,9 +27,9 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from aamsim.conflicts.events import EventLog, SeparationEvent
-from aamsim.conflicts.fused import detect_all
+from aamsim.conflicts.fused import detect_all, volume_pass
 from aamsim.conflicts.grid import candidate_pairs, snapshot_arrays, swept_boxes
-from aamsim.conflicts.pairs import nearest_per_aircraft, slant_distances, volume_encounters
+from aamsim.conflicts.pairs import nearest_per_aircraft, slant_distances
 from aamsim.traffic import fields as f
 from aamsim.units import R_EARTH
 
@@ -98,14 +98,14 @@ class TrafficSnapshot:
     x: np.ndarray
     y: np.ndarray
     frame_err: float
+    frame: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]  # pair-formula terms (pairs.pair_frame)
 
 
 def traffic_snapshot(sim: Simulation) -> TrafficSnapshot:
     """Positions, velocities (east, north, up) and the local frame of all aircraft now."""
     t = sim.traffic
-    lat, lon, alt, u, v, w, x, y, err = snapshot_arrays(t.F, t.n, f.LAT, f.LON, f.ALT, f.GSEAST, f.GSNORTH, f.VS,
-                                                         R_EARTH)
-    return TrafficSnapshot(list(t.ids), lat, lon, alt, u, v, w, x, y, err)
+    lat, lon, alt, u, v, w, x, y, err, *frame = snapshot_arrays(t.F, t.n, _SNAPSHOT_ROWS, R_EARTH)
+    return TrafficSnapshot(list(t.ids), lat, lon, alt, u, v, w, x, y, err, tuple(frame))  # type: ignore[arg-type]
 
 
 def search_pairs(s: TrafficSnapshot, t0: np.ndarray, t1: np.ndarray, radius: float) -> tuple[np.ndarray, np.ndarray]:
@@ -268,32 +268,9 @@ class ConflictService:
         ``serial``: :meth:`_serials_of` ``ids``. ``only``: restrict closing unseen open
         events to those of this callsign (the last check of a deleted aircraft).
         """
-        unseen_filter = None
-        if only is not None:
-            mine = self._serial(only)
-            hi, lo = log.open_keys >> 32, log.open_keys & 0xFFFFFFFF
-            unseen_filter = log.open_keys[(hi == mine) | (lo == mine)]
+        unseen_filter = None if only is None else _open_keys_of(log, self._serial(only))
         log.update(now, self._last_check_s, ids, ii, jj, serial, self._rank_array, t_in, t_out, dmin, t_min, pos,
                    unseen_filter)
-
-    def _track_events(self, now: float, s: TrafficSnapshot, lookback: np.ndarray, pi: np.ndarray, pj: np.ndarray,
-                      only: str | None) -> None:
-        """Open, update and close events from the pairs' straight paths over their last interval."""
-        for vol in self.volumes:
-            log = self._log(vol.name)
-            inside, t_in, t_out, dmin, t_min = volume_encounters(
-                s.lat, s.lon, s.alt, s.u, s.v, s.w, lookback, pi, pj, vol.cylinder, vol.radius_m,
-                vol.half_height_m if vol.half_height_m is not None else 0.0,
-            )
-            ks = np.flatnonzero(inside)
-            if len(ks) == 0 and len(log.open_keys) == 0:
-                continue
-            ii, jj, tau = pi[ks], pj[ks], t_min[ks]
-            p1, p2 = _extrapolate(s, ii, tau), _extrapolate(s, jj, tau)
-            vel = (s.u[ii], s.v[ii], s.w[ii], s.u[jj], s.v[jj], s.w[jj])
-            pos = np.column_stack(p1 + p2 + vel) if len(ks) else np.empty((0, 12))
-            self._merge_events(log, now, s.ids, self._serials_of(s.ids), ii, jj, t_in[ks], t_out[ks], dmin[ks], tau,
-                               pos, only)
 
     def on_deleted(self, sim: Simulation, slot: int, record: object) -> None:
         """Check the deleted aircraft's last interval before it disappears."""
@@ -304,17 +281,26 @@ class ConflictService:
         others = np.array([k for k in range(n) if k != slot], dtype=np.int64)
         pi = np.minimum(others, slot).astype(np.int64)
         pj = np.maximum(others, slot).astype(np.int64)
+        acid = s.ids[slot]
         if radius > 0 and n > 1:
             d = slant_distances(s.lat, s.lon, s.alt, pi, pj)
             reach = radius + 2.0 * float(np.max(np.hypot(s.u, s.v))) * float(np.max(lookback, initial=0.0)) + 1.0
             near = d <= reach
-            self._track_events(sim.simt, s, lookback, pi[near], pj[near], s.ids[slot])
-        acid = s.ids[slot]
-        mine = self._serial(acid)
+            radii, cylinder, half_heights = self._volume_arrays()
+            _q, ei, ej, e_in, e_out, e_dmin, e_tmin, e_pos, count, _closest, _dnow = volume_pass(
+                s.lat, s.lon, *s.frame, s.alt, s.u, s.v, s.w, lookback, pi[near], pj[near], radii, cylinder,
+                half_heights, 0.0, R_EARTH)
+            serial = self._serials_of(s.ids)
+            lo = 0
+            for q, vol in enumerate(self.volumes):
+                hi = lo + int(count[q])
+                log = self._log(vol.name)
+                if hi > lo or len(log.open_keys):
+                    self._merge_events(log, sim.simt, s.ids, serial, ei[lo:hi], ej[lo:hi], e_in[lo:hi], e_out[lo:hi],
+                                       e_dmin[lo:hi], e_tmin[lo:hi], e_pos[lo:hi], acid)
+                lo = hi
         for log in self.logs.values():
-            hi, lo = log.open_keys >> 32, log.open_keys & 0xFFFFFFFF
-            log.close_all(sim.simt, log.open_keys[(hi == mine) | (lo == mine)])
-
+            log.close_all(sim.simt, _open_keys_of(log, self._serial(acid)))
 
     def finish(self, sim: Simulation) -> None:
         """Close events still open at the end of the run (end time = now)."""
@@ -349,11 +335,10 @@ class ConflictService:
         return log.involved_since(t0) if log is not None else {}
 
 
-def _extrapolate(s: TrafficSnapshot, idx: np.ndarray, tau: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Positions (lat, lon, alt) of aircraft ``idx`` at ``tau`` seconds from now on their straight paths."""
-    lat = s.lat[idx] + np.degrees(s.v[idx] * tau / R_EARTH)
-    lon = s.lon[idx] + np.degrees(s.u[idx] * tau / (R_EARTH * np.maximum(1e-6, np.cos(np.radians(s.lat[idx])))))
-    return lat, lon, s.alt[idx] + s.w[idx] * tau
+def _open_keys_of(log: EventLog, serial: int) -> np.ndarray:
+    """The open events' keys of one aircraft (a key packs the pair's two serials)."""
+    keys = log.open_keys
+    return keys[((keys >> 32) == serial) | ((keys & 0xFFFFFFFF) == serial)]
 
 
 def closest_intruders(sim: Simulation, max_range_m: float = 3000.0) -> tuple[np.ndarray, np.ndarray]:
