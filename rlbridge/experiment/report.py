@@ -158,38 +158,35 @@ def ratio_tables(cells: dict[str, dict[str, Cell]], labels: list[str], scenarios
     return written
 
 
-def operational_table(cells: dict[str, dict[str, Cell]], labels: list[str], scenarios: list[str], out: Path) -> None:
-    header = ["Algorithm", "Scenario", "episodes"] + [title for _, title in OPERATIONAL_COLUMNS]
+def _per_episode_rows(cells: dict[str, dict[str, Cell]], labels: list[str], scenarios: list[str],
+                      columns: list[tuple[str, int]]) -> list[list[str]]:
+    """One row per (scenario, algorithm): label, scenario, episodes, then ``mean ± std`` of each (key, digits)."""
     rows = []
     for s in scenarios:
         for label in labels:
             c = cells[label].get(s)
             if c is None:
                 continue
-            n = len(c.values.get("nmac_events", []))
-            row = [label, s, str(n)]
-            for key, _ in OPERATIONAL_COLUMNS:
-                digits = 4 if ("per_flight" in key or "share" in key or "reward" in key) else 2
-                row.append(fmt_pm(mean_std(c.values.get(key, [])), digits))
+            row = [label, s, str(len(c.values.get("nmac_events", [])))]
+            row += [fmt_pm(mean_std(c.values.get(key, [])), digits) for key, digits in columns]
             rows.append(row)
-    write_table(out / "operational", header, rows, "Safety and operational metrics, mean ± std over episodes")
+    return rows
+
+
+def operational_table(cells: dict[str, dict[str, Cell]], labels: list[str], scenarios: list[str], out: Path) -> None:
+    header = ["Algorithm", "Scenario", "episodes"] + [title for _, title in OPERATIONAL_COLUMNS]
+    columns = [(key, 4 if ("per_flight" in key or "share" in key or "reward" in key) else 2)
+               for key, _ in OPERATIONAL_COLUMNS]
+    write_table(out / "operational", header, _per_episode_rows(cells, labels, scenarios, columns),
+                "Safety and operational metrics, mean ± std over episodes")
 
 
 def encounter_table(cells: dict[str, dict[str, Cell]], labels: list[str], scenarios: list[str], out: Path) -> None:
     from aamsim.metrics.standard import ENCOUNTERS
 
-    header = ["Algorithm", "Scenario", "NMAC / episode"] + list(ENCOUNTERS)
-    rows = []
-    for s in scenarios:
-        for label in labels:
-            c = cells[label].get(s)
-            if c is None:
-                continue
-            row = [label, s, fmt_pm(mean_std(c.values.get("nmac_events", [])), 2)]
-            for kind in ENCOUNTERS:
-                row.append(fmt_pm(mean_std(c.values.get(f"safety.nmac_{kind.replace('-', '_')}", [])), 2))
-            rows.append(row)
-    write_table(out / "nmac_encounters", header, rows,
+    header = ["Algorithm", "Scenario", "episodes", "NMAC / episode"] + list(ENCOUNTERS)
+    columns = [("nmac_events", 2)] + [(f"safety.nmac_{kind.replace('-', '_')}", 2) for kind in ENCOUNTERS]
+    write_table(out / "nmac_encounters", header, _per_episode_rows(cells, labels, scenarios, columns),
                 "NMAC events per episode by encounter geometry at the closest point, mean ± std over episodes")
 
 
