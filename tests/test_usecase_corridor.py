@@ -165,3 +165,8 @@ def test_altitude_noise_added_or_redrawn_around_the_lane(lanes):
     uc.attach(again)
     again.stack("CRE X EC35 40.7 -74.0 0 1290 0")
     assert again.traffic.F[f.ALT, 0] / FT == pytest.approx(offsets[7] + (1200.0 if lanes else 1290.0))
+    # Off the lanes (another scenario's 3,000 ft): the noise is added, whatever the lanes.
+    off_lane = Simulation(seed=7, use_bluesky_navdata=False)
+    uc.attach(off_lane)
+    off_lane.stack("CRE Y EC35 40.7 -74.0 0 3000 0")
+    assert off_lane.traffic.F[f.ALT, 0] / FT == pytest.approx(3000.0 + offsets[7])  # the same draw, added

@@ -60,8 +60,8 @@ class CorridorParams:
     intruder_range_m: float = 10000.0
     obs_format: str = "flat"  # "flat" vector or "dict" (ownship, intruders, mask) for attention models
     alt_noise_ft: float = 0.0  # uniform altitude noise [ft] drawn per episode seed at creation
-    # The scenario's lanes [ft]: when given, the noise replaces the scenario's own offset from the
-    # nearest lane instead of adding to it (so noise never exceeds alt_noise_ft; see docs).
+    # The scenario's lanes [ft]: an aircraft created within alt_noise_ft of one gets its offset from
+    # it re-drawn (the noise replaces the scenario's instead of adding to it); others get it added.
     alt_noise_lanes_ft: tuple[float, ...] = ()
     reward_interval_nmac: bool = True  # an NMAC during the interval counts even if over by the decision
     # Extensions beyond the paper's state (off by default): horizontal vectors in the ownship's
@@ -143,9 +143,11 @@ class CorridorSA:
             def jitter(sim: Simulation, i: int) -> None:
                 noise = float(sim.rng.uniform(-p.alt_noise_ft, p.alt_noise_ft)) * FT
                 alt = sim.traffic.F[f.ALT, i]
-                if len(lanes_m):
-                    # Re-draw the scenario's altitude noise around the aircraft's lane.
-                    dz = float(lanes_m[np.argmin(np.abs(lanes_m - alt))]) + noise - alt
+                off = lanes_m - alt
+                k = int(np.argmin(np.abs(off))) if len(off) else -1
+                if k >= 0 and abs(off[k]) <= p.alt_noise_ft * FT + 1e-6:
+                    # On a lane (within the noise band): re-draw the scenario's noise around it.
+                    dz = float(off[k]) + noise
                 else:
                     dz = noise
                 sim.traffic.F[f.ALT, i] += dz
