@@ -171,8 +171,9 @@ def run(scenario: str, until: str | None, out_dir: Path | None, dt: float, seed:
         )
         if "safety" in s:
             sf = s["safety"]
+            sep = sf["min_separation_m"]
             click.echo(f"safety: {sf['nmac_events']} NMAC, {sf['lowc_events']} LoWC events, "
-                       f"min separation {sf['min_separation_m'] if sf['min_separation_m'] is not None else '-'} m")
+                       f"min separation {'-' if sep is None else f'{sep:.1f}'} m")
 
 
 @main.command()

@@ -5,6 +5,7 @@ from __future__ import annotations
 import csv
 import json
 import os
+import re
 import subprocess
 import sys
 from pathlib import Path
@@ -27,6 +28,7 @@ def test_run_shipped_scenario_writes_run_directory(tmp_path):
     for name in ("scenario.scn", "flights.csv", "trajectories.csv", "summary.json", "conflicts.csv", "messages.log"):
         assert (out / name).exists(), name
     assert "flights created" in proc.stdout and "speed-up" in proc.stdout
+    assert re.search(r"safety: \d+ NMAC, \d+ LoWC events, min separation (\d+\.\d|-) m\n", proc.stdout)
     summary = json.loads((out / "summary.json").read_text())
     assert summary["flights_created"] == 3 and summary["seed"] == 3
     assert set(summary["safety"]) >= {"nmac_events", "lowc_events", "min_separation_m", "time_in_lowc_s",
