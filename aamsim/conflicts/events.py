@@ -76,8 +76,8 @@ def encounter_type(vel1: tuple[float, float, float], vel2: tuple[float, float, f
 @njit(cache=True)
 def _merge(open_keys: np.ndarray, open_rows: np.ndarray, ii: np.ndarray, jj: np.ndarray, serial: np.ndarray,
            rank: np.ndarray, t_in: np.ndarray, t_out: np.ndarray, dmin: np.ndarray, t_min: np.ndarray,
-           pos: np.ndarray, now: float, last: float, n: int, start: np.ndarray, end: np.ndarray,
-           log_dmin: np.ndarray, log_tmin: np.ndarray, log_pos: np.ndarray, close_all_unseen: bool,
+           cpa: np.ndarray, now: float, last: float, n: int, start: np.ndarray, end: np.ndarray,
+           log_dmin: np.ndarray, log_tmin: np.ndarray, log_cpa: np.ndarray, close_all_unseen: bool,
            close_filter: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """One check's inside pairs merged into the open events (sorted keys) and the row arrays.
 
@@ -135,8 +135,8 @@ def _merge(open_keys: np.ndarray, open_rows: np.ndarray, ii: np.ndarray, jj: np.
             log_dmin[row] = dmin[q]
             log_tmin[row] = now + t_min[q]
             for c in (0, 1, 2, 6, 7, 8):
-                log_pos[row, c] = pos[q, c + 3] if swap else pos[q, c]
-                log_pos[row, c + 3] = pos[q, c] if swap else pos[q, c + 3]
+                log_cpa[row, c] = cpa[q, c + 3] if swap else cpa[q, c]
+                log_cpa[row, c + 3] = cpa[q, c] if swap else cpa[q, c + 3]
         if t_out[q] < -1e-9:
             end[row] = now + t_out[q]  # left the volume inside this interval
         else:
@@ -166,8 +166,8 @@ class EventLog:
     end: np.ndarray = field(default_factory=lambda: np.empty(0))
     dmin: np.ndarray = field(default_factory=lambda: np.empty(0))
     tmin: np.ndarray = field(default_factory=lambda: np.empty(0))
-    # At the closest point: lat1, lon1, alt1, lat2, lon2, alt2, then east, north, up velocity of ac1 and of ac2.
-    pos: np.ndarray = field(default_factory=lambda: np.empty((0, 12)))
+    # State at the closest point: lat1, lon1, alt1, lat2, lon2, alt2, then east, north, up velocity of ac1, of ac2.
+    cpa: np.ndarray = field(default_factory=lambda: np.empty((0, 12)))
     open_keys: np.ndarray = field(default_factory=lambda: np.empty(0, dtype=np.int64))  # sorted
     open_rows: np.ndarray = field(default_factory=lambda: np.empty(0, dtype=np.int64))
     _cursor: int = 0  # rows before it ended before the last interval query
@@ -185,7 +185,7 @@ class EventLog:
         t_out: np.ndarray,
         dmin: np.ndarray,
         t_min: np.ndarray,
-        pos: np.ndarray,
+        cpa: np.ndarray,
         close_unseen: np.ndarray | None,
     ) -> None:
         """Merge one check's inside pairs into the log.
@@ -195,7 +195,7 @@ class EventLog:
             serial: per slot, a number unique to the aircraft over the run (pair keys are built from it).
             rank: per slot, the callsign's rank in sorting order (events name the pair in that order).
             t_in, t_out, dmin, t_min: entry/exit (relative to now), minimum distance and its time.
-            pos: (m, 12) state at the minimum: positions (lat, lon, alt) of the aircraft in slots ii
+            cpa: (m, 12) state at the minimum: positions (lat, lon, alt) of the aircraft in slots ii
                 and jj, then their velocities (east, north, up).
             close_unseen: open keys that may be closed when not inside (None: all of them).
         """
@@ -203,8 +203,8 @@ class EventLog:
         last = last_check if math.isfinite(last_check) else now
         filt = np.sort(close_unseen) if close_unseen is not None else np.empty(0, dtype=np.int64)
         self.open_keys, self.open_rows, first, second = _merge(
-            self.open_keys, self.open_rows, ii, jj, serial, rank, t_in, t_out, dmin, t_min, pos, now, last, self.n,
-            self.start, self.end, self.dmin, self.tmin, self.pos, close_unseen is None, filt)
+            self.open_keys, self.open_rows, ii, jj, serial, rank, t_in, t_out, dmin, t_min, cpa, now, last, self.n,
+            self.start, self.end, self.dmin, self.tmin, self.cpa, close_unseen is None, filt)
         for a, b in zip(first.tolist(), second.tolist()):
             self.ac1.append(ids[a])
             self.ac2.append(ids[b])
@@ -215,7 +215,7 @@ class EventLog:
         self.end = _grow(self.end, need)
         self.dmin = _grow(self.dmin, need)
         self.tmin = _grow(self.tmin, need)
-        self.pos = _grow(self.pos, need)
+        self.cpa = _grow(self.cpa, need)
 
     def close_all(self, now: float, key_filter: np.ndarray | None = None) -> None:
         """End open events (all, or those with keys in ``key_filter``) at ``now``."""
@@ -247,7 +247,7 @@ class EventLog:
         return out
 
     def event(self, r: int) -> SeparationEvent:
-        p = [float(x) for x in self.pos[r]]
+        p = [float(x) for x in self.cpa[r]]
         return SeparationEvent(self.volume, self.ac1[r], self.ac2[r], float(self.start[r]), float(self.end[r]),
                                float(self.dmin[r]), float(self.tmin[r]), (p[0], p[1], p[2]), (p[3], p[4], p[5]),
                                (p[6], p[7], p[8]), (p[9], p[10], p[11]))

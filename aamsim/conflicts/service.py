@@ -35,6 +35,7 @@ from aamsim.units import R_EARTH
 
 if TYPE_CHECKING:
     from aamsim.simulation import Simulation
+    from aamsim.traffic.traffic import Traffic
 
 EXTENSION_KEY = "conflicts"
 _SNAPSHOT_ROWS = np.array([f.LAT, f.LON, f.ALT, f.GSEAST, f.GSNORTH, f.VS], dtype=np.int64)
@@ -131,7 +132,6 @@ class ConflictService:
     _closest_arr: np.ndarray = field(default_factory=lambda: np.empty(0))
     _conflict_keys: np.ndarray = field(default_factory=lambda: np.empty(0, dtype=np.int64))
     _serials: dict[str, int] = field(default_factory=dict)
-    _serial_ids: list[str] = field(default_factory=list)
     _serial_array: np.ndarray = field(default_factory=lambda: np.empty(0, dtype=np.int64))
     _rank_array: np.ndarray = field(default_factory=lambda: np.empty(0, dtype=np.int64))  # callsign order per slot
     _volume_cache: tuple | None = None
@@ -150,7 +150,6 @@ class ConflictService:
         self.finish(sim)
         self._conflict_keys = np.empty(0, dtype=np.int64)
         self._serials.clear()
-        self._serial_ids = []
         self._serial_version = None
         self._last_check_s = -math.inf
         self.state = None
@@ -184,12 +183,10 @@ class ConflictService:
                                      st.zonedh_m, st.dtlook_s, radii, cylinder, half_heights, self.closest_range_m,
                                      self._conflicts_hint)
         self._conflicts_hint = len(ci) + len(ci) // 4
-        ids = t.ids
-        serial = self._serials_of(ids, t)
-        ids_now = tuple(ids)
+        ids_now = tuple(t.ids)
         if cd_on:
             self.state = ConflictState(ids_now, ci, cj, tcpa, dcpa, tin, li, lj, inconf, tcpamax)
-            self._count_new_conflicts(serial, ci, cj)
+            self._count_new_conflicts(self._serials_of(t)[0], ci, cj)
         elif self.state is not None:
             self.state = None
             self._conflict_keys = np.empty(0, dtype=np.int64)
@@ -198,7 +195,7 @@ class ConflictService:
             hi = lo + int(count[q])  # inside pairs come grouped by volume
             log = self._log(vol.name)
             if hi > lo or len(log.open_keys):
-                self._merge_events(log, sim.simt, ids, serial, ei[lo:hi], ej[lo:hi], e_in[lo:hi], e_out[lo:hi],
+                self._merge_events(log, sim.simt, t, ei[lo:hi], ej[lo:hi], e_in[lo:hi], e_out[lo:hi],
                                    e_dmin[lo:hi], e_tmin[lo:hi], e_pos[lo:hi], None)
             lo = hi
         self._closest_ids, self._closest_arr = ids_now, closest
@@ -240,36 +237,30 @@ class ConflictService:
             log = self.logs[volume] = EventLog(volume)
         return log
 
-    def _serials_of(self, ids: list[str], traffic: object = None) -> np.ndarray:
-        """Serial number per slot (stable over the run, unlike slots); cached while the slots hold the same ids.
-
-        With ``traffic`` (whose ``ids`` these are), its layout version tells whether the slots changed.
-        """
-        if traffic is not None:
-            version = (traffic, traffic.layout_version)  # type: ignore[attr-defined]
-            if self._serial_version is not None and version[0] is self._serial_version[0] \
-                    and version[1] == self._serial_version[1]:
-                return self._serial_array
-            self._serial_version = version
-        else:
-            self._serial_version = None
-        if ids != self._serial_ids:
-            self._serial_ids = list(ids)
+    def _serials_of(self, traffic: Traffic) -> tuple[np.ndarray, np.ndarray]:
+        """Per slot, the aircraft's serial number (stable over the run, unlike slots) and its callsign's rank
+        in sorting order (events name a pair in that order); rebuilt when aircraft are created or deleted."""
+        version = (traffic, traffic.layout_version)
+        if self._serial_version is None or self._serial_version[0] is not traffic \
+                or self._serial_version[1] != version[1]:
+            ids = traffic.ids
             self._serial_array = np.fromiter((self._serial(a) for a in ids), dtype=np.int64, count=len(ids))
             self._rank_array = np.empty(len(ids), dtype=np.int64)
             self._rank_array[np.argsort(np.array(ids, dtype=object), kind="stable")] = np.arange(len(ids))
-        return self._serial_array
+            self._serial_version = version
+        return self._serial_array, self._rank_array
 
-    def _merge_events(self, log: EventLog, now: float, ids: list[str], serial: np.ndarray, ii: np.ndarray,
-                      jj: np.ndarray, t_in: np.ndarray, t_out: np.ndarray, dmin: np.ndarray, t_min: np.ndarray,
-                      pos: np.ndarray, only: str | None) -> None:
-        """Merge one check's inside pairs (slots ii, jj; ``pos``: their state at t_min) into a volume's log.
+    def _merge_events(self, log: EventLog, now: float, traffic: Traffic, ii: np.ndarray, jj: np.ndarray,
+                      t_in: np.ndarray, t_out: np.ndarray, dmin: np.ndarray, t_min: np.ndarray, cpa: np.ndarray,
+                      only: str | None) -> None:
+        """Merge one check's inside pairs (slots ii, jj; ``cpa``: their state at t_min) into a volume's log.
 
-        ``serial``: :meth:`_serials_of` ``ids``. ``only``: restrict closing unseen open
-        events to those of this callsign (the last check of a deleted aircraft).
+        ``only``: restrict closing unseen open events to those of this callsign
+        (the last check of a deleted aircraft).
         """
+        serial, rank = self._serials_of(traffic)
         unseen_filter = None if only is None else _open_keys_of(log, self._serial(only))
-        log.update(now, self._last_check_s, ids, ii, jj, serial, self._rank_array, t_in, t_out, dmin, t_min, pos,
+        log.update(now, self._last_check_s, traffic.ids, ii, jj, serial, rank, t_in, t_out, dmin, t_min, cpa,
                    unseen_filter)
 
     def on_deleted(self, sim: Simulation, slot: int, record: object) -> None:
@@ -290,14 +281,13 @@ class ConflictService:
             _q, ei, ej, e_in, e_out, e_dmin, e_tmin, e_pos, count, _closest, _dnow = volume_pass(
                 s.lat, s.lon, *s.frame, s.alt, s.u, s.v, s.w, lookback, pi[near], pj[near], radii, cylinder,
                 half_heights, 0.0, R_EARTH)
-            serial = self._serials_of(s.ids)
             lo = 0
             for q, vol in enumerate(self.volumes):
                 hi = lo + int(count[q])
                 log = self._log(vol.name)
                 if hi > lo or len(log.open_keys):
-                    self._merge_events(log, sim.simt, s.ids, serial, ei[lo:hi], ej[lo:hi], e_in[lo:hi], e_out[lo:hi],
-                                       e_dmin[lo:hi], e_tmin[lo:hi], e_pos[lo:hi], acid)
+                    self._merge_events(log, sim.simt, sim.traffic, ei[lo:hi], ej[lo:hi], e_in[lo:hi],
+                                       e_out[lo:hi], e_dmin[lo:hi], e_tmin[lo:hi], e_pos[lo:hi], acid)
                 lo = hi
         for log in self.logs.values():
             log.close_all(sim.simt, _open_keys_of(log, self._serial(acid)))
