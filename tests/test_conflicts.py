@@ -57,6 +57,19 @@ def test_parallel_tracks_300_m_apart_lowc_only():
     assert conflicts_of(sim).min_separation_m == pytest.approx(300.0, abs=0.5)
 
 
+def test_minimum_separation_counts_a_graze_between_two_checks():
+    # Head-on, 449.5 m apart laterally: the pair is inside LoWC (450 m) for 0.4 s,
+    # from 38.11 to 38.52 s, between two checks (every second). The minimum
+    # separation is the closest point of approach, not the distance at a check.
+    d, offset = 4000 * DEG_PER_M, 449.5 * DEG_PER_M
+    sim = encounter(f"00:00:00.00>CRE A EC35 0 0 0 1000 100\n00:00:00.00>CRE B EC35 {d} {offset} 180 1000 100\n",
+                    until=100)
+    (ev,) = [e for e in conflicts_of(sim).events if e.volume == "lowc"]
+    assert math.floor(ev.start_s) == math.floor(ev.end_s) == 38
+    assert ev.min_dist_m == pytest.approx(449.5, abs=0.01)
+    assert conflicts_of(sim).min_separation_m == pytest.approx(449.5, abs=0.01)
+
+
 def test_vertical_separation_200_m():
     # Crossing at one point with 200 m (656 ft) vertical separation. With the
     # paper's 3-D spheres that is no NMAC (150 m) but a LoWC (450 m); with a

@@ -33,7 +33,8 @@ def _sweep_statebased(strips: Strips, state: np.ndarray, rpz: float, hpz: float,
     counts are returned (the caller runs it again with larger arrays if needed).
     Testing pairs as they are found saves writing and re-reading the candidates.
     """
-    sx0, sx1, sy0, sy1, sid, sbk, strip_start, cy0, x0, qx = strips
+    sx0, sx1, sy0, sy1, sid, sbk, strip_start, first, x0, inv_qx = strips
+    buf = np.empty(sid.shape[0], dtype=np.int64)
     ccap = ci.shape[0]
     lcap = li.shape[0]
     nc = 0
@@ -41,24 +42,29 @@ def _sweep_statebased(strips: Strips, state: np.ndarray, rpz: float, hpz: float,
     for strip in range(strip_start.shape[0] - 1):
         stop = strip_start[strip + 1]
         for a in range(strip_start[strip], stop):
+            # Overlapping later entries, as in grid._sweep (see there).
             ax0 = sx0[a]
             ax1 = sx1[a]
             ay0 = sy0[a]
             ay1 = sy1[a]
-            ida = sid[a]
-            la, lo, ca, sa, za, ua, va, wa = (state[a, 0], state[a, 1], state[a, 2], state[a, 3], state[a, 4],
-                                               state[a, 5], state[a, 6], state[a, 7])
-            last_bucket = np.int64((ax1 - x0) / qx)
+            a_first = first[a]
+            last_bucket = np.int64((ax1 - x0) * inv_qx)
+            k = 0
             for b in range(a + 1, stop):
                 if sbk[b] > last_bucket:
                     break
-                if sx0[b] > ax1 or ax0 > sx1[b] or sy0[b] > ay1 or ay0 > sy1[b]:
-                    continue
+                buf[k] = b
+                k += (sx0[b] <= ax1) & (ax0 <= sx1[b]) & (sy0[b] <= ay1) & (ay0 <= sy1[b]) & (a_first | first[b])
+            if k == 0:
+                continue
+            ida = sid[a]
+            la, lo, ca, sa, za, ua, va, wa = (state[a, 0], state[a, 1], state[a, 2], state[a, 3], state[a, 4],
+                                               state[a, 5], state[a, 6], state[a, 7])
+            for t in range(k):
+                b = buf[t]
                 idb = sid[b]
                 i = min(ida, idb)
                 j = max(ida, idb)
-                if max(cy0[i], cy0[j]) != strip:
-                    continue
                 # j relative to i (the pair's order in every output), as relative_state computes it.
                 sign = 1.0 if ida < idb else -1.0
                 dlon = sign * (state[b, 1] - lo)
@@ -145,7 +151,8 @@ def volume_pass(lat: np.ndarray, lon: np.ndarray, latr: np.ndarray, lonr: np.nda
                  sh: np.ndarray, alt: np.ndarray, u: np.ndarray, v: np.ndarray, w: np.ndarray, lookback: np.ndarray,
                  pi: np.ndarray, pj: np.ndarray, radii: np.ndarray, cylinder: np.ndarray, half_heights: np.ndarray,
                  closest_range: float, r_earth: float) -> tuple:
-    """Pairs inside each volume over their last interval, closest-intruder distances and the smallest distance."""
+    """Pairs inside each volume over their last interval, closest-intruder distances and the smallest distance
+    (between any candidate pair now, or between a pair inside a volume during the interval)."""
     n = alt.shape[0]
     m = pi.shape[0]
     nv = radii.shape[0]
@@ -209,6 +216,7 @@ def volume_pass(lat: np.ndarray, lon: np.ndarray, latr: np.ndarray, lonr: np.nda
                 epos[e, 6 + 3 * c] = u[s]
                 epos[e, 7 + 3 * c] = v[s]
                 epos[e, 8 + 3 * c] = w[s]
+            dnow = min(dnow, dmin[q, k])
             e += 1
     return eq, ei, ej, etin, etout, edmin, etmin, epos, count, closest, dnow
 
@@ -244,8 +252,9 @@ def detect_all(
         Conflicts (i, j, tcpa, dcpa, tinconf), LoS pairs (i, j), per-aircraft
         in-conflict flag and largest tcpa; inside pairs of every volume
         (volume, i, j, t_in, t_out, dmin, t_min, the state of i and j at t_min:
-        lat, lon, alt of i, then of j, then east, north, up velocities of i, then of j); per-volume inside counts; per-aircraft closest
-        distance; the smallest pair distance now.
+        lat, lon, alt of i, then of j, then east, north, up velocities of i, then of j); per-volume
+        inside counts; per-aircraft closest distance; the smallest pair distance (now, or inside a
+        volume during the interval).
     """
     lat, lon, alt, u, v, w, x, y, err, latr, lonr, ch, sh = snapshot_arrays(F, n, rows, r_earth)
     zeros = np.zeros(n)
@@ -264,3 +273,25 @@ def detect_all(
     volumes = volume_pass(lat, lon, latr, lonr, ch, sh, alt, u, v, w, lookback, pi, pj, radii, cylinder,
                            half_heights, closest_range, r_earth)
     return conflicts + volumes
+
+
+@njit(cache=True)
+def new_pair_count(serial: np.ndarray, ci: np.ndarray, cj: np.ndarray, previous: np.ndarray) -> tuple[int, np.ndarray]:
+    """How many of the pairs (slots ci, cj) are not among the ``previous`` sorted pair keys; and their sorted keys.
+
+    A pair's key is built from the aircraft's ``serial`` numbers (stable over the run), smaller first.
+    """
+    m = ci.shape[0]
+    keys = np.empty(m, dtype=np.int64)
+    for k in range(m):
+        a = serial[ci[k]]
+        b = serial[cj[k]]
+        keys[k] = min(a, b) * (np.int64(1) << 32) + max(a, b)
+    keys.sort()
+    new = 0
+    p = 0
+    for k in range(m):
+        while p < previous.shape[0] and previous[p] < keys[k]:
+            p += 1
+        new += not (p < previous.shape[0] and previous[p] == keys[k])
+    return new, keys

@@ -27,7 +27,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from aamsim.conflicts.events import EventLog, SeparationEvent
-from aamsim.conflicts.fused import detect_all, volume_pass
+from aamsim.conflicts.fused import detect_all, new_pair_count, volume_pass
 from aamsim.conflicts.grid import candidate_pairs, snapshot_arrays, swept_boxes
 from aamsim.conflicts.pairs import nearest_per_aircraft, slant_distances
 from aamsim.traffic import fields as f
@@ -200,9 +200,6 @@ class ConflictService:
             lo = hi
         self._closest_ids, self._closest_arr = ids_now, closest
         self.min_separation_m = min(self.min_separation_m, dnow)
-        for log in self.logs.values():
-            if len(log.open_rows):
-                self.min_separation_m = min(self.min_separation_m, float(log.dmin[log.open_rows].min()))
         self._last_check_s = sim.simt
 
     def _volume_arrays(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -215,15 +212,8 @@ class ConflictService:
 
     def _count_new_conflicts(self, serial: np.ndarray, ci: np.ndarray, cj: np.ndarray) -> None:
         """Count conflict pairs that were not in conflict at the previous detection."""
-        a, b = serial[ci], serial[cj]
-        keys = np.sort(np.minimum(a, b) * (1 << 32) + np.maximum(a, b))
-        prev = self._conflict_keys
-        if len(prev):
-            pos = np.minimum(np.searchsorted(prev, keys), len(prev) - 1)
-            self.conflict_pairs_total += int(np.count_nonzero(prev[pos] != keys))
-        else:
-            self.conflict_pairs_total += len(keys)
-        self._conflict_keys = keys
+        new, self._conflict_keys = new_pair_count(serial, ci, cj, self._conflict_keys)
+        self.conflict_pairs_total += new
 
     def _serial(self, acid: str) -> int:
         serial = self._serials.get(acid)
@@ -278,7 +268,7 @@ class ConflictService:
             reach = radius + 2.0 * float(np.max(np.hypot(s.u, s.v))) * float(np.max(lookback, initial=0.0)) + 1.0
             near = d <= reach
             radii, cylinder, half_heights = self._volume_arrays()
-            _q, ei, ej, e_in, e_out, e_dmin, e_tmin, e_pos, count, _closest, _dnow = volume_pass(
+            _q, ei, ej, e_in, e_out, e_dmin, e_tmin, e_pos, count, _closest, dnow = volume_pass(
                 s.lat, s.lon, *s.frame, s.alt, s.u, s.v, s.w, lookback, pi[near], pj[near], radii, cylinder,
                 half_heights, 0.0, R_EARTH)
             lo = 0
@@ -289,6 +279,7 @@ class ConflictService:
                     self._merge_events(log, sim.simt, sim.traffic, ei[lo:hi], ej[lo:hi], e_in[lo:hi],
                                        e_out[lo:hi], e_dmin[lo:hi], e_tmin[lo:hi], e_pos[lo:hi], acid)
                 lo = hi
+            self.min_separation_m = min(self.min_separation_m, dnow)
         for log in self.logs.values():
             log.close_all(sim.simt, _open_keys_of(log, self._serial(acid)))
 
