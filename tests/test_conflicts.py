@@ -310,3 +310,37 @@ def test_metrics_are_deterministic():
         sim.run_until(120.0)
         return m.compute(sim)
     assert go() == go()
+
+
+@settings(max_examples=100, deadline=None)
+@given(st.lists(st.tuples(st.integers(0, 40), st.integers(0, 40)), max_size=200),
+       st.lists(st.tuples(st.integers(0, 40), st.integers(0, 40)), max_size=200), st.integers(0, 2**31 - 1000))
+def test_new_conflict_pairs_counted_against_the_previous_check(prev_pairs, pairs, serial0):
+    """A pair is new when its two aircraft (by serial, in either slot order) were not a pair before."""
+    from aamsim.conflicts.fused import new_pair_count
+
+    serial = np.arange(serial0, serial0 + 41, dtype=np.int64)[::-1].copy()  # slots map to large serials
+    prev_pairs = list({(min(a, b), max(a, b)) for a, b in prev_pairs if a != b})
+    pairs = list({(min(a, b), max(a, b)) for a, b in pairs if a != b})
+    pi, pj = (np.array([p[k] for p in prev_pairs], dtype=np.int64) for k in (0, 1))
+    _, previous = new_pair_count(serial, pi, pj, np.empty(0, dtype=np.int64))
+    ci, cj = (np.array([p[k] for p in pairs], dtype=np.int64) for k in (0, 1))
+    new, keys = new_pair_count(serial, cj, ci, previous)  # slot order swapped: the same pairs
+    assert new == len(set(pairs) - set(prev_pairs))
+    assert len(keys) == len(pairs) and len(set(keys.tolist())) == len(pairs)
+
+
+def test_conflict_pairs_total_counts_each_new_conflict_once():
+    # Two head-on pairs far apart: each is in conflict for many checks but counts once.
+    d = 8000 * DEG_PER_M
+    sim = Simulation(seed=1, use_bluesky_navdata=False)
+    service = conflicts_of(sim)
+    sim.stack("ASAS ON; ZONER 0.243; DTLOOK 60")
+    sim.load_text(f"00:00:00.00>CRE A EC35 0 0 0 1000 100\n00:00:00.00>CRE B EC35 {d} 0 180 1000 100\n"
+                  f"00:00:00.00>CRE C EC35 0 1 0 1000 100\n00:00:00.00>CRE D EC35 {d} 1 180 1000 100\n")
+    sim.run_until(5.0)
+    assert service.conflict_pairs_total == 0  # 8 km apart, 104 m/s closing: LoS in 72 s, conflict from 12 s
+    sim.run_until(20.0)
+    assert service.conflict_pairs_total == 2
+    sim.run_until(150.0)
+    assert service.conflict_pairs_total == 2
