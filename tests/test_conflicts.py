@@ -344,3 +344,27 @@ def test_conflict_pairs_total_counts_each_new_conflict_once():
     assert service.conflict_pairs_total == 2
     sim.run_until(150.0)
     assert service.conflict_pairs_total == 2
+
+
+@pytest.mark.parametrize("rel", [-1e-6, -1e-9, -1e-12, 0.0, 1e-12, 1e-9, 1e-6])
+def test_fused_check_agrees_with_statebased_at_the_zone_edge(rel):
+    """A pair whose closest point lies on the protected zone's edge (to rounding) gets
+    the same verdict from the one-pass check (with its division-free pre-test) as from
+    BlueSky's formula pair by pair."""
+    from aamsim.conflicts.fused import detect_all
+    from aamsim.conflicts.service import _SNAPSHOT_ROWS
+    from aamsim.units import R_EARTH
+
+    # Head-on, 2.2 km apart along track, about 450 m apart across; and a crossing pair.
+    sim = _sim_with([(0.0, 0.0, 300.0, 10.0, 40.0, 0.0), (0.02, 0.0055, 300.0, 190.0, 40.0, 0.0),
+                     (0.05, 0.05, 300.0, 90.0, 30.0, 0.0), (0.06, 0.07, 300.0, 200.0, 50.0, 0.0)])
+    s = traffic_snapshot(sim)
+    ai, aj = _all_pairs(4)
+    _, _, dcpa, _, _, _ = statebased(s.lat, s.lon, s.alt, s.u, s.v, s.w, ai, aj, 1e5, 150.0, 1e6)
+    lo, hi = np.array([150.0, 450.0]), np.zeros(2)
+    for k in (0, 5):  # the head-on pair (0, 1) and the crossing pair (2, 3)
+        rpz = float(dcpa[k]) * (1.0 + rel)
+        conf = statebased(s.lat, s.lon, s.alt, s.u, s.v, s.w, ai, aj, rpz, 150.0, 600.0)[0]
+        ci, cj = detect_all(sim.traffic.F, 4, _SNAPSHOT_ROWS, R_EARTH, np.zeros(4), True, rpz, 150.0, 600.0, lo,
+                            np.zeros(2, bool), hi, 1000.0, 0)[:2]
+        assert set(zip(ci.tolist(), cj.tolist())) == set(zip(ai[conf].tolist(), aj[conf].tolist()))

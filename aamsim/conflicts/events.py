@@ -146,6 +146,9 @@ def _merge(open_keys: np.ndarray, open_rows: np.ndarray, ii: np.ndarray, jj: np.
     return new_keys[:n_open].copy(), new_rows[:n_open].copy(), first[:n_new].copy(), second[:n_new].copy()
 
 
+_NO_KEYS = np.empty(0, dtype=np.int64)
+
+
 def _grow(arr: np.ndarray, need: int) -> np.ndarray:
     if need <= len(arr):
         return arr
@@ -201,7 +204,7 @@ class EventLog:
         """
         self._reserve(self.n + len(ii))
         last = last_check if math.isfinite(last_check) else now
-        filt = np.sort(close_unseen) if close_unseen is not None else np.empty(0, dtype=np.int64)
+        filt = np.sort(close_unseen) if close_unseen is not None else _NO_KEYS
         self.open_keys, self.open_rows, first, second = _merge(
             self.open_keys, self.open_rows, ii, jj, serial, rank, t_in, t_out, dmin, t_min, cpa, now, last, self.n,
             self.start, self.end, self.dmin, self.tmin, self.cpa, close_unseen is None, filt)
@@ -211,6 +214,8 @@ class EventLog:
         self.n += len(first)
 
     def _reserve(self, need: int) -> None:
+        if need <= len(self.start):
+            return
         self.start = _grow(self.start, need)
         self.end = _grow(self.end, need)
         self.dmin = _grow(self.dmin, need)
