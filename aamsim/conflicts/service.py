@@ -259,9 +259,9 @@ class ConflictService:
         n = len(s.ids)
         lookback = self._lookback(sim, n)
         radius = max(v.radius_m for v in self.volumes) if self.volumes else 0.0
-        others = np.array([k for k in range(n) if k != slot], dtype=np.int64)
-        pi = np.minimum(others, slot).astype(np.int64)
-        pj = np.maximum(others, slot).astype(np.int64)
+        others = np.delete(np.arange(n, dtype=np.int64), slot)
+        pi = np.minimum(others, slot)
+        pj = np.maximum(others, slot)
         acid = s.ids[slot]
         if radius > 0 and n > 1:
             d = slant_distances(s.lat, s.lon, s.alt, pi, pj)
