@@ -108,8 +108,12 @@ def run(scenario: str, until: str | None, out_dir: Path | None, dt: float, seed:
     from aamsim.runner import RunConfig, ScenarioNotFound, StrictValidationFailed, run_scenario
     from aamsim.scenarios import resolve_scenario
 
-    if dt <= 0:
-        raise click.BadParameter("--dt must be positive")
+    from aamsim.clock import TimeStepError, validate_dt
+
+    try:
+        dt = validate_dt(dt)
+    except TimeStepError as exc:
+        raise click.BadParameter(str(exc), param_hint="--dt") from None
     if log_period < 0:
         raise click.BadParameter("--log-period cannot be negative")
     import numba

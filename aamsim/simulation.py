@@ -25,6 +25,7 @@ from typing import Any
 import numba
 import numpy as np
 
+from aamsim.clock import TimeStepError, validate_dt
 from aamsim.errors import ArgumentError, CommandError, ScenarioSyntaxError, SourceRef
 from aamsim.geo import qdrdist
 from aamsim.hooks import Hooks
@@ -92,7 +93,8 @@ class Simulation:
         register_builtins: bool = True,
         threads: int = 1,
     ):
-        self.settings = SimSettings(dt_s=dt)
+        self.settings = SimSettings()
+        self.set_dt(dt)  # the one check every entry point shares (aamsim.clock)
         self.threads = 1
         self.set_threads(threads)
         self.seed = seed
@@ -145,9 +147,11 @@ class Simulation:
         return to_us(self.settings.dt_s)
 
     def set_dt(self, dt_s: float) -> None:
-        if not (0.0 < dt_s <= 10.0) or to_us(dt_s) == 0:
-            raise CommandError(f"DT must be between 1 microsecond and 10 s, not {dt_s}")
-        self.settings.dt_s = dt_s
+        """Set the time step [s]; raises :class:`CommandError` outside :mod:`aamsim.clock`'s bounds."""
+        try:
+            self.settings.dt_s = validate_dt(dt_s)
+        except TimeStepError as exc:
+            raise CommandError(f"DT: {exc}") from None
 
     def set_threads(self, threads: int) -> None:
         """Use ``threads`` Numba threads to step the traffic (1: serial, the default).
@@ -550,7 +554,8 @@ class Simulation:
         self._perf_pending = False
         self.state = self.STATE_INIT
         dt = self.settings.dt_s
-        self.settings = SimSettings(dt_s=dt)
+        self.settings = SimSettings()
+        self.set_dt(dt)  # the one check every entry point shares (aamsim.clock)
         self.hooks.post_step.restart(0)
         self.hooks.pre_step.restart(0)
         self.hooks.reset.call(self)

@@ -62,4 +62,4 @@ def serve(bind: str = DEFAULT_BIND, plugins: tuple[str, ...] = (),
 
 def _stop(server: SimulationServer, signum: int) -> None:
     log.info("%s received: stopping", signal.Signals(signum).name)
-    server.stop()
+    server.stop_from_signal()  # a request under way is abandoned with an error reply

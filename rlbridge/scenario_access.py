@@ -34,8 +34,12 @@ class ScenarioRoots:
         self.shipped = packaged_dir().resolve()
 
     def allowed(self, path: Path) -> bool:
-        real = path.resolve()
-        if real.suffix.lower() != ".scn" or not real.is_file():
+        """A regular ``.scn`` file inside a root or the shipped folder, after resolving links and ``..``."""
+        try:
+            real = path.resolve()
+            if real.suffix.lower() != ".scn" or not real.is_file():
+                return False
+        except (OSError, RuntimeError, ValueError):  # too long, a symlink loop, a NUL
             return False
         return any(real.is_relative_to(root) for root in (*self.roots, self.shipped))
 
@@ -58,7 +62,7 @@ class ScenarioRoots:
                         f"({', '.join(map(str, self.roots))}) or not a .scn file", "forbidden")
                 return candidate.resolve()
         shipped = None if given.is_absolute() else packaged_scenario(name)
-        if shipped is not None:
+        if shipped is not None and self.allowed(shipped):  # the same check as every other file
             return shipped.resolve()
         raise ScenarioAccessError(f"scenario not found on the server: {name} (looked in "
                                   f"{', '.join(map(str, self.roots))} and the shipped scenarios)", "not_found")

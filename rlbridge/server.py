@@ -14,6 +14,7 @@ reply when the request is bad; nothing a client sends stops the server
 from __future__ import annotations
 
 import logging
+import math
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -23,6 +24,7 @@ from typing import Any
 import numpy as np
 import zmq
 
+from aamsim.clock import DT_MAX_S, DT_MIN_S
 from aamsim.errors import CommandError
 from rlbridge.core import EpisodeCore, ScenarioError
 from rlbridge.protocol import (
@@ -77,7 +79,53 @@ class RequestError(Exception):
         self.code = code
 
 
+class ServerStopping(BaseException):
+    """Raised by the stop-signal handler inside a long request so that SIGTERM/SIGINT end it promptly.
+
+    A BaseException, so that the request's own error handling (``except
+    Exception``) cannot swallow it.
+    """
+
+
 _NUM, _STR, _INT, _NIL = (float,), (str,), (int,), (type(None),)
+
+# Bounds of every numeric request field, checked in one place (docs/protocol.md lists them).
+# ``params.<name>`` bounds a use-case parameter when the client sends it.
+MAX_TIME_LIMIT_S = 1e6  # 11.6 days of simulated time per episode
+MAX_DECISION_INTERVAL_S = 3600.0
+MAX_ECHOED_ERRORS = 20  # parse errors sent back with open/reset; the rest are counted
+MAX_ECHOED_CHARS = 200  # of each
+FIELD_BOUNDS: dict[str, tuple[float, float, bool, str]] = {  # name: (low, high, low included, meaning)
+    "dt": (DT_MIN_S, DT_MAX_S, True, "time step [s]"),
+    "time_limit_s": (0.0, MAX_TIME_LIMIT_S, False, "episode time limit [s]"),
+    "seed": (0, 2**63 - 1, True, "random seed"),
+    "params.decision_interval_s": (0.0, MAX_DECISION_INTERVAL_S, False, "decision interval [s]"),
+}
+
+
+def check_bounds(message: dict[str, Any]) -> None:
+    """Refuse a numeric field outside :data:`FIELD_BOUNDS` (or not finite) with a ``bad_request`` error."""
+    params = message.get("params")
+    for name, (low, high, low_included, what) in FIELD_BOUNDS.items():
+        group, _, key = name.rpartition(".")
+        holder = params if group == "params" else message
+        if not isinstance(holder, dict) or key not in holder:
+            continue
+        value = holder[key]
+        if value is None or isinstance(value, bool) or not isinstance(value, (int, float)):
+            continue  # types are check_fields' (and the use case's) business
+        above_low = value >= low if low_included else value > low
+        if not (math.isfinite(value) and above_low and value <= high):
+            interval = f"{'[' if low_included else '('}{low:g}, {high:g}]"
+            raise RequestError("bad_request", f"{name} ({what}) must be in {interval}, not {value!r}")
+
+
+def _capped(errors: list[str]) -> list[str]:
+    """At most MAX_ECHOED_ERRORS messages of at most MAX_ECHOED_CHARS each, and a count of the rest."""
+    out = [e if len(e) <= MAX_ECHOED_CHARS else e[:MAX_ECHOED_CHARS - 3] + "..." for e in errors[:MAX_ECHOED_ERRORS]]
+    if len(errors) > MAX_ECHOED_ERRORS:
+        out.append(f"... and {len(errors) - MAX_ECHOED_ERRORS} more error(s)")
+    return out
 _OPEN_FIELDS: dict[str, tuple[tuple[type, ...], bool]] = {
     "scenario": (_STR, True), "usecase": (_STR, False), "params": ((dict,), False),
     "time_limit_s": (_NUM + _NIL, False), "dt": (_NUM, False),
@@ -104,6 +152,7 @@ class SimulationServer:
         self.sessions: dict[bytes, Session] = {}
         self.started = time.monotonic()
         self._stop = False
+        self.busy = False  # answering a request (a stop signal then abandons it)
         self._context = zmq.Context()
         self._socket = self._context.socket(zmq.ROUTER)
         self._socket.setsockopt(zmq.LINGER, 0)
@@ -126,6 +175,16 @@ class SimulationServer:
     def stop(self) -> None:
         """Ask the loop to end (safe from a signal handler or another thread)."""
         self._stop = True
+
+    def stop_from_signal(self) -> None:
+        """Stop, and abandon the request under way (a long step) with a ``stopping`` error reply.
+
+        Call only from a signal handler in the thread that serves: it raises
+        :class:`ServerStopping` there when a request is being answered.
+        """
+        self._stop = True
+        if self.busy:
+            raise ServerStopping()
 
     def serve_forever(self) -> None:
         """Serve until :meth:`stop`; then free every session and close the socket."""
@@ -177,7 +236,14 @@ class SimulationServer:
         if body and len(body[0]) == 0:  # a REQ client: keep its delimiter
             envelope.append(b"")
             body = body[1:]
-        self._socket.send_multipart(envelope + self._answer(identity, body), copy=False)
+        self.busy = True
+        try:
+            answer = self._answer(identity, body)
+        except ServerStopping:
+            answer = error_reply(peek_id(body), "stopping", "the server is stopping (signal received)")
+        finally:
+            self.busy = False
+        self._socket.send_multipart(envelope + answer, copy=False)
 
     def _answer(self, identity: bytes, body: list[Any]) -> list[Any]:
         msg_id = None
@@ -191,6 +257,7 @@ class SimulationServer:
             if handler is None:
                 raise RequestError("unknown_op", f"unknown op {op!r}; known: {', '.join(self._handlers)}")
             check_fields(message, SCHEMAS[op])
+            check_bounds(message)
             session = self.sessions.get(identity)
             if session is not None:
                 session.last_seen = time.monotonic()
@@ -232,9 +299,7 @@ class SimulationServer:
         if session is None and len(self.sessions) >= self.options.max_sessions:
             raise RequestError("busy", f"the server already serves {self.options.max_sessions} sessions")
         path = self.roots.resolve(message["scenario"])
-        dt = float(message.get("dt", 0.05))
-        if not dt > 0:
-            raise RequestError("bad_request", "dt must be positive")
+        dt = float(message.get("dt", 0.05))  # within FIELD_BOUNDS (check_bounds)
         core = EpisodeCore(path, message.get("usecase", "corridor_sa"), message.get("params") or {},
                            time_limit_s=message.get("time_limit_s"), dt=dt, plugins=self.options.plugins,
                            file_guard=self.roots.guard)
@@ -244,7 +309,7 @@ class SimulationServer:
         elif session.core is not None:
             session.core.close()
         session.core = core
-        return {"possible_agents": list(core.possible_agents), "parse_errors": list(core.parse_errors),
+        return {"possible_agents": list(core.possible_agents), "parse_errors": _capped(list(core.parse_errors)),
                 "time_limit_s": core.time_limit_s, "scenario": str(path)}
 
     def _reset(self, session: Session | None, identity: bytes, message: dict[str, Any]) -> dict[str, Any]:

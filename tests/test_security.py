@@ -1,0 +1,163 @@
+"""Security regressions of issue 19: file confinement of the server, and requests that froze it.
+
+Each test fails on the code before the fix: the server answered ``ok`` to
+``scn/../../../etc/passwd`` and echoed the file's lines; ``dt=1e300`` froze it
+at 100 % CPU; ``aamsim run --dt 1e-9`` died with ZeroDivisionError.
+"""
+
+from __future__ import annotations
+
+import os
+import signal
+import time
+from pathlib import Path
+
+import pytest
+import zmq
+from bridge_util import raw_socket, run_cli, spawn_server, stop_process, thread_server, write_scenario
+
+from aamsim import Simulation
+from aamsim.clock import DT_MAX_S, DT_MIN_S, TimeStepError, validate_dt
+from aamsim.errors import CommandError
+from aamsim.hooks import HookList
+from aamsim.scenarios import packaged_dir, packaged_scenario, resolve_scenario
+from rlbridge.protocol import decode, request
+from rlbridge.server import MAX_ECHOED_CHARS, MAX_ECHOED_ERRORS
+
+DEEP = "/".join([".."] * 12)
+
+
+@pytest.fixture
+def scn_dir(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Path:
+    root = tmp_path / "root"
+    root.mkdir()
+    write_scenario(root)
+    monkeypatch.chdir(root)
+    return root
+
+
+def ask(sock: zmq.Socket, frames: list) -> dict:
+    sock.send_multipart(frames)
+    return decode(sock.recv_multipart())
+
+
+@pytest.mark.parametrize("name", [
+    f"scn/{DEEP}/etc/passwd", f"{DEEP}/etc/passwd", f"scn/{DEEP}/proc/self/cmdline", "scn/../__init__.py",
+    "../cli.py", "/etc/passwd", "scn/\x00demo.scn", "", "scn", "scn/../scn/demo.scn",
+])
+def test_the_shipped_scenario_lookup_never_leaves_the_shipped_folder(name: str) -> None:
+    assert packaged_scenario(name) is None
+
+
+def test_shipped_scenarios_are_still_found_by_every_usual_name() -> None:
+    expected = (packaged_dir() / "demo.scn").resolve()
+    for name in ("demo.scn", "scn/demo.scn", "demo", "scn/demo"):
+        assert packaged_scenario(name) == expected
+    assert resolve_scenario("scn/demo.scn") == expected
+
+
+def test_a_text_file_next_to_the_shipped_scenarios_is_not_a_scenario(tmp_path: Path,
+                                                                       monkeypatch: pytest.MonkeyPatch) -> None:
+    shipped = tmp_path / "scn"
+    shipped.mkdir()
+    (shipped / "notes.txt").write_text("secret\n")
+    (shipped / "ok.scn").write_text("00:00:00.00>ECHO hi\n")
+    monkeypatch.setattr("aamsim.scenarios.packaged_dir", lambda: shipped)
+    assert packaged_scenario("notes.txt") is None and packaged_scenario("notes") is None
+    assert packaged_scenario("ok") == (shipped / "ok.scn").resolve()
+
+
+@pytest.mark.parametrize("name", [
+    f"scn/{DEEP}/etc/passwd", f"scn/{DEEP}/etc/hostname", f"scn/{DEEP}/proc/self/cmdline",
+    "scn/../__init__.py", "scn/../../setup.cfg", "scn/../py.typed", "/etc/passwd", f"{DEEP}/etc/passwd",
+])
+def test_the_server_refuses_files_outside_its_roots_and_echoes_nothing(scn_dir: Path, name: str) -> None:
+    with thread_server() as server, raw_socket(server.endpoint) as sock:
+        reply = ask(sock, request("open", 1, scenario=name))
+        assert reply["ok"] is False and reply["code"] in ("forbidden", "not_found"), reply
+        assert "parse_errors" not in reply and "root:" not in reply["error"]
+        assert server.sessions == {}
+        ok = ask(sock, request("open", 2, scenario="scn/demo.scn"))  # the shipped ones still open
+        assert ok["ok"] is True and ok["parse_errors"] == []
+
+
+def test_parse_errors_echoed_to_a_client_are_capped(scn_dir: Path) -> None:
+    lines = [f"00:00:00.00>NOSUCH{k} {'x' * 500}" for k in range(60)]
+    write_scenario(scn_dir, "noisy.scn", "\n".join(lines) + "\n")
+    with thread_server() as server, raw_socket(server.endpoint) as sock:
+        reply = ask(sock, request("open", 1, scenario="noisy.scn"))
+        errors = reply["parse_errors"]
+        assert reply["ok"] is True and len(errors) == MAX_ECHOED_ERRORS + 1
+        assert all(len(e) <= MAX_ECHOED_CHARS for e in errors)
+        assert errors[-1] == f"... and {60 - MAX_ECHOED_ERRORS} more error(s)"
+
+
+@pytest.mark.parametrize("value", [0.0, -1.0, 1e-9, 1e300, float("inf"), float("nan"), 11.0])
+def test_one_validation_of_dt_for_every_entry_point(value: float) -> None:
+    with pytest.raises(TimeStepError, match="time step must be between"):
+        validate_dt(value)
+    with pytest.raises(CommandError, match="time step must be between"):
+        Simulation(dt=value, use_bluesky_navdata=False)
+    sim = Simulation(use_bluesky_navdata=False)
+    assert not sim.stack(f"DT {value}") and sim.dt == 0.05
+    assert validate_dt(DT_MIN_S) == DT_MIN_S and validate_dt(DT_MAX_S) == DT_MAX_S
+
+
+@pytest.mark.parametrize("dt", ["1e-9", "1e300", "0", "nan"])
+def test_aamsim_run_refuses_an_unusable_dt(tmp_path: Path, dt: str) -> None:
+    proc = run_cli("run", "scn/demo.scn", "--dt", dt, "--quiet", "--out", str(tmp_path / "r"))
+    assert proc.returncode == 2 and "--dt" in proc.stderr and "time step must be between" in proc.stderr
+    assert "Traceback" not in proc.stderr
+
+
+@pytest.mark.parametrize("fields, fragment", [
+    ({"dt": 1e300}, "dt (time step [s]) must be in [0.0001, 10]"),
+    ({"dt": float("inf")}, "dt (time step [s]) must be in"),
+    ({"dt": 1e-9}, "dt (time step [s]) must be in"),
+    ({"time_limit_s": 1e300}, "time_limit_s (episode time limit [s]) must be in (0, 1e+06]"),
+    ({"time_limit_s": -5.0}, "time_limit_s"),
+    ({"seed": -1}, "seed (random seed) must be in"),
+    ({"params": {"decision_interval_s": 1e12}}, "params.decision_interval_s (decision interval [s]) must be in"),
+])
+def test_numeric_request_fields_are_bounded_in_one_place(scn_dir: Path, fields: dict, fragment: str) -> None:
+    with thread_server() as server, raw_socket(server.endpoint) as sock:
+        reply = ask(sock, request("reset", 1, scenario="conflicts.scn", **fields))
+        assert reply["ok"] is False and reply["code"] == "bad_request" and fragment in reply["error"], reply
+        good = ask(sock, request("reset", 2, scenario="conflicts.scn", seed=1))
+        assert good["ok"] is True
+
+
+def test_periodic_hooks_catch_up_in_one_call_not_one_per_missed_period() -> None:
+    calls: list[int] = []
+    hooks = HookList(periodic=True)
+    hooks.add(lambda now: calls.append(now), name="every-second", interval_s=1.0)
+    hooks.call_due(0, 50_000, 0)  # due at 0: runs, next due at 1 s
+    assert calls == [0] and hooks.next_due_us() == 1_000_000
+    # A step of 10**18 us (11,574 days) later: the hook runs once, and its next time is the
+    # first whole period after now (the old code looped 10**12 times).
+    now = 10**18 + 250_000
+    hooks.call_due(now, 10**18, now)
+    assert calls == [0, now] and hooks.next_due_us() == 10**18 + 1_000_000
+
+
+def test_sigterm_stops_the_server_in_the_middle_of_a_long_step(scn_dir: Path) -> None:
+    """The heaviest step a client may ask for (dt 0.1 ms, an hour between decisions): SIGTERM still ends
+    the server within seconds, and the client gets a reply saying so."""
+    proc, endpoint = spawn_server(cwd=scn_dir)
+    try:
+        with raw_socket(endpoint, timeout_ms=60_000) as sock:
+            opened = ask(sock, request("reset", 1, scenario="conflicts.scn", dt=DT_MIN_S,
+                                       params={"decision_interval_s": 3600.0}))
+            assert opened["ok"] is True
+            sock.send_multipart(request("step", 2, actions={a: 1 for a in opened.get("agents", [])}))
+            time.sleep(2.0)  # well inside the step (36 million kernel steps)
+            assert proc.poll() is None
+            t0 = time.monotonic()
+            os.kill(proc.pid, signal.SIGTERM)
+            proc.wait(30)
+            assert time.monotonic() - t0 < 30
+            reply = decode(sock.recv_multipart())
+            assert reply["ok"] is False and reply["code"] == "stopping"
+        assert proc.returncode == 0
+    finally:
+        stop_process(proc)
