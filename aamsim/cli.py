@@ -216,6 +216,81 @@ def compare(runs: tuple[str, ...], baselines: tuple[str, ...], out_path: Path | 
 
 
 @main.command()
+@click.argument("scenarios", nargs=-1, required=True)
+@click.option("--seeds", type=click.IntRange(min=1), default=1, show_default=True,
+              help="Seeds per scenario and setting: SEED-START .. SEED-START+N-1.")
+@click.option("--seed-start", type=int, default=0, show_default=True, help="First seed.")
+@click.option("--set", "sets", multiple=True, metavar="KEY=VALUE",
+              help="A setting of every run; a key given several times is a sweep axis (cartesian product). "
+                   "Keys: dt, until, nmac, lowc, log_period, delete_on_arrival, stack.")
+@click.option("--out", "out_dir", type=click.Path(file_okay=False, path_type=Path), default=None,
+              help="Batch folder (default runs/batch-<timestamp>/).")
+@click.option("--address", default=None,
+              help="Ray cluster to run on (auto, HOST:PORT or ray://HOST:10001); default: a local Ray.")
+@click.option("--workers", type=click.IntRange(min=1), default=None,
+              help="CPUs of the local Ray (default: all of this machine's).")
+@click.option("--no-ray", is_flag=True, help="Run the jobs one by one in this process instead of on Ray.")
+@click.option("--quiet", is_flag=True, help="No progress bar and no summary.")
+def batch(scenarios: tuple[str, ...], seeds: int, seed_start: int, sets: tuple[str, ...], out_dir: Path | None,
+          address: str | None, workers: int | None, no_ray: bool, quiet: bool) -> None:
+    """Run SCENARIOS x settings x seeds in parallel on Ray; one run directory each and an aggregate table.
+
+    A SCENARIO is a path or a shipped scenario name; a BlueSky batch file (SCEN blocks) counts as one
+    scenario per block. Runs write no trajectories.csv unless --set log_period=SECONDS is given.
+    The batch folder gets runs.csv (a row per run), aggregate.csv and aggregate.md (mean, std and
+    95 % confidence interval over seeds of every safety and operational metric).
+    """
+    from datetime import datetime
+
+    from aamsim.batch import BatchError, load_sources, parse_settings, plan_jobs, run_batch
+    from aamsim.scenarios import resolve_scenario
+
+    paths, missing = [], []
+    for name in scenarios:
+        found = resolve_scenario(name)
+        (paths.append(found.resolve()) if found is not None else missing.append(name))
+    if missing:
+        click.echo(f"error: scenario(s) not found: {', '.join(missing)}", err=True)
+        sys.exit(2)
+    try:
+        sources, warnings = load_sources(paths)
+        settings = parse_settings(sets)
+    except BatchError as exc:
+        click.echo(f"error: {exc}", err=True)
+        sys.exit(2)
+    for warning in warnings:
+        click.echo(f"warning: {warning}", err=True)
+    jobs = plan_jobs(sources, settings, range(seed_start, seed_start + seeds), base={"log_period_s": 0.0})
+    out = out_dir or Path("runs") / f"batch-{datetime.now().strftime('%Y%m%d-%H%M%S')}"
+    bar = None
+    if not quiet:
+        from tqdm import tqdm
+
+        click.echo(f"{len(jobs)} runs: {len(sources)} scenario(s) x {len(settings)} setting(s) x {seeds} seed(s)",
+                   err=True)
+        bar = tqdm(total=len(jobs), unit="run", file=sys.stderr, dynamic_ncols=True)
+
+    def started(info: dict[str, Any]) -> None:
+        if not quiet:
+            click.echo(f"Ray: {info['nodes']} node(s), {info['cpus']} CPU(s)", err=True)
+
+    def finished(result: Any) -> None:
+        if result.error is not None:
+            click.echo(f"error: {jobs[result.index].relpath}: {result.error}", err=True)
+        if bar is not None:
+            bar.update(1)
+
+    result = run_batch(jobs, out, use_ray=not no_ray, address=address, workers=workers, on_result=finished,
+                       on_started=started)
+    if bar is not None:
+        bar.close()
+    if not quiet:
+        click.echo(f"{len(result.rows) - result.failed} of {len(result.rows)} runs done; "
+                   f"tables in {out / 'aggregate.md'} and {out / 'aggregate.csv'}")
+    sys.exit(1 if result.failed else 0)
+
+
+@main.command()
 @click.option("--group", default=None, help="Only this group (traffic, autopilot, route, conditional, ...).")
 def commands(group: str | None) -> None:
     """List the stack commands with their arguments and help."""

@@ -57,6 +57,9 @@ class RunConfig:
     metrics: tuple[str, ...] = ("safety", "operational")
     volumes: tuple[Any, ...] = ()  # SeparationVolume overrides (default: the paper's NMAC/LoWC)
     threads: int = 1
+    text: str | None = None  # the scenario's text when it is not the whole file (a SCEN block of a batch)
+    name: str | None = None  # the scenario's name (default: the file's stem)
+    commands: tuple[str, ...] = ()  # stack commands run at time 0 before the scenario's own
 
 
 @dataclass
@@ -82,7 +85,7 @@ def build_simulation(cfg: RunConfig, path: Path, text: str) -> Simulation:
     """A simulation with the run's settings, plugins and services attached."""
     sim = Simulation(seed=cfg.seed, dt=cfg.dt_s, threads=cfg.threads)
     sim.settings.delete_on_arrival = cfg.delete_on_arrival
-    sim.scenario_name = path.stem
+    sim.scenario_name = cfg.name or path.stem
     sim.scenario_path = path
     sim.scenario_text = text
     from aamsim.services import attach_run_services
@@ -106,10 +109,11 @@ def run_scenario(
         ScenarioNotFound: the scenario file does not exist (here or shipped).
         StrictValidationFailed: ``strict`` and the file has errors.
     """
-    path = resolve_scenario(cfg.scenario)
+    # With its text given, the scenario needs no file here (a batch job on another node).
+    path = Path(cfg.scenario) if cfg.text is not None else resolve_scenario(cfg.scenario)
     if path is None:
         raise ScenarioNotFound(f"scenario not found: {cfg.scenario} (neither a file nor a shipped scenario)")
-    text = path.read_text(encoding="utf-8", errors="replace")
+    text = cfg.text if cfg.text is not None else path.read_text(encoding="utf-8", errors="replace")
     sim = build_simulation(cfg, path, text)
     if listener is not None:
         sim.reporter.listeners.append(listener)
@@ -124,6 +128,8 @@ def run_scenario(
     if cfg.log_period_s > 0:
         recorder = TrajectoryRecorder(out_dir / "trajectories.csv", cfg.log_period_s)
         recorder.attach(sim)
+    for line in cfg.commands:
+        sim.stack(line)
     sim.load_scenario(path, text=text)
     wall0 = time.perf_counter()
     try:
@@ -150,7 +156,7 @@ def make_summary(sim: Simulation, cfg: RunConfig, path: Path, wall_s: float) -> 
     flights = list(iter_flights(sim))
     simt = sim.simt
     return {
-        "scenario": path.stem,
+        "scenario": cfg.name or path.stem,
         "scenario_file": str(path),
         "scenario_sha256": hashlib.sha256(sim.scenario_text.encode("utf-8")).hexdigest(),
         "aamsim_version": aamsim.__version__,

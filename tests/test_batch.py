@@ -1,0 +1,210 @@
+"""``aamsim batch``: planning, BlueSky batch files, statistics, and a two-node Ray cluster on loopback."""
+
+from __future__ import annotations
+
+import csv
+import json
+import math
+import os
+import shutil
+import socket
+import statistics
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from aamsim.batch import BatchError, load_sources, parse_settings, plan_jobs
+from aamsim.batch.aggregate import describe, flatten_metrics
+from aamsim.batch.plan import scenario_sources
+
+# Random traffic (seeded by --seed) dense enough for separation events at one level.
+RANDOM_TRAFFIC = "00:00:00.00>MCRE 60 B744 FL100 300\n"
+
+BATCH_FILE = """# a BlueSky batch file: two scenarios
+00:00:00.00>SCEN ONE
+00:00:00.00>CRE A1 B744 0 0 90 FL100 250
+00:00:00.00>CRE A2 B744 0 0.3 270 FL100 250
+00:10:00.00>QUIT
+00:00:00.00>SCEN TWO
+00:00:00.00>CRE B1 B744 0 0 90 FL100 250
+00:00:00.00>NOSUCHCOMMAND 1 2
+00:05:00.00>QUIT
+"""
+
+
+def test_a_file_without_scen_blocks_is_one_scenario(tmp_path: Path) -> None:
+    sources, warnings = scenario_sources(tmp_path / "plain.scn", RANDOM_TRAFFIC)
+    assert [(s.name, s.text) for s in sources] == [("plain", RANDOM_TRAFFIC)] and warnings == []
+
+
+def test_batch_file_splits_at_scen_lines_as_bluesky_does(tmp_path: Path) -> None:
+    sources, warnings = scenario_sources(tmp_path / "b.scn", BATCH_FILE)
+    assert [s.name for s in sources] == ["ONE", "TWO"]
+    assert [s.first_line for s in sources] == [2, 6]
+    assert "CRE A2" in sources[0].text and "CRE B1" not in sources[0].text
+    # Line numbers inside a block stay those of the file: line 8 is the unknown command.
+    assert sources[1].text.splitlines()[7] == "00:00:00.00>NOSUCHCOMMAND 1 2"
+    assert warnings == []
+
+
+def test_lines_before_the_first_scen_are_reported_not_run(tmp_path: Path) -> None:
+    text = "00:00:00.00>CRE X B744 0 0 0 FL100 250\n" + BATCH_FILE
+    sources, warnings = scenario_sources(tmp_path / "b.scn", text)
+    assert [s.name for s in sources] == ["ONE", "TWO"]
+    assert len(warnings) == 1 and "b.scn:1:" in warnings[0] and "before the first SCEN" in warnings[0]
+    assert all("CRE X" not in s.text for s in sources)
+
+
+def test_scenario_names_are_unique_across_files(tmp_path: Path) -> None:
+    (tmp_path / "a").mkdir()
+    (tmp_path / "b").mkdir()
+    for d in ("a", "b"):
+        (tmp_path / d / "same.scn").write_text(RANDOM_TRAFFIC)
+    sources, _ = load_sources([tmp_path / "a" / "same.scn", tmp_path / "b" / "same.scn"])
+    assert [s.name for s in sources] == ["same", "same-2"]
+
+
+def test_settings_are_the_cartesian_product_of_repeated_keys() -> None:
+    points = parse_settings(["lowc=450", "nmac=150", "lowc=600", "nmac=100,50"])
+    assert [p.label for p in points] == ["lowc=450,nmac=150", "lowc=450,nmac=100,50",
+                                         "lowc=600,nmac=150", "lowc=600,nmac=100,50"]
+    fields = points[1].run_config_fields()
+    nmac, lowc = fields["volumes"]
+    assert (nmac.radius_m, nmac.half_height_m, lowc.radius_m, lowc.half_height_m) == (100.0, 50.0, 450.0, None)
+    assert parse_settings([])[0].label == "default"
+
+
+@pytest.mark.parametrize("item, message", [
+    ("wind=3", "unknown key 'wind'; known: dt, until"),
+    ("lowc", "expected KEY=VALUE"),
+    ("dt=-1", 'dt="-1": must be a positive number'),
+    ("dt=nan", 'dt="nan": must be a positive number'),
+    ("lowc=0", "positive metres"),
+    ("until=soon", "until:"),
+    ("delete_on_arrival=maybe", "expected true or false"),
+])
+def test_bad_settings_are_refused_before_anything_runs(item: str, message: str) -> None:
+    with pytest.raises(BatchError, match=None) as info:
+        parse_settings([item])
+    assert message in str(info.value)
+
+
+def test_plan_is_scenario_major_with_every_seed(tmp_path: Path) -> None:
+    sources, _ = scenario_sources(tmp_path / "b.scn", BATCH_FILE)
+    jobs = plan_jobs(sources, parse_settings(["lowc=450", "lowc=600"]), [3, 4])
+    assert [j.relpath for j in jobs[:4]] == ["ONE/lowc=450/seed-3", "ONE/lowc=450/seed-4",
+                                             "ONE/lowc=600/seed-3", "ONE/lowc=600/seed-4"]
+    assert len(jobs) == 8 and [j.index for j in jobs] == list(range(8))
+
+
+def test_statistics_by_hand() -> None:
+    st = describe([1.0, 2.0, 3.0])
+    # mean 2, sample std 1, t(0.975, 2 dof) = 4.302652729911275 -> half-width 4.3027 / sqrt(3) = 2.484138
+    assert st.n == 3 and st.mean == 2.0 and st.std == 1.0
+    assert st.ci95_low == pytest.approx(2.0 - 2.484138, abs=1e-6)
+    assert st.ci95_high == pytest.approx(2.0 + 2.484138, abs=1e-6)
+    one = describe([5.0])
+    assert (one.n, one.mean, one.std, one.ci95_low) == (1, 5.0, None, None)
+    assert describe([]).mean is None
+
+
+def test_flatten_keeps_numbers_and_leaves_out_descriptions() -> None:
+    summary = {"scenario": "x", "seed": 3, "flights_created": 4, "errors": 0,
+               "safety": {"nmac_events": 2, "min_separation_m": None},
+               "operational": {"mean_delay_s": 1.5, "holding_flight_share": 0.25}}
+    assert flatten_metrics(summary) == {"flights_created": 4.0, "errors": 0.0, "safety.nmac_events": 2.0,
+                                        "safety.min_separation_m": None, "operational.mean_delay_s": 1.5,
+                                        "operational.holding_flight_share": 0.25}
+
+
+def _aamsim(*args: str, cwd: Path, env: dict[str, str] | None = None) -> subprocess.CompletedProcess[str]:
+    return subprocess.run([sys.executable, "-m", "aamsim", *args], check=False, cwd=cwd, capture_output=True,
+                          text=True, timeout=600, env=env)
+
+
+def _read_csv(path: Path) -> list[dict[str, str]]:
+    with open(path, newline="") as fh:
+        return list(csv.DictReader(fh))
+
+
+def test_batch_file_runs_each_block_and_reports_errors_with_file_lines(tmp_path: Path) -> None:
+    (tmp_path / "b.scn").write_text(BATCH_FILE)
+    proc = _aamsim("batch", "b.scn", "--no-ray", "--quiet", "--out", "out", cwd=tmp_path)
+    assert proc.returncode == 0, proc.stderr
+    runs = _read_csv(tmp_path / "out" / "runs.csv")
+    assert [(r["scenario"], r["flights_created"], r["sim_time_s"]) for r in runs] == [
+        ("ONE", "2.0", "600.0"), ("TWO", "1.0", "300.0")]
+    log = (tmp_path / "out" / "TWO" / "default" / "seed-0" / "messages.log").read_text()
+    assert "b.scn:8:" in log and "NOSUCHCOMMAND" in log
+    summary = json.loads((tmp_path / "out" / "ONE" / "default" / "seed-0" / "summary.json").read_text())
+    assert summary["scenario"] == "ONE"
+
+
+def test_unknown_scenario_and_bad_set_exit_2(tmp_path: Path) -> None:
+    proc = _aamsim("batch", "nope.scn", "--no-ray", cwd=tmp_path)
+    assert proc.returncode == 2 and "not found: nope.scn" in proc.stderr
+    (tmp_path / "r.scn").write_text(RANDOM_TRAFFIC)
+    proc = _aamsim("batch", "r.scn", "--set", "speed=3", "--no-ray", cwd=tmp_path)
+    assert proc.returncode == 2 and "unknown key 'speed'" in proc.stderr
+
+
+def _free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return int(s.getsockname()[1])
+
+
+@pytest.mark.slow
+def test_two_node_ray_cluster_matches_runs_one_by_one(tmp_path: Path) -> None:
+    ray_bin = Path(sys.executable).with_name("ray")
+    if not ray_bin.exists():
+        pytest.skip("the ray command is not installed (pip install -e '.[test]')")
+    (tmp_path / "random.scn").write_text(RANDOM_TRAFFIC)
+    port = _free_port()
+    env = {**os.environ, "RAY_USAGE_STATS_ENABLED": "0"}
+    ray_tmp = Path("/tmp") / f"aamsim-ray-{os.getpid()}"  # Ray's socket paths must stay short
+    common = ["--num-cpus=1", "--node-ip-address=127.0.0.1", "--disable-usage-stats"]
+    subprocess.run([str(ray_bin), "start", "--head", f"--port={port}", "--include-dashboard=false",
+                    f"--temp-dir={ray_tmp}", *common], check=True, env=env, capture_output=True, timeout=180)
+    try:
+        subprocess.run([str(ray_bin), "start", f"--address=127.0.0.1:{port}", *common], check=True, env=env,
+                       capture_output=True, timeout=180)
+        proc = _aamsim("batch", "random.scn", "--seeds", "3", "--set", "until=300", "--set", "lowc=450",
+                       "--set", "lowc=900", "--address", f"127.0.0.1:{port}", "--out", "out", cwd=tmp_path, env=env)
+        assert proc.returncode == 0, proc.stderr
+        assert "Ray: 2 node(s), 2 CPU(s)" in proc.stderr
+    finally:
+        subprocess.run([str(ray_bin), "stop", "--force"], check=False, env=env, capture_output=True, timeout=120)
+        shutil.rmtree(ray_tmp, ignore_errors=True)
+    runs = _read_csv(tmp_path / "out" / "runs.csv")
+    assert len(runs) == 6 and all(r["error"] == "" for r in runs)
+    assert len({r["node"] for r in runs}) == 2, "both nodes of the cluster ran jobs"
+
+    # The same seeds one by one through `aamsim run`, then mean/std/CI by hand.
+    aggregate = {(r["setting"], r["metric"]): r for r in _read_csv(tmp_path / "out" / "aggregate.csv")}
+    for lowc in ("450", "900"):
+        events: dict[str, list[float]] = {"safety.lowc_events": [], "safety.nmac_events": [], "flights_created": []}
+        for seed in range(3):
+            out = tmp_path / f"single-{lowc}-{seed}"
+            proc = _aamsim("run", "random.scn", "--seed", str(seed), "--until", "300", "--lowc", lowc,
+                           "--log-period", "0", "--quiet", "--out", str(out), cwd=tmp_path)
+            assert proc.returncode == 0, proc.stderr
+            summary = json.loads((out / "summary.json").read_text())
+            events["safety.lowc_events"].append(summary["safety"]["lowc_events"])
+            events["safety.nmac_events"].append(summary["safety"]["nmac_events"])
+            events["flights_created"].append(summary["flights_created"])
+        for metric, values in events.items():
+            row = aggregate[(f"until=300,lowc={lowc}", metric)]
+            assert int(row["n"]) == 3
+            assert float(row["mean"]) == pytest.approx(statistics.fmean(values), rel=1e-12)
+            assert float(row["std"]) == pytest.approx(statistics.stdev(values), rel=1e-12, abs=1e-12)
+        half = 4.302652729911275 * statistics.stdev(events["safety.lowc_events"]) / math.sqrt(3)
+        row = aggregate[(f"until=300,lowc={lowc}", "safety.lowc_events")]
+        assert float(row["ci95_high"]) == pytest.approx(statistics.fmean(events["safety.lowc_events"]) + half)
+    # A bigger LoWC volume cannot see fewer LoWC events on the same traffic, and there are some.
+    mean_450 = float(aggregate[("until=300,lowc=450", "safety.lowc_events")]["mean"])
+    mean_900 = float(aggregate[("until=300,lowc=900", "safety.lowc_events")]["mean"])
+    assert 0 < mean_450 <= mean_900
+    assert "| safety.lowc_events |" in (tmp_path / "out" / "aggregate.md").read_text()
