@@ -133,8 +133,8 @@ def normalise(chunk: RawChunk, plan: ColumnPlan, skips: SkipLog) -> StateReports
     assert values is not None
     icao24, bad = _icao24(values)
     problems.append((bad, f"bad icao24 in column {name!r}"))
-    lat, bad_lat = _floats(column("lat")[0] or [])
-    lon, bad_lon = _floats(column("lon")[0] or [])
+    lat, bad_lat = _floats(chunk.columns[plan.fields["lat"][0]])  # the plan requires a position
+    lon, bad_lon = _floats(chunk.columns[plan.fields["lon"][0]])
     problems += [
         (bad_lat | bad_lon, "bad latitude or longitude"),
         (~(bad_lat | bad_lon) & ~(np.isfinite(lat) & np.isfinite(lon)), "no position"),

@@ -31,6 +31,7 @@ REST_LAYOUT = {
     9: "velocity", 10: "true_track", 11: "vertrate", 13: "geo_altitude",
 }
 REST_FIELDS = 17
+_AFTER_VALUE = frozenset(" \t\r\n,]")
 #: Largest single JSON record accepted in an array before the file is called broken.
 MAX_RECORD_CHARS = 1 << 22
 
@@ -214,7 +215,9 @@ def _array_records(path: str, stream: TextIO, block: int = 1 << 20) -> Iterator[
                 return buf[pos] if pos < len(buf) else ""
             fill()
 
-    pos = buf.index("[") + 1
+    if skip_blanks() != "[":
+        raise RecordingError(path, "not a JSON array")
+    pos += 1
     count = 0
     while True:
         char = skip_blanks()
@@ -230,8 +233,9 @@ def _array_records(path: str, stream: TextIO, block: int = 1 << 20) -> Iterator[
                 value, end = decoder.raw_decode(buf, pos)
             except json.JSONDecodeError as err:
                 value, end = err, -1
-            # A success that ends the buffer may be a cut number: read on to be sure.
-            if end != -1 and (end < len(buf) or eof):
+            # A value is complete once what follows it can only follow a value: a number cut at
+            # the end of the buffer ("12" of "12.5") decodes too early otherwise.
+            if end != -1 and (eof or (end < len(buf) and buf[end] in _AFTER_VALUE)):
                 break
             if eof:
                 raise RecordingError(path, f"broken JSON in record {count + 1}: {value}")
