@@ -11,7 +11,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from aamsim.realtraffic import StateReports, read_reports
-from aamsim.realtraffic.tracks import build_tracks
+from aamsim.realtraffic.tracks import build_tracks, wrap360
 
 ZURICH = Path(__file__).parent / "data" / "opensky" / "switzerland_zurich_0600.json.gz"
 REGA = ZURICH.with_name("rega_zh.json.gz")
@@ -142,3 +142,10 @@ def test_states_at_report_times_are_the_reports_and_track_angles_stay_in_range(t
     t = times[0] + frac * (times[-1] - times[0])
     state = built.states_at(t)
     assert 0.0 <= state.trk_deg[0] < 360.0 and min(r[3] for r in rows) <= state.alt_m[0] <= max(r[3] for r in rows)
+
+
+def test_track_angles_stay_below_360_for_tiny_negative_angles():
+    # Found by the property above: np.mod(-5e-324, 360) is 360.0, not an angle in [0, 360).
+    assert list(wrap360(np.array([-5e-324, -1e-300, 360.0, 359.5, -0.5]))) == [0.0, 0.0, 0.0, 359.5, 359.5]
+    built = build_tracks(reports((0, 47, 8, 100, 50, 0.0, 0), (1, 47, 8, 100, 50, 180.0, 0)))
+    assert built.states_at(5e-324).trk_deg[0] == 0.0

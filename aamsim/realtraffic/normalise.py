@@ -162,8 +162,8 @@ def normalise(chunk: RawChunk, plan: ColumnPlan, skips: SkipLog) -> StateReports
         for i in np.flatnonzero(mask & keep):
             skips.add(SkippedRow(plan.path, chunk.where(int(i)), reason))
         keep &= ~mask
-    with np.errstate(invalid="ignore"):
-        trk = np.mod(physical["trk"], 360.0)
+    trk = np.mod(physical["trk"], 360.0)
+    trk[trk >= 360.0] = 0.0  # np.mod gives 360.0 for a tiny negative angle
     reports = StateReports(
         t_s=t_s, icao24=icao24, callsign=callsign, lat=lat, lon=lon, alt_m=physical["alt"],
         gs_mps=physical["gs"], trk_deg=trk, vs_mps=physical["vs"], on_ground=on_ground,

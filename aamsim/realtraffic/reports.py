@@ -94,18 +94,27 @@ class SkipLog:
 
 
 @dataclass(frozen=True)
-class StateReports:
-    """A block of normalised state reports (all arrays the same length); see ``REPORT_FIELDS``."""
+class Motion:
+    """Position and motion in SI, one value per report or per track (see ``REPORT_FIELDS``)."""
 
-    t_s: FloatArray
-    icao24: StrArray
-    callsign: StrArray
     lat: FloatArray
     lon: FloatArray
     alt_m: FloatArray
     gs_mps: FloatArray
     trk_deg: FloatArray
     vs_mps: FloatArray
+
+
+MOTION_FIELDS = ("lat", "lon", "alt_m", "gs_mps", "trk_deg", "vs_mps")
+
+
+@dataclass(frozen=True)
+class StateReports(Motion):
+    """A block of normalised state reports (all arrays the same length); see ``REPORT_FIELDS``."""
+
+    t_s: FloatArray
+    icao24: StrArray
+    callsign: StrArray
     on_ground: BoolArray
 
     def __post_init__(self) -> None:

@@ -15,11 +15,11 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from aamsim.realtraffic.reports import FloatArray, StateReports, StrArray
+from aamsim.realtraffic.reports import MOTION_FIELDS, FloatArray, Motion, StateReports, StrArray
 from aamsim.units import R_EARTH
 
 IntArray = NDArray[np.intp]
-_KINEMATIC = ("lat", "lon", "alt_m", "gs_mps", "trk_deg", "vs_mps")
+_KINEMATIC = MOTION_FIELDS
 
 
 @dataclass(frozen=True)
@@ -36,16 +36,10 @@ class BuildSummary:
 
 
 @dataclass(frozen=True)
-class TrackStates:
+class TrackStates(Motion):
     """The tracks flying at one time: ``index`` into the :class:`TrackSet`, and their SI state."""
 
     index: IntArray
-    lat: FloatArray
-    lon: FloatArray
-    alt_m: FloatArray
-    gs_mps: FloatArray
-    trk_deg: FloatArray
-    vs_mps: FloatArray
 
     def __len__(self) -> int:
         return len(self.index)
@@ -53,6 +47,12 @@ class TrackStates:
 
 def _wrap180(angle: FloatArray) -> FloatArray:
     return np.mod(angle + 180.0, 360.0) - 180.0
+
+
+def wrap360(angle: FloatArray) -> FloatArray:
+    """Angles in [0, 360): ``np.mod`` alone gives 360.0 for a tiny negative angle (-1e-300)."""
+    wrapped = np.mod(angle, 360.0)
+    return np.where(wrapped >= 360.0, 0.0, wrapped)
 
 
 def interpolate(
@@ -66,24 +66,18 @@ def interpolate(
     f = np.clip((t - t0) / (t1 - t0), 0.0, 1.0)
     out = {name: a[name] + f * (b[name] - a[name]) for name in ("lat", "alt_m", "gs_mps", "vs_mps")}
     out["lon"] = _wrap180(a["lon"] + f * _wrap180(b["lon"] - a["lon"]))
-    out["trk_deg"] = np.mod(a["trk_deg"] + f * _wrap180(b["trk_deg"] - a["trk_deg"]), 360.0)
+    out["trk_deg"] = wrap360(a["trk_deg"] + f * _wrap180(b["trk_deg"] - a["trk_deg"]))
     return out
 
 
 @dataclass(frozen=True)
-class Track:
+class Track(Motion):
     """One aircraft's stretch of airborne reports (a view into its :class:`TrackSet`)."""
 
     icao24: str
     callsign: str
     segment: int  # 1, 2, ... when gaps or landings split the aircraft's reports
     t_s: FloatArray
-    lat: FloatArray
-    lon: FloatArray
-    alt_m: FloatArray
-    gs_mps: FloatArray
-    trk_deg: FloatArray
-    vs_mps: FloatArray
 
     @property
     def label(self) -> str:
@@ -229,7 +223,7 @@ def _fill_motion(rows: StateReports, start: IntArray) -> StateReports:
     track_start[start[:-1]] = True
     track_end = np.zeros(n, dtype=bool)
     track_end[start[1:] - 1] = True
-    derived = _derived_motion(rows, track_end)
+    derived: dict[str, FloatArray] = {}
     filled = {}
     for name in ("gs_mps", "trk_deg", "vs_mps"):
         values = getattr(rows, name)
@@ -242,7 +236,10 @@ def _fill_motion(rows: StateReports, start: IntArray) -> StateReports:
         reverse = (valid | track_end)[::-1]
         later = n - 1 - np.maximum.accumulate(np.where(reverse, position, 0))[::-1]
         out = np.where(np.isfinite(out), out, values[later])
-        filled[name] = np.where(np.isfinite(out), out, derived[name])
+        if not np.isfinite(out).all():
+            derived = derived or _derived_motion(rows, track_end)
+            out = np.where(np.isfinite(out), out, derived[name])
+        filled[name] = out
     if not filled:
         return rows
     return StateReports(**{**{name: getattr(rows, name) for name in rows.__dataclass_fields__}, **filled})
@@ -258,9 +255,9 @@ def _derived_motion(rows: StateReports, track_end: NDArray[np.bool_]) -> dict[st
     dt = rows.t_s[nxt] - rows.t_s[prv]
     north = np.radians(rows.lat[nxt] - rows.lat[prv]) * R_EARTH
     east = np.radians(_wrap180(rows.lon[nxt] - rows.lon[prv])) * R_EARTH * np.cos(np.radians(rows.lat[prv]))
-    with np.errstate(invalid="ignore", divide="ignore"):
+    with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
         return {
             "gs_mps": np.hypot(north, east) / dt,
-            "trk_deg": np.mod(np.degrees(np.arctan2(east, north)), 360.0),
+            "trk_deg": wrap360(np.degrees(np.arctan2(east, north))),
             "vs_mps": (rows.alt_m[nxt] - rows.alt_m[prv]) / dt,
         }
