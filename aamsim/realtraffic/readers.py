@@ -28,8 +28,8 @@ Format = Literal["csv", "json", "parquet"]
 _SUFFIXES: dict[str, Format] = {
     ".csv": "csv", ".json": "json", ".jsonl": "json", ".ndjson": "json", ".parquet": "parquet", ".pq": "parquet",
 }
-#: Rows per chunk: large enough that the per-chunk numpy calls dominate, small enough for ~10 MB.
-DEFAULT_CHUNK_ROWS = 65536
+#: Rows per chunk: ~30 MB of raw CSV values or ~50 MB of JSON records in flight (measured, docs/real-traffic.md).
+DEFAULT_CHUNK_ROWS = 16384
 
 
 def detect_format(path: Path) -> Format:
