@@ -19,8 +19,16 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from aamsim.realtraffic import RecordingError, RecordingReader, StateReports, detect_format, read_reports
-from aamsim.realtraffic.sources import _array_records
+from aamsim.realtraffic import (
+    RecordingError,
+    RecordingReader,
+    SkipLog,
+    StateReports,
+    detect_format,
+    plan_columns,
+    read_reports,
+)
+from aamsim.realtraffic.sources import _array_records, csv_chunks
 
 DATA = Path(__file__).parent / "data" / "opensky"
 REGA = DATA / "rega_zh.json.gz"
@@ -333,3 +341,58 @@ json_values = st.recursive(
 def test_the_incremental_array_decoder_matches_json_loads(records, block, indent):
     text = json.dumps(records, indent=indent)
     assert list(_array_records("x.json", io.StringIO(text), block=block)) == records
+
+
+def test_streaming_reads_no_further_than_the_first_block_needs():
+    rows = rega_rows() * 40  # 13,560 genuine records, ~4.6 MB of JSON
+    text = json.dumps(rows)
+    stream = io.StringIO(text)
+    records = _array_records("big.json", stream)
+    assert next(records) == rows[0]
+    assert stream.tell() <= 1 << 20 < len(text) // 4  # one 1 MB buffer read, not the file
+    csv_text = io.StringIO()
+    writer = csv.DictWriter(csv_text, fieldnames=list(opensky_si_row(rows[0])))
+    writer.writeheader()
+    writer.writerows(opensky_si_row(r) for r in rows)
+    stream = io.StringIO(csv_text.getvalue())
+    plan = plan_columns("big.csv", list(opensky_si_row(rows[0])))
+    chunks = csv_chunks("big.csv", stream, lambda names: plan, 100, SkipLog())
+    assert next(chunks).size == 100
+    assert stream.tell() < len(csv_text.getvalue()) // 100  # about the first 101 lines
+
+
+cell = st.one_of(st.just(""), st.text(st.characters(blacklist_categories=("Cs",)), max_size=6))
+
+
+@settings(max_examples=60, deadline=None)
+@given(rows=st.lists(st.tuples(st.booleans(), st.integers(0, 5), cell), min_size=1, max_size=30))
+def test_every_csv_row_is_a_report_or_a_reported_skip(tmp_path_factory, rows):
+    """Good rows, and rows with one field replaced by arbitrary text: nothing is lost unaccounted."""
+    good = ["1558732719", "4b43ac", "47.3665", "8.5007", "594.36", "REGA1"]
+    lines, expected_alts = [], []
+    for intact, field, junk in rows:
+        values = list(good)
+        values[4] = str(100.0 + len(lines))
+        if not intact:
+            values[field] = junk
+        lines.append(values)
+    path = tmp_path_factory.mktemp("csv") / "r.csv"
+    with open(path, "w", newline="") as out:
+        writer = csv.writer(out)
+        writer.writerow(["time", "icao24", "lat", "lon", "baroaltitude", "callsign"])
+        writer.writerows(lines)
+    reader = RecordingReader(path, chunk_rows=4)
+    reports = read_all(reader)
+    assert reader.rows_read + reader.skipped.total == len(lines)
+    for (intact, field, _), values in zip(rows, lines, strict=True):
+        if intact or field == 5:  # any text is a callsign
+            expected_alts.append(float(values[4]))
+    assert set(expected_alts) <= set(reports.alt_m)
+
+
+def test_a_json_lines_file_with_a_broken_first_line_loses_that_line_only(tmp_path):
+    path = tmp_path / "rega.jsonl"
+    path.write_text('{"timestamp": 155873\n' + "".join(json.dumps(r) + "\n" for r in rega_rows(5)))
+    reader = RecordingReader(path)
+    assert len(read_all(reader)) == 5
+    assert [str(s) for s in reader.skipped.rows] == [f"{path}:1: broken JSON: Expecting ',' delimiter"]

@@ -123,7 +123,8 @@ class RecordingReader:
                 if self.format == "csv":
                     yield from csv_chunks(name, stream, self._plan_for, self.chunk_rows, self.skipped)
                 else:
-                    yield from json_chunks(name, stream, self._plan_for, self.chunk_rows, self.skipped)
+                    lines = self.path.name.lower().removesuffix(".gz").endswith((".jsonl", ".ndjson"))
+                    yield from json_chunks(name, stream, self._plan_for, self.chunk_rows, self.skipped, lines=lines)
             except (UnicodeDecodeError, gzip.BadGzipFile, EOFError) as err:
                 raise RecordingError(name, f"cannot be read as {self.format} text: {err}") from err
 

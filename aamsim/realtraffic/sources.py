@@ -123,34 +123,40 @@ def rest_states(path: str, response: Mapping[str, Any], number: int, skips: Skip
         yield {name: state[i] for i, name in REST_LAYOUT.items()}, where
 
 
-def json_chunks(path: str, stream: TextIO, plan_for: PlanFor, chunk_rows: int, skips: SkipLog) -> Iterator[RawChunk]:
-    """Any of the JSON forms; see the module docstring."""
+def json_chunks(
+    path: str, stream: TextIO, plan_for: PlanFor, chunk_rows: int, skips: SkipLog, *, lines: bool = False
+) -> Iterator[RawChunk]:
+    """Any of the JSON forms (see the module docstring); ``lines``: the file says it is JSON lines
+    (``.jsonl``, ``.ndjson``), so that even a broken first line is one skipped row."""
     batcher = _RecordBatcher(path, plan_for, chunk_rows, skips)
+    if lines:
+        yield from batcher.add_all(_lines_records(path, stream, skips))
+        return
     first = _peek_nonblank(stream)
     if first == "[":
         yield from batcher.add_all((rec, str(n)) for n, rec in enumerate(_array_records(path, stream), start=1))
         return
     if first != "{":
         raise RecordingError(path, f"not JSON records: starts with {first!r}" if first else "empty file")
+    start = stream.tell()
     head = stream.readline()
     try:
-        first_value = json.loads(head)
+        json.loads(head)
     except json.JSONDecodeError:
-        first_value = None  # an object over several lines: the whole file is one document
-    if first_value is None:
+        # An object over several lines: the whole file is one document.
         try:
             document = json.loads(head + stream.read())
         except json.JSONDecodeError as err:
             raise RecordingError(path, f"broken JSON at line {err.lineno} column {err.colno}: {err.msg}") from err
         yield from batcher.add_all(_object_records(path, document, 1, skips))
         return
-    yield from batcher.add_all(_lines_records(path, first_value, stream, skips))
+    stream.seek(start)
+    yield from batcher.add_all(_lines_records(path, stream, skips))
 
 
-def _lines_records(path: str, first: Any, stream: TextIO, skips: SkipLog) -> Iterator[tuple[Any, str]]:
+def _lines_records(path: str, stream: TextIO, skips: SkipLog) -> Iterator[tuple[Any, str]]:
     """JSON lines: each line a record or a whole REST response; a broken line is a skipped row."""
-    yield from _line_records(path, first, 1, skips)
-    for number, line in enumerate(stream, start=2):
+    for number, line in enumerate(stream, start=1):
         if not line.strip():
             continue
         try:
