@@ -396,3 +396,10 @@ def test_a_json_lines_file_with_a_broken_first_line_loses_that_line_only(tmp_pat
     reader = RecordingReader(path)
     assert len(read_all(reader)) == 5
     assert [str(s) for s in reader.skipped.rows] == [f"{path}:1: broken JSON: Expecting ',' delimiter"]
+
+
+def test_reading_a_recording_twice_counts_its_rows_once(tmp_path):
+    path = small_csv(tmp_path, "time,icao24,lat,lon,altitude", "1,4b43ac,47,8,100", "2,4b43ac,north,8,100")
+    reader = RecordingReader(path)
+    first, second = read_all(reader), read_all(reader)
+    assert len(first) == len(second) == 1 and reader.rows_read == 1 and reader.skipped.total == 1

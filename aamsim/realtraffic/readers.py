@@ -129,6 +129,8 @@ class RecordingReader:
                 raise RecordingError(name, f"cannot be read as {self.format} text: {err}") from err
 
     def __iter__(self) -> Iterator[StateReports]:
+        # Each pass reads the file again: its counts start again too.
+        self.skipped, self.rows_read, self.rows_outside = SkipLog(), 0, 0
         for raw in self._raw_chunks():
             assert self.plan is not None  # every source plans before its first chunk
             block = normalise(raw, self.plan, self.skipped)
