@@ -149,3 +149,15 @@ def test_track_angles_stay_below_360_for_tiny_negative_angles():
     assert list(wrap360(np.array([-5e-324, -1e-300, 360.0, 359.5, -0.5]))) == [0.0, 0.0, 0.0, 359.5, 359.5]
     built = build_tracks(reports((0, 47, 8, 100, 50, 0.0, 0), (1, 47, 8, 100, 50, 180.0, 0)))
     assert built.states_at(5e-324).trk_deg[0] == 0.0
+
+
+def test_tracks_built_from_a_streaming_reader_equal_those_from_the_whole_recording():
+    from aamsim.realtraffic import RecordingReader
+
+    whole = build_tracks(read_reports(ZURICH))
+    streamed = build_tracks(RecordingReader(ZURICH, chunk_rows=17))
+    assert streamed.summary == whole.summary
+    for a, b in zip(whole, streamed, strict=True):
+        assert a.label == b.label and a.callsign == b.callsign
+        np.testing.assert_array_equal(a.t_s, b.t_s)
+        np.testing.assert_array_equal(a.lat, b.lat)
