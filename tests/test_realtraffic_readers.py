@@ -235,11 +235,12 @@ def test_malformed_rows_are_skipped_with_file_and_row_and_nothing_else_is_lost(t
         "103,zzzzzz,47.0,8.0,500,50,90,0,false,REGA1",  # 5: bad icao24
         "104,4b43ac,,,500,50,90,0,false,REGA1",  # 6: no position (a REST-style null)
         "soon,4b43ac,47.0,8.0,500,50,90,0,false,REGA1",  # 7: bad time
-        "106,4b43ac,47.0,8.0,high,50,90,0,false,REGA1",  # 8: bad altitude
+        "106,4b43ac,47.0,8.0,high,50,90,-inf,false,REGA1",  # 8: bad altitude (the first bad field)
         "107,4b43ac,47.0,8.0,500,50,90,0,maybe,REGA1",  # 9: bad on-ground flag
         "108,4b43ac,95.0,8.0,500,50,90,0,false,REGA1",  # 10: latitude out of range
         "",  # a blank line is nothing
-        "110,4b43ac,47.1,8.1,,,,,true,",  # 12: good, on the ground, unknowns as NaN
+        "109,4b43ac,47.0,8.0,500,inf,90,0,false,REGA1",  # 12: infinite speed
+        "110,4b43ac,47.1,8.1,,,,nan,true,",  # 13: good, on the ground, unknowns as NaN
     )
     reader = RecordingReader(path, chunk_rows=3)
     reports = read_all(reader)
@@ -252,8 +253,9 @@ def test_malformed_rows_are_skipped_with_file_and_row_and_nothing_else_is_lost(t
         f"{path}:8: bad value in column 'baroaltitude'",
         f"{path}:9: bad value in column 'onground'",
         f"{path}:10: latitude outside [-90, 90]",
+        f"{path}:12: bad value in column 'velocity'",
     ])
-    assert reader.skipped.total == 8 and reader.rows_read == 2
+    assert reader.skipped.total == 9 and reader.rows_read == 2
     assert list(reports.t_s) == [100.0, 110.0] and list(reports.on_ground) == [False, True]
     assert np.isnan(reports.alt_m[1]) and np.isnan(reports.gs_mps[1]) and reports.callsign[1] == ""
     assert "1 x no position (first at" in reader.skipped.summary()

@@ -149,7 +149,7 @@ def normalise(chunk: RawChunk, plan: ColumnPlan, skips: SkipLog) -> StateReports
             continue
         number, bad = _floats(values)
         physical[field] = number * TO_SI[unit or "m"]
-        problems.append((bad, f"bad value in column {name!r}"))
+        problems.append((bad | np.isinf(number), f"bad value in column {name!r}"))  # NaN: unknown; inf: bad
     values, _, name = column("on_ground")
     on_ground, bad = _bools(values) if values is not None else (np.zeros(n, dtype=bool), np.zeros(n, dtype=bool))
     problems.append((bad, f"bad value in column {name!r}"))
