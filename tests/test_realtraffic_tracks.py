@@ -63,6 +63,7 @@ def test_gaps_split_tracks_and_landings_end_them():
         ("abc123", [0.0, 10.0, 20.0]), ("abc123-2", [100.0, 110.0]), ("abc123-3", [130.0, 140.0]),
     ]
     assert tracks.summary.on_ground == 1 and tracks.summary.tracks == 3
+    assert list(tracks.labels) == ["abc123", "abc123-2", "abc123-3"]
     assert tracks.states_at(115.0).index.size == 0  # between the last airborne report and the landing
     assert tracks.time_span == (0.0, 140.0)
 

@@ -126,6 +126,12 @@ class TrackSet:
         return (self[k] for k in range(len(self)))
 
     @property
+    def labels(self) -> StrArray:
+        """Every track's :attr:`Track.label`, by track index (what a replay names its aircraft)."""
+        suffix = np.where(self.segment == 1, "", np.char.add("-", self.segment.astype(str)))
+        return np.char.add(self.icao24.astype(str), suffix)
+
+    @property
     def time_span(self) -> tuple[float, float]:
         """First and last report time of all tracks (s, the recording's clock)."""
         return (float(self.t_first.min()), float(self.t_last.max())) if len(self) else (np.nan, np.nan)
