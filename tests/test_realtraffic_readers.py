@@ -405,3 +405,22 @@ def test_reading_a_recording_twice_counts_its_rows_once(tmp_path):
     reader = RecordingReader(path)
     first, second = read_all(reader), read_all(reader)
     assert len(first) == len(second) == 1 and reader.rows_read == 1 and reader.skipped.total == 1
+
+
+OPENSKY_HEADER = ["time", "icao24", "lat", "lon", "velocity", "heading", "vertrate", "callsign", "onground", "alert",
+                  "spi", "squawk", "baroaltitude", "geoaltitude", "lastposupdate", "lastcontact", "hour"]
+
+
+@settings(max_examples=80, deadline=None)
+@given(order=st.permutations(OPENSKY_HEADER), upper=st.lists(st.booleans(), min_size=17, max_size=17),
+       pad=st.sampled_from(["", " ", "\t"]))
+def test_column_order_case_and_blanks_do_not_change_the_plan(order, upper, pad):
+    names = [pad + (n.upper() if u else n) + pad for n, u in zip(order, upper, strict=True)]
+    plan = plan_columns("x.csv", names)
+    fields = {field: (column.strip().lower(), unit) for field, (column, unit) in plan.fields.items()}
+    assert fields == {
+        "t": ("time", "s"), "icao24": ("icao24", None), "lat": ("lat", "deg"), "lon": ("lon", "deg"),
+        "gs": ("velocity", "m/s"), "trk": ("heading", "deg"), "vs": ("vertrate", "m/s"),
+        "callsign": ("callsign", None), "on_ground": ("onground", None), "alt": ("baroaltitude", "m"),
+    }
+    assert plan.family == "opensky"
