@@ -342,6 +342,7 @@ class Simulation:
         record.arrived = bool(arrived)
         record.deleted_s = self.simt
         self.hooks.deleted.call(self, i, record)
+        self.conditions.drop_aircraft(self.traffic.ids[i])
         self.traffic.delete(i)
         self.flight_log.append(record)
         return record
@@ -461,8 +462,8 @@ class Simulation:
             self._fresh[i] = False  # its leg changed: guidance must be recomputed
             commands, was_last = pass_waypoint(traffic, i)
             acid = traffic.ids[i]
-            for text in commands:
-                self.schedule(self.simt + self.dt, text, SourceRef(f"AT {acid}", 0))
+            for text, source in commands:
+                self.schedule(self.simt + self.dt, text, source or SourceRef(f"AT {acid}", 0))
                 side_effects = True
             if was_last and self.settings.delete_on_arrival:
                 last = traffic.n - 1

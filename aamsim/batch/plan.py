@@ -13,7 +13,6 @@ order the keys first appear), each with every seed.
 
 from __future__ import annotations
 
-import io
 import itertools
 import math
 import re
@@ -23,6 +22,7 @@ from pathlib import Path
 from typing import Any
 
 from aamsim.conflicts.service import SeparationVolume
+from aamsim.stack.parser import scenario_lines
 from aamsim.units import UnitParseError, parse_time
 
 
@@ -58,7 +58,7 @@ def scenario_sources(path: Path, text: str) -> tuple[list[ScenarioSource], list[
     after their second word, which is never what was meant, so they are
     reported and left out.
     """
-    lines = list(io.StringIO(text, newline=""))  # \n, \r\n, \r only: line numbers as an editor shows
+    lines = scenario_lines(text, keepends=True)  # line numbers as an editor shows them
     starts = [k for k, line in enumerate(lines) if _command_word(line) in ("SCEN", "SCENARIO")]
     if len(starts) < 2:
         return [ScenarioSource(path.stem, path, text)], []

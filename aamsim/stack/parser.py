@@ -9,6 +9,7 @@ line never hides the good ones.
 
 from __future__ import annotations
 
+import io
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
 
@@ -133,6 +134,16 @@ def resolve_command_form(command: Command, is_command: Callable[[str], bool]) ->
     return command
 
 
+def scenario_lines(text: str, keepends: bool = False) -> list[str]:
+    """Split scenario text into lines as a text-file reader does (and BlueSky, which reads with ``open``).
+
+    Only ``\\n``, ``\\r\\n`` and a lone ``\\r`` end a line. ``str.splitlines`` also splits at
+    VT, FF, FS, GS, RS, NEL and U+2028/U+2029, which made every later error cite the wrong line.
+    """
+    lines = list(io.StringIO(text, newline=""))
+    return lines if keepends else [line.rstrip("\r\n") for line in lines]
+
+
 def iter_logical_lines(text: str) -> Iterable[tuple[int, str]]:
     """Yield ``(line_number, text)`` with comments removed and continuations joined.
 
@@ -140,7 +151,7 @@ def iter_logical_lines(text: str) -> Iterable[tuple[int, str]]:
     """
     pending = ""
     pending_line = 0
-    for number, raw in enumerate(text.splitlines(), start=1):
+    for number, raw in enumerate(scenario_lines(text), start=1):
         line = raw.split("#", 1)[0].strip()
         if not line and not pending:
             continue

@@ -14,6 +14,7 @@ descents at 3000 ft per 10 NM ending at the constraint.
 from __future__ import annotations
 
 import math
+from typing import Any
 
 from aamsim import aero
 from aamsim.geo import degto180, kwik_qdrdist, qdrdist
@@ -138,18 +139,22 @@ def activate_waypoint(traffic: Traffic, i: int, index: int) -> None:
     B[f.B_SWLNAV, i] = True
 
 
-def pass_waypoint(traffic: Traffic, i: int) -> tuple[list[str], bool]:
+def pass_waypoint(traffic: Traffic, i: int) -> tuple[list[tuple[str, Any]], bool]:
     """Aircraft ``i`` has reached its active waypoint: begin the next leg.
 
     Returns:
-        The stack commands attached to the passed waypoint (AT ... DO), and
+        The stack commands attached to the passed waypoint (AT ... DO) with
+        the source of the AT line that stored each (None if unknown), and
         whether it was the last waypoint of the route (LNAV and VNAV are then
         switched off and the aircraft flies on along its track).
     """
     F, B = traffic.F, traffic.B
     route = traffic.routes[i]
     passed = route.waypoints[route.iactwp] if 0 <= route.iactwp < len(route) else None
-    commands = list(passed.stack) if passed is not None else []
+    commands: list[tuple[str, Any]] = []
+    if passed is not None:
+        sources = passed.stack_sources + [None] * (len(passed.stack) - len(passed.stack_sources))
+        commands = list(zip(passed.stack, sources))
     # Speeds are "from" speeds: the one of the waypoint we pass applies now.
     F[f.WP_SPD, i] = F[f.WP_NEXTSPD, i]
     F[f.WP_SPDCON, i] = F[f.WP_NEXTSPD, i]

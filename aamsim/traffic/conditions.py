@@ -2,7 +2,7 @@
 
 A condition fires in the step where ``target - actual`` changes sign (or
 becomes zero), as in BlueSky; it is then removed. Conditions of a deleted
-aircraft are dropped. The step kernel evaluates them; this module keeps the
+aircraft are dropped when it is deleted. The step kernel evaluates them; this module keeps the
 list and hands the kernel flat arrays.
 """
 
@@ -51,6 +51,16 @@ class Conditions:
     def add(self, cond: Condition) -> None:
         self._sync()
         self.items.append(cond)
+
+    def drop_aircraft(self, acid: str) -> None:
+        """Forget the conditions of an aircraft being deleted.
+
+        Done at deletion, not when the kernel next runs: an aircraft deleted and
+        created again under the same callsign in one step must not inherit them.
+        """
+        if any(c.acid == acid for c in self.items):
+            self._sync()
+            self.items = [c for c in self.items if c.acid != acid]
 
     def clear(self) -> None:
         self._cache = None

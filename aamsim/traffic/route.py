@@ -13,6 +13,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 from enum import Enum
+from typing import Any
 
 from aamsim.geo import qdrdist
 
@@ -38,6 +39,7 @@ class Waypoint:
     flyby: bool = True
     rta_s: float = math.nan  # required time of arrival [s], book-keeping
     stack: list[str] = field(default_factory=list)
+    stack_sources: list[Any] = field(default_factory=list)  # SourceRef of the AT line of each stack entry
     # Derived by Route.plan():
     toalt: float = math.nan  # m, next altitude constraint from here on
     xtoalt: float = 0.0  # m, distance from here to that constraint

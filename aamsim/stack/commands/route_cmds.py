@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from typing import TYPE_CHECKING, Any
 
 from aamsim.errors import ArgumentError, CommandError
@@ -339,12 +340,26 @@ def swtod(sim: Simulation, acid: AcIndex, on: OnOff | None = None) -> str | None
     return None
 
 
-def _first_param_is_acid(sim: Simulation, text: str) -> bool:
-    name, _ = next_arg(text)
-    spec = sim.commands.get(name)
-    return bool(spec and spec.params and spec.params[0].argtype is ACID) or bool(
-        spec and spec.raw and spec.name in ("ADDWPT",)
-    )
+def at_do_command(text: str, acid: str, registry: Any, is_aircraft: Callable[[str], bool]) -> str:
+    """The command line an ``AT acid wp DO text`` stores, by BlueSky's rule.
+
+    A line that starts with a callsign is kept as it is. Otherwise, when the
+    command takes a callsign first and its first argument is not one, the
+    AT's aircraft is put in (``DO SPD 50`` -> ``SPD B001 50``); a line that
+    names its aircraft (``DO SPD A001 50``) is kept. Both the live command and
+    ``--strict`` use this function, so they agree.
+    """
+    name, args = next_arg(text)
+    if not name or is_aircraft(name):
+        return text
+    spec = registry.get(name.upper())
+    if spec is None:
+        raise CommandError(f"DO: unknown command {name}")
+    takes_acid = bool(spec.params and spec.params[0].argtype is ACID) or (spec.raw and spec.name == "ADDWPT")
+    first_arg, _ = next_arg(args)
+    if takes_acid and not (first_arg and is_aircraft(first_arg)):
+        return f"{name} {acid} {args}".strip()
+    return text
 
 
 def check_at(argtext: str, ctx: Any) -> None:
@@ -367,8 +382,11 @@ def check_at(argtext: str, ctx: Any) -> None:
         elif what in ("SPD", "SPEED") and rest.strip():
             parse_speed(next_arg(rest)[0])
         elif what in ("DO", "STACK"):
-            if rest.strip() and hasattr(ctx, "check_nested"):
-                ctx.check_nested(rest.strip())
+            registry = getattr(ctx, "registry", None)
+            if rest.strip() and hasattr(ctx, "check_nested") and registry is not None:
+                acid = next_arg(argtext)[0].upper()
+                known = getattr(ctx, "callsigns", set())
+                ctx.check_nested(at_do_command(rest.strip(), acid, registry, lambda n: n.upper() in known))
         elif what not in ("DEL", "DELETE", "CLR", "CLEAR", "ALT", "SPD", "SPEED"):
             raise CommandError(f"AT: unknown keyword {what}")
     except UnitParseError as exc:
@@ -416,12 +434,8 @@ def at(sim: Simulation, argtext: RestOfLine) -> str | None:
             speed = parse_speed(next_arg(rest)[0])
             wp.spd, wp.spd_mach = speed.value, speed.is_mach
         elif what in ("DO", "STACK"):
-            text = rest.strip()
-            first, _ = next_arg(text)
-            if first.upper() not in traffic and _first_param_is_acid(sim, text):
-                name, args = next_arg(text)
-                text = f"{name} {acid} {args}".strip()
-            wp.stack.append(text)
+            wp.stack.append(at_do_command(rest.strip(), acid, sim.commands, lambda n: n.upper() in traffic))
+            wp.stack_sources.append(sim.current_source)
         elif what in ("DEL", "DELETE", "CLR", "CLEAR"):
             which = next_arg(rest)[0].upper()
             if which in ("SPD", "SPEED", "BOTH", "ALL"):
@@ -430,6 +444,7 @@ def at(sim: Simulation, argtext: RestOfLine) -> str | None:
                 wp.alt = math.nan
             if which == "ALL":
                 wp.stack.clear()
+                wp.stack_sources.clear()
         else:
             raise CommandError(f"AT {acid} {wpname}: unknown keyword {what}")
     except UnitParseError as exc:
