@@ -116,6 +116,9 @@ class Simulation:
         self.search_path: list[Path] = []
         # Called with every file PCALL/IC resolve; raises CommandError to refuse it (the ZMQ server's roots).
         self.file_guard: Callable[[Path], None] | None = None
+        # File -> the chain of files whose PCALL/IC loaded it (kept across IC's reset, so that
+        # files that IC each other are caught as a cycle too).
+        self.call_chains: dict[str, tuple[str, ...]] = {}
         self.plugins: dict[str, Any] = {}
         self.extensions: dict[str, Any] = {}  # per-simulation state of services and plugins
         self.aircraft_steps = 0
@@ -221,13 +224,20 @@ class Simulation:
 
     def _find_file(self, name: str) -> Path | None:
         candidate = Path(name)
+        if not name.strip() or "\x00" in name or not candidate.name or candidate.name in (".", ".."):
+            raise CommandError(f'"{name}" is not a file name')
         options = [candidate] if candidate.suffix else [candidate, candidate.with_suffix(".scn")]
         for option in options:
-            if option.is_absolute() and option.exists():
-                return option
-            for folder in [*self.search_path, Path.cwd()]:
-                if (folder / option).exists():
-                    return folder / option
+            try:
+                if option.is_absolute():
+                    if option.is_file():
+                        return option
+                    continue
+                for folder in [*self.search_path, Path.cwd()]:
+                    if (folder / option).is_file():  # a directory is not a scenario
+                        return folder / option
+            except OSError:  # a name the file system refuses (too long...)
+                continue
             from aamsim.scenarios import packaged_scenario
 
             packaged = packaged_scenario(str(option))

@@ -42,6 +42,14 @@ class Speed:
         return f"{self.value / KTS:g}"
 
 
+# The longest time a scenario may name: 100 years of simulated time. Beyond it the
+# clock's microseconds no longer fit a float exactly and 1e308 s overflowed it.
+MAX_TIME_S = 100 * 365.25 * 86400.0
+# The highest flight level read as one (FL99999, 3,048 km): a larger one is a typo, and
+# FL followed by 400 digits overflowed a float.
+MAX_FLIGHT_LEVEL = 99999
+
+
 def parse_altitude(text: str) -> float:
     """Read an altitude: feet, or a flight level ``FLnnn``.
 
@@ -53,10 +61,11 @@ def parse_altitude(text: str) -> float:
     """
     t = text.strip().upper()
     if t.startswith("FL") and len(t) >= 4:
-        try:
-            return 100.0 * int(t[2:]) * FT
-        except ValueError:
-            pass
+        digits = t[2:]
+        if digits.isdigit() and len(digits) <= len(str(MAX_FLIGHT_LEVEL)):
+            return 100.0 * int(digits) * FT
+        if digits.isdigit():
+            raise UnitParseError(f'"{text}": flight level above FL{MAX_FLIGHT_LEVEL}')
     else:
         try:
             value = float(t)
@@ -152,15 +161,26 @@ def parse_time(text: str) -> float:
         raise UnitParseError(f'"{text}" is not a time ([[HH:]MM:]SS.hh)')
     try:
         seconds = float(parts[-1])
-        if len(parts) > 1 and parts[-2]:
-            seconds += 60.0 * int(parts[-2])
-        if len(parts) > 2 and parts[-3]:
-            seconds += 3600.0 * int(parts[-3])
+        minutes = int(parts[-2]) if len(parts) > 1 and parts[-2] else 0
+        hours = int(parts[-3]) if len(parts) > 2 and parts[-3] else 0
     except ValueError:
         raise UnitParseError(f'"{text}" is not a time ([[HH:]MM:]SS.hh)') from None
-    if not math.isfinite(seconds) or seconds < 0:
-        raise UnitParseError(f'"{text}" is not a time ([[HH:]MM:]SS.hh)')
-    return seconds
+    return checked_time(seconds, minutes, hours, text)
+
+
+def checked_time(seconds: float, minutes: int = 0, hours: int = 0, text: str = "") -> float:
+    """``hours:minutes:seconds`` in seconds, refused (UnitParseError) if negative, not finite or
+    beyond :data:`MAX_TIME_S`. The whole parts are compared as integers: a 400-digit hour
+    overflowed a float."""
+    shown = text or f"{hours}:{minutes}:{seconds}"
+    if not math.isfinite(seconds) or seconds < 0 or minutes < 0 or hours < 0:
+        raise UnitParseError(f'"{shown}" is not a time: negative or not finite')
+    if hours * 3600 + minutes * 60 > MAX_TIME_S or seconds > MAX_TIME_S:
+        raise UnitParseError(f'"{shown}" is beyond the longest simulated time (100 years)')
+    total = hours * 3600.0 + minutes * 60.0 + seconds
+    if total > MAX_TIME_S:
+        raise UnitParseError(f'"{shown}" is beyond the longest simulated time (100 years)')
+    return total
 
 
 def format_time(seconds: float) -> str:

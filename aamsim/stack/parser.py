@@ -15,7 +15,7 @@ from dataclasses import dataclass, field
 
 from aamsim.errors import ScenarioSyntaxError, SourceRef
 from aamsim.stack.tokens import next_arg
-from aamsim.units import UnitParseError, format_time
+from aamsim.units import UnitParseError, checked_time, format_time
 
 _FORBIDDEN_IN_NAME = set("'\";#>")
 
@@ -90,9 +90,10 @@ def parse_timestamp(text: str, source: SourceRef | None = None) -> float:
         seconds = float(parts[2])
     except ValueError:
         raise ScenarioSyntaxError(f'bad time "{text.strip()}": expected HH:MM:SS.hh', source) from None
-    if hours < 0 or minutes < 0 or not (0.0 <= seconds < float("inf")):
-        raise ScenarioSyntaxError(f'bad time "{text.strip()}": negative or not finite', source)
-    return hours * 3600.0 + minutes * 60.0 + seconds
+    try:
+        return checked_time(seconds, minutes, hours, text.strip())
+    except UnitParseError as exc:
+        raise ScenarioSyntaxError(f"bad time {exc}", source) from None
 
 
 def split_commands(text: str) -> list[str]:

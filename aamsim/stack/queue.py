@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import heapq
 import itertools
+import math
 from dataclasses import dataclass, field
 
 from aamsim.stack.parser import TimedCommand
@@ -12,8 +13,11 @@ US_PER_S = 1_000_000
 
 
 def to_us(t_s: float) -> int:
-    """Seconds -> integer microseconds (the clock's unit)."""
-    return int(round(t_s * US_PER_S))
+    """Seconds -> integer microseconds (the clock's unit); ValueError for a time that is not finite."""
+    us = t_s * US_PER_S
+    if not math.isfinite(us):
+        raise ValueError(f"time {t_s!r} s is not a finite time")
+    return round(us)
 
 
 @dataclass

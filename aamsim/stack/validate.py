@@ -24,6 +24,7 @@ from aamsim.stack.tokens import next_arg
 class _Checker(StaticContext):
     registry: CommandRegistry = field(default_factory=CommandRegistry)
     file_finder: Callable[[str], Path | None] | None = None
+    depth: int = 0  # of nested command lines being checked
 
     def find_file(self, name: str) -> Path | None:
         return self.file_finder(name) if self.file_finder else None
@@ -46,14 +47,26 @@ class _Checker(StaticContext):
             self.check_nested(values[-1])
 
     def check_nested(self, text: str) -> None:
+        if self.depth >= MAX_NESTING:  # 2,000 nested SCHEDULEs once ended --strict in a RecursionError
+            raise CommandError(f"commands nested more than {MAX_NESTING} deep (SCHEDULE/DELAY/AT ... DO)")
         try:
             nested = parse_line(text)
         except ScenarioSyntaxError as exc:
-            raise CommandError(f'in "{text}": {exc.message}') from None
+            raise CommandError(f'in "{_short(text)}": {exc.message}') from None
+        self.depth += 1
         try:
             self.check(nested)
         except (ArgumentError, CommandError) as exc:
-            raise CommandError(f'in "{text}": {exc.message}') from None
+            raise CommandError(f'in "{_short(text)}": {exc.message}') from None
+        finally:
+            self.depth -= 1
+
+
+MAX_NESTING = 50
+
+
+def _short(text: str, limit: int = 80) -> str:
+    return text if len(text) <= limit else text[: limit - 3] + "..."
 
 
 def validate_scenario(

@@ -385,7 +385,7 @@ def check_at(argtext: str, ctx: Any) -> None:
             registry = getattr(ctx, "registry", None)
             if rest.strip() and hasattr(ctx, "check_nested") and registry is not None:
                 acid = next_arg(argtext)[0].upper()
-                known = getattr(ctx, "callsigns", set())
+                known: set[str] = getattr(ctx, "callsigns", set())
                 ctx.check_nested(at_do_command(rest.strip(), acid, registry, lambda n: n.upper() in known))
         elif what not in ("DEL", "DELETE", "CLR", "CLEAR", "ALT", "SPD", "SPEED"):
             raise CommandError(f"AT: unknown keyword {what}")

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from aamsim.errors import CommandError, SourceRef
@@ -90,11 +91,49 @@ def ic(sim: Simulation, filename: RestOfLine) -> None:
         if found is None:
             raise CommandError(f"scenario file not found: {name}")
         path = found
+    enter_file(sim, path, "IC")
+    text = _read_scenario(path, "IC")
     sim.reset()
     sim.scenario_name = path.stem
     sim.scenario_path = path
-    sim.scenario_text = path.read_text(encoding="utf-8", errors="replace")
+    sim.scenario_text = text
     sim.load_scenario(path, text=sim.scenario_text)
+
+
+MAX_CALL_DEPTH = 16  # files PCALL/IC may nest; deeper is refused as a runaway
+
+
+def _file_key(name: str | Path) -> str:
+    try:
+        return str(Path(name).resolve())
+    except (OSError, RuntimeError, ValueError):
+        return str(name)
+
+
+def enter_file(sim: Simulation, target: Path, verb: str) -> None:
+    """Record that the file of the command being run loads ``target``; refuse a cycle or a runaway.
+
+    A file that PCALLs itself (or files that PCALL or IC each other) would load
+    without end at the same simulated time; the error names the chain of files.
+    """
+    source = sim.current_source
+    caller = _file_key(source.path) if source is not None and source.path and not source.path.startswith("<") \
+        else None
+    chain = (*sim.call_chains.get(caller, ()), caller) if caller else ()
+    key = _file_key(target)
+    shown = " -> ".join(Path(c).name for c in (*chain, key))
+    if key in chain:
+        raise CommandError(f"{verb} {target.name}: the files call each other in a cycle ({shown})")
+    if len(chain) >= MAX_CALL_DEPTH:
+        raise CommandError(f"{verb} {target.name}: files nested more than {MAX_CALL_DEPTH} deep ({shown})")
+    sim.call_chains[key] = chain
+
+
+def _read_scenario(path: Path, verb: str) -> str:
+    try:
+        return path.read_text(encoding="utf-8", errors="replace")
+    except OSError as exc:
+        raise CommandError(f"{verb}: cannot read {path.name}: {exc.strerror or exc}") from None
 
 
 def check_pcall(argtext: str, ctx: Any) -> None:
@@ -132,9 +171,9 @@ def pcall(sim: Simulation, argtext: RestOfLine) -> None:
     path = sim.find_file(name)
     if path is None:
         raise CommandError(f"PCALL: file not found: {name}")
+    enter_file(sim, path, "PCALL")
     offset = sim.simt if relative else 0.0
-    parsed = sim.parse(path.read_text(encoding="utf-8", errors="replace"), str(path),
-                       time_offset_s=offset, substitutions=args)
+    parsed = sim.parse(_read_scenario(path, "PCALL"), str(path), time_offset_s=offset, substitutions=args)
     for err in parsed.errors:
         sim.report("error", err.message, err.source)
     for cmd in parsed.commands:
