@@ -3,10 +3,18 @@
 Trajectory logs of a simulated day run to millions of rows; formatting them
 with Python or numpy string routines would take longer than simulating.
 Each numeric column is written with a fixed number of decimals (stated in the
-column docs), rounding half away from zero; NaN is written as an empty field.
+column docs), rounding half away from zero; NaN is written as an empty field,
+infinities as ``inf`` / ``-inf``.
+
+The compiled writer works in 64-bit integers, exact while ``|value| * 10**decimals``
+stays below 2**53. Rows holding a larger or infinite value (an aircraft flown to
+longitude 2.34e16 was written as ``.5224192``) are written by Python's exact
+decimal formatting instead, in their place.
 """
 
 from __future__ import annotations
+
+import math
 
 import numpy as np
 from numba import njit
@@ -55,8 +63,12 @@ def _write_number(out: np.ndarray, pos: int, value: float, decimals: int, scale:
     return pos
 
 
+# Largest |value * 10**decimals| the integer writer renders exactly.
+FAST_LIMIT = float(2**53)
+
+
 @njit(cache=True)
-def format_rows(
+def _format_rows_fast(
     name_bytes: np.ndarray,
     name_offsets: np.ndarray,
     name_index: np.ndarray,
@@ -106,3 +118,51 @@ def pack_names(names: list[str]) -> tuple[np.ndarray, np.ndarray]:
     np.cumsum([len(e) for e in encoded], out=offsets[1:])
     data = np.frombuffer(b"".join(encoded), dtype=np.uint8) if encoded else np.zeros(0, dtype=np.uint8)
     return data, offsets
+
+
+def _format_cell(value: float, decimals: int) -> str:
+    if math.isnan(value):
+        return ""
+    if value in (np.inf, -np.inf):
+        return "inf" if value > 0 else "-inf"
+    text = f"{value:.{decimals}f}"
+    return "0" + text[1:] if text.startswith("-") and not text.strip("-0.") else text  # no "-0.000"
+
+
+def format_rows(
+    name_bytes: np.ndarray,
+    name_offsets: np.ndarray,
+    name_index: np.ndarray,
+    columns: np.ndarray,
+    decimals: np.ndarray,
+) -> np.ndarray:
+    """Rows ``name,col0,col1,...\\n`` as UTF-8 bytes, exact for every float (see the module doc).
+
+    Args:
+        name_bytes, name_offsets: the concatenated names; name k is
+            ``name_bytes[name_offsets[k]:name_offsets[k+1]]``.
+        name_index: per row, which name.
+        columns: float array (ncol, nrow).
+        decimals: decimals per column.
+    """
+    scales = 10.0 ** decimals.astype(np.float64)
+    with np.errstate(invalid="ignore", over="ignore"):
+        wide = np.abs(columns) * scales[:, None] >= FAST_LIMIT  # NaN compares False: written fast
+    slow_rows = np.flatnonzero(wide.any(axis=0)) if columns.size else np.zeros(0, dtype=np.int64)
+    if slow_rows.size == 0:
+        return _format_rows_fast(name_bytes, name_offsets, name_index, columns, decimals)
+    parts: list[bytes] = []
+    start = 0
+    for r in slow_rows.tolist():
+        if r > start:
+            parts.append(_format_rows_fast(name_bytes, name_offsets, name_index[start:r],
+                                           np.ascontiguousarray(columns[:, start:r]), decimals).tobytes())
+        k = int(name_index[r])
+        name = bytes(name_bytes[name_offsets[k]:name_offsets[k + 1]]).decode("utf-8")
+        cells = [_format_cell(float(columns[c, r]), int(decimals[c])) for c in range(columns.shape[0])]
+        parts.append((",".join([name, *cells]) + "\n").encode("utf-8"))
+        start = r + 1
+    if start < columns.shape[1]:
+        parts.append(_format_rows_fast(name_bytes, name_offsets, name_index[start:],
+                                       np.ascontiguousarray(columns[:, start:]), decimals).tobytes())
+    return np.frombuffer(b"".join(parts), dtype=np.uint8)
