@@ -31,6 +31,7 @@ from aamsim.geo import qdrdist
 from aamsim.hooks import Hooks
 from aamsim.messages import Reporter
 from aamsim.navdb import NavDatabase
+from aamsim.stack.argtypes import ACID
 from aamsim.stack.context import LiveContext
 from aamsim.stack.parser import (
     Command,
@@ -49,7 +50,7 @@ from aamsim.traffic.conditions import Conditions
 from aamsim.traffic.kernel import STATUS_CONDITION, STATUS_REACHED, advance, advance_parallel
 from aamsim.traffic.performance import PerformanceTable
 from aamsim.traffic.traffic import FlightRecord, Traffic
-from aamsim.units import FT, KTS, NM, Speed
+from aamsim.units import FT, KTS, MAX_ALTITUDE_FT, MIN_ALTITUDE_FT, NM, Speed
 
 # Fewest aircraft for which the parallel kernel is used. Measured on a shared
 # 2-core machine: no gain up to a few thousand aircraft, 1.3-1.8x at 10,000.
@@ -57,6 +58,8 @@ PARALLEL_MIN_AIRCRAFT = 1000
 
 
 CONDITION_WAIT_LIMIT_S = 3600.0  # see Simulation._only_conditions_wait
+OVERSPEED_FACTOR = 2.0  # a created speed beyond this times the type's maximum is a typo (limited)
+MAX_MACH = 5.0  # for types without a Mach limit (rotorcraft: mmo = inf)
 
 
 @dataclass
@@ -119,6 +122,8 @@ class Simulation:
         # File -> the chain of files whose PCALL/IC loaded it (kept across IC's reset, so that
         # files that IC each other are caught as a cycle too).
         self.call_chains: dict[str, tuple[str, ...]] = {}
+        self._last_command: dict[str, tuple[str, SourceRef | None]] = {}  # callsign -> last command on it
+        self._command_text = ""  # the command being executed
         self.plugins: dict[str, Any] = {}
         self.extensions: dict[str, Any] = {}  # per-simulation state of services and plugins
         self.aircraft_steps = 0
@@ -284,6 +289,9 @@ class Simulation:
         try:
             args = spec.bind(command.argtext, ctx)
             self._source = source
+            self._command_text = str(command)
+            if args and spec.params and spec.params[0].argtype is ACID and isinstance(args[0], int):
+                self._last_command[self.traffic.ids[args[0]]] = (str(command), source)
             result = spec.handler(self, *args)
         except ArgumentError as exc:
             self.report("error", f"{command.name}: {exc.message}", source)
@@ -324,6 +332,8 @@ class Simulation:
                 f"unknown aircraft type {actype.upper()}: using the {envelope.type_code} envelope",
                 self.current_source,
             )
+        spd = self._checked_creation(acid, lat, lon, alt, spd or Speed(0.0), envelope)
+        self._last_command[acid] = (self._command_text or "create", self._source)
         i = self.traffic.create(acid, actype, envelope, lat, lon, hdg, alt, spd or Speed(0.0), self.simt)
         if self.state == self.STATE_INIT:
             self.state = self.STATE_OP
@@ -331,6 +341,33 @@ class Simulation:
         self._alloc_scratch()
         self.hooks.created.call(self, i)
         return i
+
+    def _checked_creation(self, acid: str, lat: float, lon: float, alt: float, spd: Speed, envelope: Any) -> Speed:
+        """Refuse a position or altitude no aircraft can have; limit an absurd speed.
+
+        A speed up to :data:`OVERSPEED_FACTOR` times the type's maximum is flown as in
+        BlueSky: the performance model slows the aircraft at its deceleration. Beyond
+        that it is a typo (1e6 kts flew at 513 km/s; 1e300 went NaN): it is limited to
+        the type's maximum at once, with a warning.
+        """
+        if not (math.isfinite(lat) and -90.0 <= lat <= 90.0 and math.isfinite(lon)):
+            raise CommandError(f"{acid}: position {lat}, {lon} is not on the earth (latitude -90..90)")
+        if not (math.isfinite(alt) and MIN_ALTITUDE_FT * FT <= alt <= MAX_ALTITUDE_FT * FT):
+            raise CommandError(f"{acid}: altitude {alt / FT:.6g} ft outside {MIN_ALTITUDE_FT:,.0f} .. "
+                               f"{MAX_ALTITUDE_FT:,.0f} ft")
+        if not math.isfinite(spd.value):
+            raise CommandError(f"{acid}: speed {spd.value} is not a finite number")
+        if spd.is_mach and spd.value > OVERSPEED_FACTOR * min(envelope.mmo, MAX_MACH):
+            limit = min(envelope.mmo, MAX_MACH)
+            self.report("warning", f"{acid}: Mach {spd.value:.6g} is more than {OVERSPEED_FACTOR:g} times the "
+                                   f"{envelope.type_code}'s maximum {limit:g}: limited to it", self.current_source)
+            return Speed(limit, is_mach=True)
+        if not spd.is_mach and abs(spd.value) > OVERSPEED_FACTOR * envelope.vmax_mps:
+            self.report("warning", f"{acid}: speed {spd.value / KTS:.6g} kts is more than {OVERSPEED_FACTOR:g} "
+                                   f"times the {envelope.type_code}'s maximum {envelope.vmax_mps / KTS:.0f} kts CAS: "
+                                   f"limited to it", self.current_source)
+            return Speed(math.copysign(envelope.vmax_mps, spd.value))
+        return spd
 
     def delete_aircraft(self, i: int, arrived: bool | None = None) -> FlightRecord:
         """Delete the aircraft in slot ``i``; closes and logs its flight record.
@@ -353,6 +390,7 @@ class Simulation:
         record.deleted_s = self.simt
         self.hooks.deleted.call(self, i, record)
         self.conditions.drop_aircraft(self.traffic.ids[i])
+        self._last_command.pop(self.traffic.ids[i], None)
         self.traffic.delete(i)
         self.flight_log.append(record)
         return record
@@ -442,6 +480,9 @@ class Simulation:
             done += k
             self.simt_us += k * dt_us
             self.aircraft_steps += k * n
+            if k and not np.isfinite(traffic.F[_FINITE_ROWS, :n]).all():
+                self._remove_non_finite()
+                return
             check_first = True
             if len(self.conditions) and k:
                 fired = self.conditions.update_after(cond[3], cond[6])
@@ -456,6 +497,23 @@ class Simulation:
                     nsteps = done + 1
             elif status == STATUS_CONDITION:
                 return
+
+    def _remove_non_finite(self) -> None:
+        """Delete aircraft whose state went non-finite, naming the last command that touched each.
+
+        A NaN position would otherwise spread into conflict detection and the
+        output files (a CRE speed of 1e300 once did, silently).
+        """
+        traffic = self.traffic
+        values = traffic.F[_FINITE_ROWS, : traffic.n]
+        for i in np.flatnonzero(~np.isfinite(values).all(axis=0))[::-1].tolist():
+            acid = traffic.ids[i]
+            state = ", ".join(f"{name} {traffic.F[row, i]:.6g}" for name, row in zip(_FINITE_NAMES, _FINITE_ROWS))
+            text, source = self._last_command.get(acid, ("(none)", None))
+            where = f"{source}: " if source is not None else ""
+            self.report("error", f"{acid}: state not finite at t = {self.simt:.2f} s ({state}); last command on it: "
+                                 f"{where}{text}; aircraft deleted", source)
+            self.delete_aircraft(i, arrived=False)
 
     def _pass_waypoints(self) -> bool:
         """Start the next leg of every aircraft flagged by the kernel.
@@ -575,6 +633,10 @@ class Simulation:
         self.seed = seed
         self.rng = np.random.default_rng(seed)
 
+
+# State that must stay finite; checked after every kernel batch (a few microseconds at 1,000 aircraft).
+_FINITE_NAMES = ("lat", "lon", "alt", "tas", "hdg", "vs")
+_FINITE_ROWS = np.array([f.LAT, f.LON, f.ALT, f.TAS, f.HDG, f.VS])
 
 _NO_CONDITIONS = (
     np.empty(0, dtype=np.int64),

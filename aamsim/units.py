@@ -45,9 +45,12 @@ class Speed:
 # The longest time a scenario may name: 100 years of simulated time. Beyond it the
 # clock's microseconds no longer fit a float exactly and 1e308 s overflowed it.
 MAX_TIME_S = 100 * 365.25 * 86400.0
-# The highest flight level read as one (FL99999, 3,048 km): a larger one is a typo, and
-# FL followed by 400 digits overflowed a float.
-MAX_FLIGHT_LEVEL = 99999
+# Altitudes an aircraft can have, in feet: from below the Dead Sea's shore to 200,000 ft
+# (61 km, where the atmosphere model's density is still positive). Beyond them is a typo:
+# -1e6 ft was accepted, and above about 1.55e7 ft the density underflowed to zero.
+MIN_ALTITUDE_FT = -2000.0
+MAX_ALTITUDE_FT = 200_000.0
+MAX_FLIGHT_LEVEL = 2000
 
 
 def parse_altitude(text: str) -> float:
@@ -62,7 +65,7 @@ def parse_altitude(text: str) -> float:
     t = text.strip().upper()
     if t.startswith("FL") and len(t) >= 4:
         digits = t[2:]
-        if digits.isdigit() and len(digits) <= len(str(MAX_FLIGHT_LEVEL)):
+        if digits.isdigit() and len(digits) <= len(str(MAX_FLIGHT_LEVEL)) and int(digits) <= MAX_FLIGHT_LEVEL:
             return 100.0 * int(digits) * FT
         if digits.isdigit():
             raise UnitParseError(f'"{text}": flight level above FL{MAX_FLIGHT_LEVEL}')
@@ -73,6 +76,9 @@ def parse_altitude(text: str) -> float:
             pass
         else:
             if math.isfinite(value):
+                if not MIN_ALTITUDE_FT <= value <= MAX_ALTITUDE_FT:
+                    raise UnitParseError(f'"{text}": altitude outside {MIN_ALTITUDE_FT:,.0f} .. '
+                                         f'{MAX_ALTITUDE_FT:,.0f} ft')
                 return value * FT
     raise UnitParseError(f'"{text}" is not an altitude (feet or FLnnn)')
 

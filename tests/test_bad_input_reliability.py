@@ -41,7 +41,7 @@ def echoes(sim: Simulation) -> list[str]:
     ("00:00:00.00>SCHEDULE 1e308 ECHO x", "beyond the longest simulated time"),
     ("00:00:00.00>DELAY 1e308 ECHO x", "beyond the longest simulated time"),
     (f"00:00:00.00>SCHEDULE {HUGE}:00 ECHO x", "beyond the longest simulated time"),
-    ("00:00:00.00>CRE A EC35 40.7 -74 0 1000 60; ALT A FL" + HUGE, "flight level above FL99999"),
+    ("00:00:00.00>CRE A EC35 40.7 -74 0 1000 60; ALT A FL" + HUGE, "flight level above FL2000"),
     ("00:00:00.00>PCALL .", '"." is not a file name'),
     ("00:00:00.00>PCALL ..", '".." is not a file name'),
 ])
@@ -134,6 +134,9 @@ def test_time_and_altitude_parsers_state_their_ranges() -> None:
     assert parse_time("876600:00:00") == pytest.approx(876600 * 3600.0)
     with pytest.raises(UnitParseError, match="100 years"):
         parse_time(f"{int(MAX_TIME_S // 3600) + 1}:00:00")
-    assert parse_altitude("FL99999") == pytest.approx(99999 * 100 * 0.3048)
-    with pytest.raises(UnitParseError, match="above FL99999"):
-        parse_altitude("FL100000")
+    assert parse_altitude("FL2000") == pytest.approx(200_000 * 0.3048)
+    with pytest.raises(UnitParseError, match="above FL2000"):
+        parse_altitude("FL2001")
+    for text in ("-1e6", "1.55e7", "200001"):
+        with pytest.raises(UnitParseError, match="altitude outside -2,000 .. 200,000 ft"):
+            parse_altitude(text)

@@ -75,15 +75,7 @@ def _format_rows_fast(
     columns: np.ndarray,
     decimals: np.ndarray,
 ) -> np.ndarray:
-    """Rows ``name,col0,col1,...\\n`` as UTF-8 bytes.
-
-    Args:
-        name_bytes, name_offsets: the concatenated names; name k is
-            ``name_bytes[name_offsets[k]:name_offsets[k+1]]``.
-        name_index: per row, which name.
-        columns: float array (ncol, nrow).
-        decimals: decimals per column.
-    """
+    """The compiled writer behind :func:`format_rows`, exact while ``|value| * 10**decimals < 2**53``."""
     ncol, nrow = columns.shape
     scales = np.empty(ncol)
     for c in range(ncol):

@@ -55,6 +55,7 @@ from aamsim.traffic.fields import (
     C_WPLAT,
     C_WPSIN,
     COSLAT,
+    HDG,
     LAT,
     LON,
     WP_LAT,
@@ -67,6 +68,7 @@ _B2 = WGS84_B * WGS84_B
 _A4 = _A2 * _A2
 _B4 = _B2 * _B2
 _INV_R_EARTH = 1.0 / R_EARTH
+_MIN_COSLAT = math.cos(math.radians(89.999))  # east-west steps near a pole stay finite
 # Domains of the series (first omitted term under 1e-19 relative).
 _SMALL_DLON = 0.05  # rad, longitude difference to the waypoint
 _SMALL_CHORD = 0.02  # half chord of the unit sphere (a 250 km distance)
@@ -182,9 +184,23 @@ def guidance(F: np.ndarray, i: int) -> tuple[float, float]:
 
 @njit(cache=True, inline="always")
 def position_step(F: np.ndarray, i: int, dt: float, gsn: float, gse: float) -> None:
-    """BlueSky's flat-earth Euler step of aircraft ``i`` [ground speed north/east, m/s]."""
+    """BlueSky's flat-earth Euler step of aircraft ``i`` [ground speed north/east, m/s].
+
+    Unlike BlueSky, longitude stays in [-180, 180) and an aircraft flying over a
+    pole comes down the other side of it: latitude reflects, longitude turns by
+    180 deg and so does the heading (the great circle through the pole). East-west
+    motion near a pole is computed with cos(lat) no smaller than cos(89.999 deg),
+    so that an aircraft at the pole heading east stays finite (it reached a
+    longitude of 2.34e16 deg before).
+    """
     if gsn != 0.0:
         lat = F[LAT, i] + math.degrees(dt * gsn * _INV_R_EARTH)
+        if lat > 90.0 or lat < -90.0:
+            lat = (180.0 if lat > 0.0 else -180.0) - lat
+            F[LON, i] = F[LON, i] + 180.0
+            F[HDG, i] = (F[HDG, i] + 180.0) % 360.0
+            F[C_HDG, i] = math.nan  # the heading's sine and cosine are recomputed
+            F[C_LA0, i] = math.inf  # the anchor is far: sine and cosine of lat computed afresh
         F[LAT, i] = lat
         la = math.radians(lat)
         d = la - F[C_LA0, i]
@@ -206,4 +222,7 @@ def position_step(F: np.ndarray, i: int, dt: float, gsn: float, gse: float) -> N
             F[COSLAT, i] = c0
             F[C_SINLAT, i] = s0
         F[C_LAT, i] = lat
-    F[LON, i] = F[LON, i] + math.degrees(dt * gse * _INV_R_EARTH / F[COSLAT, i])
+    lon = F[LON, i] + math.degrees(dt * gse * _INV_R_EARTH / max(F[COSLAT, i], _MIN_COSLAT))
+    if lon >= 180.0 or lon < -180.0:
+        lon = (lon + 180.0) % 360.0 - 180.0
+    F[LON, i] = lon
