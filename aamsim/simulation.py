@@ -25,6 +25,7 @@ from typing import Any
 import numba
 import numpy as np
 
+from aamsim.api import SimulationAPI
 from aamsim.errors import ArgumentError, CommandError, ScenarioSyntaxError, SourceRef
 from aamsim.geo import qdrdist
 from aamsim.hooks import Hooks
@@ -42,7 +43,7 @@ from aamsim.stack.parser import (
 )
 from aamsim.stack.queue import US_PER_S, CommandQueue, to_us
 from aamsim.stack.registry import CommandRegistry
-from aamsim.traffic import fields as f
+from aamsim.traffic import intents
 from aamsim.traffic.autopilot import pass_waypoint
 from aamsim.traffic.conditions import Conditions
 from aamsim.traffic.kernel import STATUS_CONDITION, STATUS_REACHED, advance, advance_parallel
@@ -78,7 +79,7 @@ class SimSettings:
     reso: str = "OFF"
 
 
-class Simulation:
+class Simulation(SimulationAPI):
     """A simulated airspace: clock, traffic, command stack, hooks and plugins."""
 
     STATE_INIT, STATE_OP, STATE_HOLD = "INIT", "OP", "HOLD"
@@ -365,8 +366,7 @@ class Simulation:
     def _refresh_performance(self) -> None:
         if self.simt_us >= self._next_perf_us:
             if self._perf_pending:
-                n = self.traffic.n
-                self.traffic.F[f.AXMAX, :n] = self.traffic.F[f.AXMAX_TYPE, :n]
+                intents.restore_type_acceleration(self.traffic)
                 self._perf_pending = False
             interval = to_us(self.settings.perf_interval_s)
             if self._next_perf_us <= self.simt_us:
@@ -515,8 +515,8 @@ class Simulation:
         An aircraft that misses the position of its ATDIST condition (and has no
         route left) would otherwise keep an open-ended run alive forever.
         """
-        n = self.traffic.n
-        routes_active = n and (self.traffic.B[f.B_SWLNAV, :n].any() or self.traffic.B[f.B_SWVNAV, :n].any())
+        view = self.view
+        routes_active = view.n and (view.lnav.any() or view.vnav.any())
         if len(self.queue) or not len(self.conditions) or routes_active:
             self._conditions_idle_s = 0.0
             return False
@@ -534,9 +534,9 @@ class Simulation:
             return False
         if self.traffic.n == 0:
             return True
-        n = self.traffic.n
+        view = self.view
         # Aircraft still following a route or changing speed/altitude keep the run going.
-        return not (self.traffic.B[f.B_SWLNAV, :n].any() or self.traffic.B[f.B_SWVNAV, :n].any())
+        return not (view.lnav.any() or view.vnav.any())
 
     def reset(self) -> None:
         """RESET: clear traffic, pending commands and time; keep plugins and hooks."""
@@ -574,8 +574,9 @@ _NO_CONDITIONS = (
 def iter_flights(sim: Simulation) -> Iterable[FlightRecord]:
     """Closed flights followed by the open ones (still flying)."""
     yield from sim.flight_log
+    view = sim.view
     for i, rec in enumerate(sim.traffic.flights):
-        rec.distance_m = float(sim.traffic.F[f.DISTFLOWN, i])
-        rec.airborne_s = float(sim.traffic.F[f.AIRBORNE_S, i])
-        rec.slow_s = float(sim.traffic.F[f.SLOW_S, i])
+        rec.distance_m = float(view.distflown[i])
+        rec.airborne_s = float(view.airborne_s[i])
+        rec.slow_s = float(view.slow_s[i])
         yield rec

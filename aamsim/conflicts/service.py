@@ -30,7 +30,7 @@ from aamsim.conflicts.events import EventLog, SeparationEvent
 from aamsim.conflicts.fused import detect_all, new_pair_count, volume_pass
 from aamsim.conflicts.grid import candidate_pairs, snapshot_arrays, swept_boxes
 from aamsim.conflicts.pairs import nearest_per_aircraft, slant_distances
-from aamsim.traffic import fields as f
+from aamsim.traffic.view import field_rows, kinematic_matrix
 from aamsim.units import R_EARTH
 
 if TYPE_CHECKING:
@@ -38,7 +38,9 @@ if TYPE_CHECKING:
     from aamsim.traffic.traffic import Traffic
 
 EXTENSION_KEY = "conflicts"
-_SNAPSHOT_ROWS = np.array([f.LAT, f.LON, f.ALT, f.GSEAST, f.GSNORTH, f.VS], dtype=np.int64)
+# The state the compiled passes read, in the order they expect it.
+_KINEMATIC_FIELDS = ("lat", "lon", "alt", "gseast", "gsnorth", "vs")
+_SNAPSHOT_ROWS = field_rows(_KINEMATIC_FIELDS)
 
 
 @dataclass(frozen=True)
@@ -105,7 +107,8 @@ class TrafficSnapshot:
 def traffic_snapshot(sim: Simulation) -> TrafficSnapshot:
     """Positions, velocities (east, north, up) and the local frame of all aircraft now."""
     t = sim.traffic
-    lat, lon, alt, u, v, w, x, y, err, *frame = snapshot_arrays(t.F, t.n, _SNAPSHOT_ROWS, R_EARTH)
+    matrix, rows = kinematic_matrix(t, _KINEMATIC_FIELDS)
+    lat, lon, alt, u, v, w, x, y, err, *frame = snapshot_arrays(matrix, t.n, rows, R_EARTH)
     return TrafficSnapshot(list(t.ids), lat, lon, alt, u, v, w, x, y, err, tuple(frame))  # type: ignore[arg-type]
 
 
@@ -168,7 +171,7 @@ class ConflictService:
     def _lookback(self, sim: Simulation, n: int) -> np.ndarray:
         """Per aircraft, how far back the last interval reaches: to the last check or its creation."""
         now = sim.simt
-        created = sim.traffic.F[f.CREATED_S, :n]
+        created = sim.view.created_s[:n]
         return np.maximum(np.minimum(now - self._last_check_s, now - created), 0.0)
 
     def check(self, sim: Simulation) -> None:
@@ -178,8 +181,9 @@ class ConflictService:
         n = t.n
         cd_on = st.cd_method != "OFF"
         radii, cylinder, half_heights = self._volume_arrays()
+        matrix, rows = kinematic_matrix(t, _KINEMATIC_FIELDS)
         (ci, cj, tcpa, dcpa, tin, li, lj, inconf, tcpamax, _eq, ei, ej, e_in, e_out, e_dmin, e_tmin, e_pos, count,
-         closest, dnow) = detect_all(t.F, n, _SNAPSHOT_ROWS, R_EARTH, self._lookback(sim, n), cd_on, st.zoner_m,
+         closest, dnow) = detect_all(matrix, n, rows, R_EARTH, self._lookback(sim, n), cd_on, st.zoner_m,
                                      st.zonedh_m, st.dtlook_s, radii, cylinder, half_heights, self.closest_range_m,
                                      self._conflicts_hint)
         self._conflicts_hint = len(ci) + len(ci) // 4

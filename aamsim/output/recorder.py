@@ -18,13 +18,12 @@ from typing import IO, TYPE_CHECKING
 import numpy as np
 
 from aamsim.output.fastcsv import format_rows, pack_names
-from aamsim.traffic import fields as f
 
 if TYPE_CHECKING:
     from aamsim.simulation import Simulation
 
 TRAJECTORY_HEADER = "id,simt,lat,lon,alt_m,tas_mps,cas_mps,gs_mps,trk_deg,vs_mps\n"
-_ROWS = (f.LAT, f.LON, f.ALT, f.TAS, f.CAS, f.GS, f.TRK, f.VS)
+_FIELDS = ("lat", "lon", "alt", "tas", "cas", "gs", "trk", "vs")
 _DECIMALS = np.array([2, 7, 7, 3, 4, 4, 4, 4, 4], dtype=np.int64)
 _FLUSH_ROWS = 500_000
 
@@ -58,9 +57,9 @@ class TrajectoryRecorder:
                 j = self._name_ids[acid] = len(self._names)
                 self._names.append(acid)
             ids[k] = j
-        cols = np.empty((len(_ROWS) + 1, n))
+        cols = np.empty((len(_FIELDS) + 1, n))
         cols[0] = sim.simt
-        cols[1:] = sim.traffic.F[_ROWS, :n]
+        cols[1:] = sim.view.rows(_FIELDS)
         self._chunks.append((ids, cols))
         self._buffered += n
         if self._buffered >= _FLUSH_ROWS:

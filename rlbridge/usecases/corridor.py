@@ -27,7 +27,6 @@ from aamsim.conflicts import SeparationVolume, conflicts_of
 from aamsim.conflicts.pairs import slant_distances
 from aamsim.conflicts.service import search_pairs, traffic_snapshot
 from aamsim.metrics import record_advisory
-from aamsim.traffic import fields as f
 from aamsim.units import FT, KTS
 from rlbridge.observe import corridor_features, nearest_neighbours
 from rlbridge.usecases.registry import Observations
@@ -142,7 +141,7 @@ class CorridorSA:
 
             def jitter(sim: Simulation, i: int) -> None:
                 noise = float(sim.rng.uniform(-p.alt_noise_ft, p.alt_noise_ft)) * FT
-                alt = sim.traffic.F[f.ALT, i]
+                alt = sim.view.alt[i]
                 off = lanes_m - alt
                 k = int(np.argmin(np.abs(off))) if len(off) else -1
                 if k >= 0 and abs(off[k]) <= p.alt_noise_ft * FT + 1e-6:
@@ -150,8 +149,7 @@ class CorridorSA:
                     dz = float(off[k]) + noise
                 else:
                     dz = noise
-                sim.traffic.F[f.ALT, i] += dz
-                sim.traffic.F[f.SELALT, i] += dz
+                sim.offset_altitude(i, dz)
             sim.hooks.created.add(jitter, name="corridor.alt_noise")
 
     # ------------------------------------------------------------ observation
@@ -164,7 +162,8 @@ class CorridorSA:
         dest_lon = np.full(n, np.nan)
         wlat = np.empty((n, nw))
         wlon = np.empty((n, nw))
-        lat, lon = t.lat, t.lon
+        view = sim.view
+        lat, lon, lnav = view.lat, view.lon, view.lnav
         for s in range(n):
             route = t.routes[s]
             wps = route.waypoints
@@ -174,7 +173,7 @@ class CorridorSA:
                     dest_lat[s], dest_lon[s] = rec.dest_lat, rec.dest_lon
                 else:
                     dest_lat[s], dest_lon[s] = wps[-1].lat, wps[-1].lon
-                start = route.iactwp if t.B[f.B_SWLNAV, s] and route.iactwp >= 0 else len(wps)
+                start = route.iactwp if lnav[s] and route.iactwp >= 0 else len(wps)
                 for j in range(nw):
                     k = start + j
                     if k < len(wps):
@@ -198,7 +197,7 @@ class CorridorSA:
         speed arrays, memoised on them: a step observes the agents and then asks
         for their closest distances on the same state, which then costs one search.
         """
-        t = sim.traffic
+        t = sim.view
         state = (t.lat, t.lon, t.alt, t.trk, t.gs)
         memo = self._pairs_memo
         if memo is not None and all(np.array_equal(a, b) for a, b in zip(memo[0], state)):
@@ -225,7 +224,7 @@ class CorridorSA:
         if self.params.n_intruders == 0:
             nbr, nbr_d = nbr[:, :0], nbr_d[:, :0]
         ddest, wlat, wlon, _, _ = self._route_arrays(sim)
-        t = sim.traffic
+        t = sim.view
         own, intr, mask = corridor_features(
             slots, t.lat, t.lon, t.alt, t.hdg, t.trk, t.ax, t.gs, ddest, wlat, wlon, nbr, nbr_d, self._scales,
             self.params.frame == "track", self.params.relative_velocity,
@@ -282,9 +281,7 @@ class CorridorSA:
         idx = np.array(slots, dtype=np.int64)
         code = np.array(codes, dtype=np.int64)
         target = np.where(code == DECELERATE, p.speed_low_kts * KTS,
-                          np.where(code == ACCELERATE, p.speed_high_kts * KTS, t.F[f.CAS, idx]))
-        t.F[f.SELSPD, idx] = target
-        t.B[f.B_SELSPD_MACH, idx] = False
-        t.B[f.B_SWVNAVSPD, idx] = False
+                          np.where(code == ACCELERATE, p.speed_high_kts * KTS, sim.view.cas[idx]))
+        sim.select_speed(idx, target)
         for acid, a in advised:  # hold advisories are not alerts
             record_advisory(sim, acid, ACTION_NAMES[a])
