@@ -45,7 +45,10 @@ class SimulationAPI:
     @property
     def view(self) -> TrafficView:
         """Read-only named arrays of the live aircraft (``view.lat``, ``view.ids``, ...)."""
-        return TrafficView(self.traffic)
+        view: TrafficView | None = self.__dict__.get("_traffic_view")
+        if view is None or view._traffic is not self.traffic:
+            view = self.__dict__["_traffic_view"] = TrafficView(self.traffic)
+        return view
 
     def slot(self, acid: str | int) -> int:
         """Slot of one aircraft (a callsign, or a slot checked to be live)."""

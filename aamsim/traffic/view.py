@@ -75,35 +75,41 @@ def _readonly(arr: np.ndarray) -> np.ndarray:
     return view
 
 
-def _float_view(name: str) -> Any:
-    row = f.FLOAT_FIELDS.index(name)
-
+def _field_view(name: str, row: int, flag: bool, doc: str) -> Any:
     def get(self: TrafficView) -> np.ndarray:
+        # Views are cached until the arrays are replaced or aircraft come or go: hot paths
+        # read a dozen fields per decision, and making a read-only view costs more than the lookup.
         t = self._traffic
-        return _readonly(t.F[row, : t.n])
+        key = (t.n, t.layout_version, id(t.F), id(t.B))
+        if key != self._key:
+            self._key = key
+            self._cache = {}
+        arr = self._cache.get(name)
+        if arr is None:
+            arr = self._cache[name] = _readonly((t.B if flag else t.F)[row, : t.n])
+        return arr
 
-    get.__doc__ = PUBLIC_FLOATS[name]
+    get.__doc__ = doc
     return property(get)
+
+
+def _float_view(name: str) -> Any:
+    return _field_view(name, f.FLOAT_FIELDS.index(name), False, PUBLIC_FLOATS[name])
 
 
 def _flag_view(name: str) -> Any:
-    row = _FLAG_ROWS[name]
-
-    def get(self: TrafficView) -> np.ndarray:
-        t = self._traffic
-        return _readonly(t.B[row, : t.n])
-
-    get.__doc__ = PUBLIC_FLAGS[name]
-    return property(get)
+    return _field_view(name, _FLAG_ROWS[name], True, PUBLIC_FLAGS[name])
 
 
 class TrafficView:
     """Read-only named arrays over the live aircraft, indexed by slot (see the module docstring)."""
 
-    __slots__ = ("_traffic",)
+    __slots__ = ("_cache", "_key", "_traffic")
 
     def __init__(self, traffic: Traffic):
         self._traffic = traffic
+        self._key: tuple[int, int, int, int] | None = None
+        self._cache: dict[str, np.ndarray] = {}
 
     def __len__(self) -> int:
         return self._traffic.n

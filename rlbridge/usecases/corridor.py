@@ -17,7 +17,7 @@ R(a) = -psi for any advisory but hold. All defaults are the paper's table
 from __future__ import annotations
 
 import math
-from dataclasses import asdict, dataclass, fields
+from dataclasses import asdict, dataclass
 from typing import TYPE_CHECKING, Any
 
 import gymnasium as gym
@@ -29,7 +29,7 @@ from aamsim.conflicts.service import search_pairs, traffic_snapshot
 from aamsim.metrics import record_advisory
 from aamsim.units import FT, KTS
 from rlbridge.observe import corridor_features, nearest_neighbours
-from rlbridge.usecases.registry import Observations
+from rlbridge.usecases.protocol import Feedback, Observations, UseCaseBase, make_params
 
 if TYPE_CHECKING:
     from aamsim import Simulation
@@ -89,21 +89,21 @@ class CorridorParams:
 
     @classmethod
     def from_dict(cls, params: dict[str, Any] | None) -> CorridorParams:
-        params = dict(params or {})
-        known = {fl.name for fl in fields(cls)}
-        unknown = sorted(set(params) - known)
-        if unknown:
-            raise ValueError(f"unknown use-case parameter(s) {', '.join(unknown)}; known: {', '.join(sorted(known))}")
-        return cls(**params)
+        params_: CorridorParams = make_params(cls, params)
+        return params_
 
     def to_dict(self) -> dict[str, Any]:
         return asdict(self)
 
 
-class CorridorSA:
-    """The corridor separation-assurance use case (``corridor_sa``)."""
+class CorridorSA(UseCaseBase):
+    """The corridor separation-assurance use case (``corridor_sa``, ``aamgym/CorridorSA-v0``)."""
 
     name = "corridor_sa"
+    env_name = "CorridorSA"
+    params_class = CorridorParams
+    # Per agent: was it in an NMAC / LoWC event at some time during the interval.
+    info_fields = {"nmac": np.bool_, "lowc": np.bool_}  # noqa: RUF012
 
     def __init__(self, **params: Any):
         self.params = CorridorParams.from_dict(params)
@@ -123,6 +123,10 @@ class CorridorSA:
             })
         self._act_space: gym.spaces.Discrete = gym.spaces.Discrete(3)
         self._pairs_memo: tuple[tuple[np.ndarray, ...], tuple[int, np.ndarray, np.ndarray, np.ndarray]] | None = None
+
+    @property
+    def decision_interval_s(self) -> float:
+        return self.params.decision_interval_s
 
     # ------------------------------------------------------------------ spaces
     def observation_space(self) -> gym.Space:
@@ -241,6 +245,17 @@ class CorridorSA:
         return nbr_d[:, 0] if len(slots) else np.empty(0)
 
     # ----------------------------------------------------------------- reward
+    def feedback(self, sim: Simulation, agents: list[str], actions: dict[str, Any], since_s: float) -> Feedback:
+        """Rewards from the closest intruder now and the interval's NMACs; info flags NMAC and LoWC events."""
+        service = conflicts_of(sim)
+        nmac_min = service.involved_since("nmac", since_s)
+        lowc = service.involved_since("lowc", since_s)
+        closest = self.closest_distances(sim, agents) if agents else np.empty(0)
+        rewards = self.rewards(sim, agents, actions, closest, nmac_min)
+        info = {"nmac": np.array([a in nmac_min for a in agents], dtype=np.bool_),
+                "lowc": np.array([a in lowc for a in agents], dtype=np.bool_)}
+        return Feedback(rewards, info)
+
     def rewards(self, sim: Simulation, agents: list[str], actions: dict[str, Any],
                 closest_m: np.ndarray, interval_nmac_min_m: dict[str, float]) -> np.ndarray:
         """Per-agent reward from the closest-intruder distance and the advisory given."""
