@@ -9,7 +9,7 @@ import gymnasium as gym
 import numpy as np
 import pytest
 
-import rlbridge
+import rlbridge  # noqa: F401  (registers the aamgym/* Gymnasium ids)
 
 TINY = str(Path(__file__).parent / "data" / "tiny_conflict.scn")
 ROOT = Path(__file__).resolve().parent.parent
