@@ -27,6 +27,7 @@ from aamsim.traffic.view import PUBLIC_FLAGS, PUBLIC_FLOATS, TrafficView
 from aamsim.units import Speed
 
 if TYPE_CHECKING:
+    from aamsim.services import Services
     from aamsim.traffic.traffic import FlightRecord, Traffic
 
 Target = str | int | Sequence[str] | np.ndarray
@@ -38,6 +39,8 @@ class SimulationAPI:
     """Views and intents of a simulation (mixed into :class:`aamsim.Simulation`)."""
 
     traffic: Traffic
+    # Built-in services (conflict detection, metrics), set by aamsim.services.build_services.
+    services: Services | None = None
     create_aircraft: Callable[..., int]
     delete_aircraft: Callable[..., FlightRecord]
 

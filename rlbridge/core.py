@@ -26,6 +26,7 @@ from aamsim.conflicts import conflicts_of
 from aamsim.errors import SourceRef
 from aamsim.metrics import metrics_of
 from aamsim.scenarios import resolve_scenario
+from aamsim.services import build_services
 from aamsim.stack.parser import ParsedScenario, TimedCommand
 from aamsim.stack.tokens import next_arg
 from rlbridge.usecases.protocol import Feedback, Observations, UseCase, check_feedback, empty_info
@@ -147,8 +148,7 @@ class EpisodeCore:
         sim.scenario_text = self.text
         sim.search_path.insert(0, self.path.parent)
         sim.file_guard = self.file_guard
-        conflicts_of(sim)
-        metrics_of(sim)
+        build_services(sim)
         self.usecase.attach(sim)
         from aamsim.plugins import load_plugin
 

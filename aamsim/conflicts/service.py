@@ -37,7 +37,6 @@ if TYPE_CHECKING:
     from aamsim.simulation import Simulation
     from aamsim.traffic.traffic import Traffic
 
-EXTENSION_KEY = "conflicts"
 # The state the compiled passes read, in the order they expect it.
 _KINEMATIC_FIELDS = ("lat", "lon", "alt", "gseast", "gsnorth", "vs")
 _SNAPSHOT_ROWS = field_rows(_KINEMATIC_FIELDS)
@@ -144,8 +143,9 @@ class ConflictService:
 
     # ------------------------------------------------------------- lifecycle
     def attach(self, sim: Simulation) -> None:
-        sim.extensions[EXTENSION_KEY] = self
-        sim.hooks.post_step.add(self.check, interval_s=sim.settings.cd_interval_s, name="conflicts", priority=10)
+        # The interval is read from the settings each time the check runs, so DT ASAS takes effect.
+        sim.hooks.post_step.add(self.check, interval_s=lambda: sim.settings.cd_interval_s, name="conflicts",
+                                priority=10)
         sim.hooks.deleted.add(self.on_deleted, name="conflicts.deleted")
         sim.hooks.reset.add(self.on_reset, name="conflicts.reset")
 
@@ -340,9 +340,7 @@ def closest_intruders(sim: Simulation, max_range_m: float = 3000.0) -> tuple[np.
 
 
 def conflicts_of(sim: Simulation) -> ConflictService:
-    """The conflict service of a simulation (attached on first use)."""
-    service = sim.extensions.get(EXTENSION_KEY)
-    if service is None:
-        service = ConflictService()
-        service.attach(sim)
-    return service
+    """The conflict service of a simulation (``sim.services.conflicts``; see :mod:`aamsim.services`)."""
+    from aamsim.services import services_of
+
+    return services_of(sim).conflicts
