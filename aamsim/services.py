@@ -1,6 +1,7 @@
 """The simulation's built-in services, wired in one place.
 
-:func:`build_services` creates conflict detection and metrics, attaches their
+:func:`build_services` creates conflict detection, metrics and the traffic
+snapshot stream (:mod:`aamsim.snapshots`), attaches their
 hooks and sets the typed field ``sim.services`` (a :class:`Services`); every
 entry point (``aamsim run``, the episode engine, the simulation server) calls
 it once, before the scenario loads. Settings have one owner each: the
@@ -18,6 +19,7 @@ from typing import TYPE_CHECKING, Any
 
 from aamsim.conflicts.service import PAPER_VOLUMES, ConflictService, SeparationVolume
 from aamsim.metrics.service import DEFAULT_GROUPS, MetricsService, write_conflicts_csv
+from aamsim.snapshots import SnapshotStream
 
 if TYPE_CHECKING:
     from aamsim.simulation import Simulation
@@ -29,6 +31,7 @@ class Services:
 
     conflicts: ConflictService
     metrics: MetricsService
+    snapshots: SnapshotStream  # frozen traffic snapshots for the recorder, the bridge and viewers
 
 
 def build_services(sim: Simulation, volumes: tuple[SeparationVolume, ...] = PAPER_VOLUMES,
@@ -39,7 +42,7 @@ def build_services(sim: Simulation, volumes: tuple[SeparationVolume, ...] = PAPE
     conflicts = ConflictService(volumes=tuple(volumes))
     conflicts.attach(sim)
     metrics = MetricsService(groups=tuple(groups))
-    sim.services = Services(conflicts, metrics)
+    sim.services = Services(conflicts, metrics, SnapshotStream(sim))
     return sim.services
 
 

@@ -358,11 +358,8 @@ class EpisodeCore:
         """The aircraft now flying: ``ids`` and SI arrays (deg, m, m/s) ``lat lon alt tas gs trk vs``."""
         if self.sim is None:
             raise RuntimeError("traffic_state() before reset()")
-        view = self.sim.view
-        state: dict[str, Any] = {"simt": self.sim.simt, "ids": list(view.ids)}
-        for name in TRAFFIC_STATE_FIELDS:
-            state[name] = np.array(getattr(view, name), dtype=np.float64)
-        return state
+        assert self.sim.services is not None
+        return self.sim.services.snapshots.latest().as_dict(TRAFFIC_STATE_FIELDS)
 
     def close(self) -> None:
         self.sim = None

@@ -47,3 +47,30 @@ def test_services_are_typed_fields_built_once():
         build_services(sim)
     sim.stack("SEPVOLUME NMAC 100")
     assert services.conflicts.volume("nmac").radius_m == 100.0
+
+
+def test_snapshot_stream_is_frozen_shared_and_periodic():
+    from aamsim.snapshots import take_snapshot
+
+    sim = Simulation(seed=0)
+    services = build_services(sim)
+    _pair(sim)
+    got: list = []
+    services.snapshots.subscribe(got.append, 2.0, name="a")
+    services.snapshots.subscribe(got.append, 2.0, name="b")
+    sim.run_until(4.0)
+    assert [s.simt for s in got] == [0.0, 0.0, 2.0, 2.0, 4.0, 4.0]
+    assert got[2] is got[3]  # subscribers due together share one snapshot
+    first = got[0]
+    assert first.ids == ("A", "B") and first.lat.tolist() == [0.0, 0.05]
+    with pytest.raises(ValueError):
+        first.lat[0] = 1.0
+    # A copy: the traffic moved on, the snapshot did not.
+    assert sim.view.lat[0] > first.lat[0] == 0.0
+    now = take_snapshot(sim, ("alt", "gs"))
+    assert now.as_dict() == {"simt": 4.0, "ids": ["A", "B"], "alt": pytest.approx(sim.view.alt.tolist()),
+                             "gs": pytest.approx(sim.view.gs.tolist())}
+    with pytest.raises(AttributeError, match="no field 'lat'"):
+        _ = now.lat
+    with pytest.raises(ValueError, match="unknown traffic field"):
+        take_snapshot(sim, ("nope",))
