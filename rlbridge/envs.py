@@ -6,8 +6,9 @@
   :class:`CorridorSAEnv` is ``aamgym/CorridorSA-v0``): one controlled agent among others that
   follow a chosen policy (default: no actions, e.g. unequipped aircraft).
 
-Both run in-process (``backend="local"``) or against a simulation server
-(``backend="zmq", address="tcp://host:port"``) with identical results.
+Both run in-process (``backend="local"``), against a simulation server
+(``backend="zmq", address="tcp://host:port"``) with identical results, or on
+BlueSky itself (``backend="bluesky"``, :mod:`rlbridge.backends`).
 """
 
 from __future__ import annotations
@@ -21,22 +22,9 @@ import gymnasium as gym
 import numpy as np
 from pettingzoo import ParallelEnv
 
-from rlbridge.core import EpisodeCore, StepResult
+from rlbridge.backends import make_backend
+from rlbridge.core import StepResult
 from rlbridge.usecases.registry import make_usecase
-
-
-def make_backend(scenario: str | Path, usecase: str, params: dict[str, Any], backend: str,
-                 address: str | None, time_limit_s: float | None, dt: float, timeout_s: float) -> Any:
-    if backend == "local":
-        return EpisodeCore(scenario, usecase, params, time_limit_s=time_limit_s, dt=dt)
-    if backend == "zmq":
-        from rlbridge.client import RemoteEpisode
-
-        if not address:
-            raise ValueError('backend="zmq" needs address="tcp://host:port"')
-        return RemoteEpisode(address, scenario, usecase, params, time_limit_s=time_limit_s, dt=dt,
-                             timeout_s=timeout_s)
-    raise ValueError(f'backend must be "local" or "zmq", not {backend!r}')
 
 
 class AamParallelEnv(ParallelEnv):

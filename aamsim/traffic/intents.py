@@ -134,3 +134,22 @@ def restore_type_acceleration(traffic: Traffic) -> None:
     """Every aircraft's acceleration limit back to its type's (the performance refresh)."""
     n = traffic.n
     traffic.F[f.AXMAX, :n] = traffic.F[f.AXMAX_TYPE, :n]
+
+
+# State another simulator owns (the BlueSky backend overwrites aamsim's with BlueSky's).
+SYNC_FIELDS = ("lat", "lon", "alt", "hdg", "trk", "tas", "cas", "gs", "vs", "gsnorth", "gseast", "ax")
+
+
+def set_kinematic_state(traffic: Traffic, slots: np.ndarray, values: dict[str, np.ndarray]) -> None:
+    """Overwrite position, speeds and directions of ``slots`` (one array per name of ``SYNC_FIELDS``).
+
+    The caches that depend on them are invalidated, so the next step
+    recomputes them from the new state.
+    """
+    F = traffic.F
+    for name in SYNC_FIELDS:
+        F[f.FLOAT_FIELDS.index(name), slots] = values[name]
+    F[f.COSLAT, slots] = np.cos(np.radians(values["lat"]))
+    F[f.MACH, slots] = aero.tas2mach(values["tas"], values["alt"])
+    for row in (f.C_ALT, f.C_HDG, f.C_TAS_IN, f.C_SPD_IN, f.C_LAT, f.C_LA0, f.C_Q0, f.C_Q0COS, f.C_Q0SIN):
+        F[row, slots] = math.nan
