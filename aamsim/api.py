@@ -16,7 +16,7 @@ change made here and one made by a scenario line are the same change.
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -39,10 +39,29 @@ class SimulationAPI:
     """Views and intents of a simulation (mixed into :class:`aamsim.Simulation`)."""
 
     traffic: Traffic
+    flight_log: list[FlightRecord]
     # Built-in services (conflict detection, metrics), set by aamsim.services.build_services.
     services: Services | None = None
     create_aircraft: Callable[..., int]
     delete_aircraft: Callable[..., FlightRecord]
+
+    def require_services(self) -> Services:
+        """The built-in services, built with the defaults when no entry point built them (scripts, tests)."""
+        if self.services is None:
+            from aamsim.services import build_services
+
+            return build_services(self)  # type: ignore[arg-type]
+        return self.services
+
+    def flights(self) -> Iterator[FlightRecord]:
+        """Closed flights followed by the open ones (their distance and times brought up to date)."""
+        yield from self.flight_log
+        view = self.view
+        for i, rec in enumerate(self.traffic.flights):
+            rec.distance_m = float(view.distflown[i])
+            rec.airborne_s = float(view.airborne_s[i])
+            rec.slow_s = float(view.slow_s[i])
+            yield rec
 
     # ------------------------------------------------------------------ reading
     @property

@@ -48,7 +48,7 @@ def build_services(sim: Simulation, volumes: tuple[SeparationVolume, ...] = PAPE
 
 def services_of(sim: Simulation) -> Services:
     """The simulation's services, built with the defaults when no entry point built them (scripts, tests)."""
-    return sim.services if sim.services is not None else build_services(sim)
+    return sim.require_services()
 
 
 def attach_run_services(sim: Simulation, cfg: Any) -> None:

@@ -572,11 +572,5 @@ _NO_CONDITIONS = (
 
 
 def iter_flights(sim: Simulation) -> Iterable[FlightRecord]:
-    """Closed flights followed by the open ones (still flying)."""
-    yield from sim.flight_log
-    view = sim.view
-    for i, rec in enumerate(sim.traffic.flights):
-        rec.distance_m = float(view.distflown[i])
-        rec.airborne_s = float(view.airborne_s[i])
-        rec.slow_s = float(view.slow_s[i])
-        yield rec
+    """Closed flights followed by the open ones (still flying); see :meth:`Simulation.flights`."""
+    return sim.flights()

@@ -115,3 +115,19 @@ def test_no_module_outside_traffic_imports_the_field_rows():
             if "aamsim.traffic.fields" in _imports_of(path):
                 offenders.append(str(path.relative_to(ROOT)))
     assert offenders == []
+
+
+def test_import_layers_contract():
+    """``lint-imports`` (import-linter) keeps the layers of .importlinter: bridge -> stack -> services ->
+    metrics -> conflicts -> traffic, never backwards."""
+    import os
+    import shutil
+    import subprocess
+
+    exe = shutil.which("lint-imports")
+    if exe is None:
+        pytest.skip("import-linter is not installed (pip install 'aamsim[test]')")
+    env = dict(os.environ, PYTHONPATH=str(ROOT))  # this checkout's packages, not an installed copy
+    proc = subprocess.run([exe], cwd=ROOT, env=env, capture_output=True, text=True, timeout=600, check=False)
+    assert proc.returncode == 0, proc.stdout + proc.stderr
+    assert "1 kept, 0 broken" in proc.stdout

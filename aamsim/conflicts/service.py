@@ -341,6 +341,4 @@ def closest_intruders(sim: Simulation, max_range_m: float = 3000.0) -> tuple[np.
 
 def conflicts_of(sim: Simulation) -> ConflictService:
     """The conflict service of a simulation (``sim.services.conflicts``; see :mod:`aamsim.services`)."""
-    from aamsim.services import services_of
-
-    return services_of(sim).conflicts
+    return sim.require_services().conflicts

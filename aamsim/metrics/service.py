@@ -34,12 +34,10 @@ class MetricsService:
     registry: MetricRegistry = field(default_factory=_standard_registry)
 
     def context(self, sim: Simulation) -> MetricContext:
-        from aamsim.simulation import iter_flights
-
         service = conflicts_of(sim)
         return MetricContext(
             sim=sim,
-            flights=list(iter_flights(sim)),
+            flights=list(sim.flights()),
             events=list(service.events),
             duration_s=sim.simt,
             hold_speed_mps=sim.settings.hold_speed_mps,
@@ -53,9 +51,7 @@ class MetricsService:
 
 def metrics_of(sim: Simulation) -> MetricsService:
     """The metrics service of a simulation (``sim.services.metrics``; see :mod:`aamsim.services`)."""
-    from aamsim.services import services_of
-
-    return services_of(sim).metrics
+    return sim.require_services().metrics
 
 
 def record_advisory(sim: Simulation, acid: str, action: str) -> None:
