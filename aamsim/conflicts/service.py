@@ -331,12 +331,19 @@ def closest_intruders(sim: Simulation, max_range_m: float = 3000.0) -> tuple[np.
 
     Beyond ``max_range_m`` the distance is ``inf`` and the slot -1.
     """
+    pi, pj, d = pairs_within(sim, max_range_m)
+    return nearest_per_aircraft(sim.traffic.n, pi, pj, d, max_range_m)
+
+
+def pairs_within(sim: Simulation, radius_m: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Aircraft pairs (slots ``pi < pj``) now within ``radius_m`` horizontally or closer, and their 3-D distances.
+
+    The pair search is a superset: filter on the distances for an exact radius.
+    """
     s = traffic_snapshot(sim)
-    n = len(s.ids)
-    zeros = np.zeros(n)
-    pi, pj = search_pairs(s, zeros, zeros, max_range_m)
-    d = slant_distances(s.lat, s.lon, s.alt, pi, pj)
-    return nearest_per_aircraft(n, pi, pj, d, max_range_m)
+    zeros = np.zeros(len(s.ids))
+    pi, pj = search_pairs(s, zeros, zeros, radius_m)
+    return pi, pj, slant_distances(s.lat, s.lon, s.alt, pi, pj)
 
 
 def conflicts_of(sim: Simulation) -> ConflictService:

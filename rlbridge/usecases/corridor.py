@@ -23,9 +23,7 @@ from typing import TYPE_CHECKING, Any
 import gymnasium as gym
 import numpy as np
 
-from aamsim.conflicts import SeparationVolume, conflicts_of
-from aamsim.conflicts.pairs import slant_distances
-from aamsim.conflicts.service import search_pairs, traffic_snapshot
+from aamsim.conflicts import SeparationVolume, conflicts_of, pairs_within
 from aamsim.metrics import record_advisory
 from aamsim.units import FT, KTS
 from rlbridge.observe import corridor_features, nearest_neighbours
@@ -206,12 +204,9 @@ class CorridorSA(UseCaseBase):
         memo = self._pairs_memo
         if memo is not None and all(np.array_equal(a, b) for a, b in zip(memo[0], state)):
             return memo[1]
-        s = traffic_snapshot(sim)
-        n = len(s.ids)
         rng = max(self.params.intruder_range_m, self.params.d_max_m)
-        zeros = np.zeros(n)
-        pi, pj = search_pairs(s, zeros, zeros, rng)
-        result = (n, pi, pj, slant_distances(s.lat, s.lon, s.alt, pi, pj))
+        pi, pj, d = pairs_within(sim, rng)
+        result = (t.n, pi, pj, d)
         self._pairs_memo = (tuple(a.copy() for a in state), result)
         return result
 
