@@ -4,7 +4,10 @@ from aamsim.numba_cache import configure as _configure_numba_cache
 
 _configure_numba_cache()  # before any compiled function is defined (see aamsim/numba_cache.py)
 
+from aamsim.api import SimulationAPI, Target
 from aamsim.simulation import Simulation
+from aamsim.traffic.view import TrafficView
+from aamsim.units import Speed
 
 __version__ = "0.1.0"
-__all__ = ["Simulation", "__version__"]
+__all__ = ["Simulation", "SimulationAPI", "Speed", "Target", "TrafficView", "__version__"]

@@ -25,6 +25,7 @@ class Hook:
     interval_us: int
     order: int
     next_due_us: int = 0
+    interval_fn: Callable[[], float] | None = None  # read at each run: the interval lives in the settings
 
 
 @dataclass
@@ -40,14 +41,17 @@ class HookList:
         fn: Callable[..., Any],
         *,
         priority: int = 100,
-        interval_s: float = 0.0,
+        interval_s: float | Callable[[], float] = 0.0,
         name: str | None = None,
         start_us: int = 0,
     ) -> Hook:
+        """Add a hook; ``interval_s`` may be a function returning the interval, read each time the hook runs."""
         hook_name = str(name or getattr(fn, "__qualname__", repr(fn)))
         if any(h.name == hook_name for h in self._hooks):
             raise ValueError(f"a hook named {hook_name} is already registered")
-        hook = Hook(fn, hook_name, priority, int(round(interval_s * US_PER_S)), next(self._order), start_us)
+        interval_fn = interval_s if callable(interval_s) else None
+        first = interval_fn() if interval_fn is not None else float(interval_s)  # type: ignore[arg-type]
+        hook = Hook(fn, hook_name, priority, int(round(first * US_PER_S)), next(self._order), start_us, interval_fn)
         self._hooks.append(hook)
         self._hooks.sort(key=lambda h: (h.priority, h.order))
         return hook
@@ -82,6 +86,8 @@ class HookList:
         for hook in list(self._hooks):
             if hook.next_due_us <= now_us:
                 hook.fn(*args)
+                if hook.interval_fn is not None:
+                    hook.interval_us = round(hook.interval_fn() * US_PER_S)
                 step = max(hook.interval_us if hook.interval_us > 0 else dt_us, 1)
                 # Periods missed within one long step are skipped in one go (a loop over
                 # them froze the server for dt=1e300); the hook runs once, as before.

@@ -1,24 +1,61 @@
-"""Built-in services attached to every ``aamsim run``: conflict detection and metrics."""
+"""The simulation's built-in services, wired in one place.
+
+:func:`build_services` creates conflict detection, metrics and the traffic
+snapshot stream (:mod:`aamsim.snapshots`), attaches their
+hooks and sets the typed field ``sim.services`` (a :class:`Services`); every
+entry point (``aamsim run``, the episode engine, the simulation server) calls
+it once, before the scenario loads. Settings have one owner each: the
+detection settings (``ASAS``, ``ZONER``, ``ZONEDH``, ``DTLOOK``, ``DT ASAS``)
+live in ``sim.settings`` and the service reads them when it runs, so ``DT ASAS
+5`` changes the check interval from then on; the separation volumes live in
+the conflict service (``SEPVOLUME``); the metric groups in the metrics service.
+"""
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from aamsim.conflicts.service import PAPER_VOLUMES, ConflictService
-from aamsim.metrics.service import MetricsService, write_conflicts_csv
+from aamsim.conflicts.service import PAPER_VOLUMES, ConflictService, SeparationVolume
+from aamsim.metrics.service import DEFAULT_GROUPS, MetricsService, write_conflicts_csv
+from aamsim.snapshots import SnapshotStream
 
 if TYPE_CHECKING:
     from aamsim.simulation import Simulation
 
 
+@dataclass(frozen=True)
+class Services:
+    """The built-in services of one simulation."""
+
+    conflicts: ConflictService
+    metrics: MetricsService
+    snapshots: SnapshotStream  # frozen traffic snapshots for the recorder, the bridge and viewers
+
+
+def build_services(sim: Simulation, volumes: tuple[SeparationVolume, ...] = PAPER_VOLUMES,
+                   groups: tuple[str, ...] = DEFAULT_GROUPS) -> Services:
+    """Create and attach conflict detection and metrics (once per simulation); returns ``sim.services``."""
+    if sim.services is not None:
+        raise RuntimeError("the simulation's services are already built")
+    conflicts = ConflictService(volumes=tuple(volumes))
+    conflicts.attach(sim)
+    metrics = MetricsService(groups=tuple(groups))
+    sim.services = Services(conflicts, metrics, SnapshotStream(sim))
+    return sim.services
+
+
+def services_of(sim: Simulation) -> Services:
+    """The simulation's services, built with the defaults when no entry point built them (scripts, tests)."""
+    return sim.require_services()
+
+
 def attach_run_services(sim: Simulation, cfg: Any) -> None:
     """Conflict detection and the metric groups of the run config; they write into the run directory."""
-    volumes = tuple(getattr(cfg, "volumes", None) or PAPER_VOLUMES)
-    conflicts = ConflictService(volumes=volumes)
-    conflicts.attach(sim)
-    metrics = MetricsService(groups=tuple(getattr(cfg, "metrics", ("safety", "operational"))))
-    metrics.attach(sim)
+    services = build_services(sim, tuple(getattr(cfg, "volumes", None) or PAPER_VOLUMES),
+                              tuple(getattr(cfg, "metrics", DEFAULT_GROUPS)))
+    conflicts, metrics = services.conflicts, services.metrics
 
     def finish(sim: Simulation, out_dir: Path, summary: dict[str, Any]) -> None:
         conflicts.finish(sim)

@@ -25,6 +25,7 @@ from typing import Any
 import numba
 import numpy as np
 
+from aamsim.api import SimulationAPI
 from aamsim.clock import TimeStepError, validate_dt
 from aamsim.errors import ArgumentError, CommandError, ScenarioSyntaxError, SourceRef
 from aamsim.geo import qdrdist
@@ -44,7 +45,7 @@ from aamsim.stack.parser import (
 )
 from aamsim.stack.queue import US_PER_S, CommandQueue, to_us
 from aamsim.stack.registry import CommandRegistry
-from aamsim.traffic import fields as f
+from aamsim.traffic import intents
 from aamsim.traffic.autopilot import pass_waypoint
 from aamsim.traffic.conditions import Conditions
 from aamsim.traffic.kernel import STATUS_CONDITION, STATUS_REACHED, advance, advance_parallel
@@ -82,7 +83,7 @@ class SimSettings:
     reso: str = "OFF"
 
 
-class Simulation:
+class Simulation(SimulationAPI):
     """A simulated airspace: clock, traffic, command stack, hooks and plugins."""
 
     STATE_INIT, STATE_OP, STATE_HOLD = "INIT", "OP", "HOLD"
@@ -418,8 +419,7 @@ class Simulation:
     def _refresh_performance(self) -> None:
         if self.simt_us >= self._next_perf_us:
             if self._perf_pending:
-                n = self.traffic.n
-                self.traffic.F[f.AXMAX, :n] = self.traffic.F[f.AXMAX_TYPE, :n]
+                intents.restore_type_acceleration(self.traffic)
                 self._perf_pending = False
             interval = to_us(self.settings.perf_interval_s)
             if self._next_perf_us <= self.simt_us:
@@ -480,7 +480,7 @@ class Simulation:
             done += k
             self.simt_us += k * dt_us
             self.aircraft_steps += k * n
-            if k and not np.isfinite(traffic.F[_FINITE_ROWS, :n]).all():
+            if k and not traffic.all_finite():
                 self._remove_non_finite()
                 return
             check_first = True
@@ -505,10 +505,9 @@ class Simulation:
         output files (a CRE speed of 1e300 once did, silently).
         """
         traffic = self.traffic
-        values = traffic.F[_FINITE_ROWS, : traffic.n]
-        for i in np.flatnonzero(~np.isfinite(values).all(axis=0))[::-1].tolist():
+        for i in reversed(traffic.non_finite_slots()):
             acid = traffic.ids[i]
-            state = ", ".join(f"{name} {traffic.F[row, i]:.6g}" for name, row in zip(_FINITE_NAMES, _FINITE_ROWS))
+            state = traffic.describe_state(i)
             text, source = self._last_command.get(acid, ("(none)", None))
             where = f"{source}: " if source is not None else ""
             self.report("error", f"{acid}: state not finite at t = {self.simt:.2f} s ({state}); last command on it: "
@@ -588,8 +587,8 @@ class Simulation:
         An aircraft that misses the position of its ATDIST condition (and has no
         route left) would otherwise keep an open-ended run alive forever.
         """
-        n = self.traffic.n
-        routes_active = n and (self.traffic.B[f.B_SWLNAV, :n].any() or self.traffic.B[f.B_SWVNAV, :n].any())
+        view = self.view
+        routes_active = view.n and (view.lnav.any() or view.vnav.any())
         if len(self.queue) or not len(self.conditions) or routes_active:
             self._conditions_idle_s = 0.0
             return False
@@ -607,9 +606,9 @@ class Simulation:
             return False
         if self.traffic.n == 0:
             return True
-        n = self.traffic.n
+        view = self.view
         # Aircraft still following a route or changing speed/altitude keep the run going.
-        return not (self.traffic.B[f.B_SWLNAV, :n].any() or self.traffic.B[f.B_SWVNAV, :n].any())
+        return not (view.lnav.any() or view.vnav.any())
 
     def reset(self) -> None:
         """RESET: clear traffic, pending commands and time; keep plugins and hooks."""
@@ -634,10 +633,6 @@ class Simulation:
         self.rng = np.random.default_rng(seed)
 
 
-# State that must stay finite; checked after every kernel batch (a few microseconds at 1,000 aircraft).
-_FINITE_NAMES = ("lat", "lon", "alt", "tas", "hdg", "vs")
-_FINITE_ROWS = np.array([f.LAT, f.LON, f.ALT, f.TAS, f.HDG, f.VS])
-
 _NO_CONDITIONS = (
     np.empty(0, dtype=np.int64),
     np.empty(0, dtype=np.int64),
@@ -650,10 +645,5 @@ _NO_CONDITIONS = (
 
 
 def iter_flights(sim: Simulation) -> Iterable[FlightRecord]:
-    """Closed flights followed by the open ones (still flying)."""
-    yield from sim.flight_log
-    for i, rec in enumerate(sim.traffic.flights):
-        rec.distance_m = float(sim.traffic.F[f.DISTFLOWN, i])
-        rec.airborne_s = float(sim.traffic.F[f.AIRBORNE_S, i])
-        rec.slow_s = float(sim.traffic.F[f.SLOW_S, i])
-        yield rec
+    """Closed flights followed by the open ones (still flying); see :meth:`Simulation.flights`."""
+    return sim.flights()

@@ -3,6 +3,7 @@
     import rlbridge, gymnasium
     env = rlbridge.parallel_env(scenario="nyc_train_100.scn")       # PettingZoo ParallelEnv
     env = gymnasium.make("aamgym/CorridorSA-v0", scenario="...")   # single aircraft (registered on import)
+    env = gymnasium.make("aamgym/ReachDestination-v0", scenario="...")  # every use case has its id
 """
 
 from __future__ import annotations
@@ -10,14 +11,26 @@ from __future__ import annotations
 import gymnasium
 
 from rlbridge.core import EpisodeCore, StepResult
-from rlbridge.envs import AamParallelEnv, CorridorSAEnv, parallel_env
+from rlbridge.envs import AamParallelEnv, AamSingleAgentEnv, CorridorSAEnv, parallel_env
+from rlbridge.usecases.registry import BUILTIN_USECASES, env_id
 
 __version__ = "0.1.0"
 ENV_ID = "aamgym/CorridorSA-v0"
 
+
+def register_env(usecase: str) -> str:
+    """Register ``aamgym/<Name>-v0`` (single agent) for a use case; returns the id (idempotent)."""
+    gym_id = env_id(usecase)
+    if gym_id not in gymnasium.registry:
+        entry = "rlbridge.envs:CorridorSAEnv" if usecase == "corridor_sa" else "rlbridge.envs:AamSingleAgentEnv"
+        gymnasium.register(id=gym_id, entry_point=entry, kwargs={"usecase": usecase}, disable_env_checker=False)
+    return gym_id
+
+
 # Gymnasium's registry is where gymnasium.make looks; registering here (once) is the
 # Gymnasium convention for third-party environments.
-if ENV_ID not in gymnasium.registry:
-    gymnasium.register(id=ENV_ID, entry_point="rlbridge.envs:CorridorSAEnv", disable_env_checker=False)
+for _name in BUILTIN_USECASES:
+    register_env(_name)
 
-__all__ = ["ENV_ID", "AamParallelEnv", "CorridorSAEnv", "EpisodeCore", "StepResult", "parallel_env"]
+__all__ = ["ENV_ID", "AamParallelEnv", "AamSingleAgentEnv", "CorridorSAEnv", "EpisodeCore", "StepResult",
+           "parallel_env", "register_env"]

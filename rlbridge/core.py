@@ -1,23 +1,24 @@
 """The episode engine shared by every environment and the simulation server.
 
 An :class:`EpisodeCore` runs one scenario with one use case: ``reset`` starts
-the scenario and advances to the first moment an agent (an airborne aircraft)
-exists; ``step`` applies the agents' actions, advances the simulation by the
-use case's decision interval and returns arrays of observations, rewards,
-terminations and flags for the agents. Agents appear when their aircraft is
-created and leave (terminated) when it is deleted, e.g. on arrival. The local
+the scenario and advances to the first moment an agent exists; ``step`` applies
+the agents' actions, advances the simulation to the use case's next decision
+and returns arrays of observations, rewards, terminations and the use case's
+per-agent info. Agents appear with the simulation's creation events (whatever
+created the aircraft: CRE, MCRE, PCALL, SCHEDULE, a plugin) and leave
+(terminated) with its deletion events, e.g. on arrival. The local
 backend calls it in-process; the ZMQ server calls the very same code, so both
 backends give identical results.
 """
 
 from __future__ import annotations
 
-import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+import gymnasium as gym
 import numpy as np
 
 from aamsim import Simulation
@@ -25,9 +26,11 @@ from aamsim.conflicts import conflicts_of
 from aamsim.errors import SourceRef
 from aamsim.metrics import metrics_of
 from aamsim.scenarios import resolve_scenario
+from aamsim.services import build_services
 from aamsim.stack.parser import ParsedScenario, TimedCommand
 from aamsim.stack.tokens import next_arg
-from rlbridge.usecases.registry import Observations, UseCase, make_usecase
+from rlbridge.usecases.protocol import Feedback, Observations, UseCase, check_feedback, empty_info
+from rlbridge.usecases.registry import make_usecase
 
 TRAFFIC_STATE_FIELDS = ("lat", "lon", "alt", "tas", "gs", "trk", "vs")
 DEFAULT_EXTRA_TIME_S = 7200.0  # default episode limit: last scheduled command + 2 h
@@ -44,6 +47,9 @@ class StepResult:
     ``agents`` are the agents reported in this step: the ones alive before it,
     those that appeared during it, and those that left during it (terminated).
     ``alive`` lists the agents that continue (the environment's ``agents``).
+    ``agent_info`` holds the use case's per-agent info columns (its
+    ``info_fields``: name -> array over ``agents``); ``discovered`` the agents
+    that joined ``possible_agents`` during this call.
     """
 
     agents: list[str]
@@ -51,16 +57,29 @@ class StepResult:
     rewards: np.ndarray
     terminated: np.ndarray
     truncated: np.ndarray
-    nmac: np.ndarray
-    lowc: np.ndarray
     alive: list[str]
     simt: float
     done: bool
     info: dict[str, Any] = field(default_factory=dict)
+    agent_info: dict[str, np.ndarray] = field(default_factory=dict)
+    discovered: list[str] = field(default_factory=list)
+
+    def infos(self) -> list[dict[str, Any]]:
+        """Each agent's info as plain Python values, with the sim time."""
+        names = tuple(self.agent_info)
+        simt = self.simt
+        if not names:
+            return [{"simt": simt} for _ in self.agents]
+        rows = zip(*(col.tolist() for col in self.agent_info.values()))
+        return [dict(zip(names, row), simt=simt) for row in rows]
 
 
-def scenario_callsigns(parsed: ParsedScenario, registry_contains: Any) -> list[str]:
-    """Callsigns created by CRE lines, in order of first creation (the possible agents)."""
+def scenario_callsigns(parsed: ParsedScenario) -> list[str]:
+    """Callsigns created by the scenario's own CRE lines, in order (the agents known before it runs).
+
+    Aircraft created otherwise (MCRE, PCALL, SCHEDULE, plugins) join
+    ``possible_agents`` when the simulation creates them.
+    """
     seen: dict[str, None] = {}
     for cmd in parsed.commands:
         name = cmd.command.name
@@ -69,6 +88,14 @@ def scenario_callsigns(parsed: ParsedScenario, registry_contains: Any) -> list[s
             if acid:
                 seen.setdefault(acid.upper(), None)
     return list(seen)
+
+
+@dataclass
+class _Leaving:
+    """An agent's last observation and feedback, taken as its aircraft is deleted."""
+
+    obs: Observations
+    feedback: Feedback
 
 
 class EpisodeCore:
@@ -96,16 +123,22 @@ class EpisodeCore:
         template = Simulation(use_bluesky_navdata=True)
         self._parsed = template.parse(self.text, str(path))
         self.parse_errors = [str(e) for e in self._parsed.errors]
-        self.possible_agents = scenario_callsigns(self._parsed, template.commands.__contains__)
+        standing = list(self.usecase.standing_agents)
+        self.possible_agents: list[str] = standing + [a for a in scenario_callsigns(self._parsed)
+                                                      if a not in standing]
+        self._possible = set(self.possible_agents)
         last_command_s = max((c.time_s for c in self._parsed.commands), default=0.0)
         # Without a limit a policy that hovers would never end the episode.
         self.time_limit_s = time_limit_s if time_limit_s is not None else last_command_s + DEFAULT_EXTRA_TIME_S
         self.sim: Simulation | None = None
         self.agents: list[str] = []
         self.seed: int | None = None
-        self._interval = float(self.usecase.params.decision_interval_s) \
-            if hasattr(self.usecase, "params") else 10.0
-        self._left: dict[str, dict[str, Any]] = {}
+        self._live: dict[str, None] = {}  # agents alive now, in order of appearance
+        self._reported: set[str] = set()  # agents alive at the last reset/step (their leaving is reported)
+        self._discovered: list[str] = []
+        self._left: dict[str, _Leaving] = {}
+        self._actions: dict[str, Any] = {}
+        self._t0 = 0.0
 
     # ----------------------------------------------------------------- helpers
     def _new_simulation(self, seed: int | None) -> Simulation:
@@ -115,35 +148,42 @@ class EpisodeCore:
         sim.scenario_text = self.text
         sim.search_path.insert(0, self.path.parent)
         sim.file_guard = self.file_guard
-        conflicts_of(sim)
-        metrics_of(sim)
+        build_services(sim)
         self.usecase.attach(sim)
         from aamsim.plugins import load_plugin
 
         for name in self.plugins:
             load_plugin(sim, name)
+        sim.hooks.created.add(self._on_created, name="episode.created")
         sim.hooks.deleted.add(self._on_deleted, name="episode.deleted")
         sim.queue.extend([TimedCommand(c.time_s, c.command, c.source) for c in self._parsed.commands])
         return sim
 
-    def _on_deleted(self, sim: Simulation, slot: int, record: Any) -> None:
-        acid = sim.traffic.ids[slot]
-        if acid not in self.agents:
+    def _on_created(self, sim: Simulation, slot: int) -> None:
+        agent = self.usecase.agent_of(sim, slot)
+        if agent is None:
             return
-        # Final observation and closest distance of a leaving agent, taken before it disappears.
-        obs = self.usecase.observe(sim, [acid])
-        closest = self.usecase.closest_distances(sim, [acid])
-        self._left[acid] = {"obs": obs, "closest": float(closest[0]) if len(closest) else math.inf,
-                            "arrived": bool(getattr(record, "arrived", False))}
+        self._live[agent] = None
+        if agent not in self._possible:  # MCRE, PCALL, SCHEDULE, plugins: known only now
+            self._possible.add(agent)
+            self.possible_agents.append(agent)
+            self._discovered.append(agent)
 
-    def _live_aircraft(self) -> list[str]:
-        """Agents are the aircraft alive now, in order of first creation."""
-        assert self.sim is not None
-        alive = set(self.sim.traffic.ids)
-        order = [a for a in self.agents if a in alive]
-        known = set(order)
-        order += [a for a in self.sim.traffic.ids if a not in known]
-        return order
+    def _on_deleted(self, sim: Simulation, slot: int, record: Any) -> None:
+        agent = self.usecase.agent_of(sim, slot)
+        if agent is None or agent not in self._live:
+            return
+        del self._live[agent]
+        if agent in self._reported:
+            # Its final observation and feedback, taken before the aircraft disappears.
+            self._left[agent] = _Leaving(self.usecase.observe(sim, [agent]),
+                                         self.usecase.feedback(sim, [agent], self._actions, self._t0))
+
+    def _live_agents(self) -> list[str]:
+        """Agents alive now: those alive before keep their order, new ones follow in order of appearance."""
+        known = set(self.agents)
+        order = [a for a in self.agents if a in self._live]
+        return order + [a for a in self._live if a not in known]
 
     def _scenario_over(self) -> bool:
         sim = self.sim
@@ -154,41 +194,43 @@ class EpisodeCore:
             return True
         return sim.is_quiescent()
 
-    def _interval_events(self, t0: float) -> tuple[dict[str, float], set[str]]:
-        """Per callsign, the smallest NMAC distance, and the LoWC set, over events overlapping [t0, now]."""
-        assert self.sim is not None
-        service = conflicts_of(self.sim)
-        return service.involved_since("nmac", t0), set(service.involved_since("lowc", t0))
-
     def _advance(self) -> None:
-        """Advance one decision interval; skip ahead while no agent is airborne."""
+        """Advance to the use case's next decision; skip ahead while no agent is alive."""
         sim = self.sim
         assert sim is not None
         while True:
-            target = sim.simt + self._interval
+            target = max(self.usecase.next_decision_s(sim), sim.simt + sim.dt)
             if self.time_limit_s is not None:
                 target = min(target, self.time_limit_s)
             sim.run_until(target)
             if sim.state == sim.STATE_HOLD:
                 sim.state = sim.STATE_OP  # no operator in an RL loop
-            if sim.traffic.n > 0 or self._scenario_over():
+            if self._live or self._scenario_over():
                 return
+
+    def _take_discovered(self) -> list[str]:
+        out, self._discovered = self._discovered, []
+        return out
 
     # --------------------------------------------------------------------- API
     def reset(self, seed: int | None = None) -> StepResult:
         self.seed = seed
         self.agents = []
+        self._reported = set()
         self._left = {}
+        self._live = dict.fromkeys(self.usecase.standing_agents)
         self.sim = self._new_simulation(seed)
         self.sim.run_until(0.0)
-        if self.sim.traffic.n == 0 and not self._scenario_over():
+        if not self._live and not self._scenario_over():
             self._advance()
-        self.agents = self._live_aircraft()
+        self.agents = self._live_agents()
+        self._reported = set(self.agents)
         obs = self.usecase.observe(self.sim, self.agents)
         n = len(self.agents)
         done = self._scenario_over() and n == 0
         return StepResult(list(self.agents), obs, np.zeros(n), np.zeros(n, bool), np.zeros(n, bool),
-                          np.zeros(n, bool), np.zeros(n, bool), list(self.agents), self.sim.simt, done)
+                          list(self.agents), self.sim.simt, done, agent_info=empty_info(self.usecase.info_fields, n),
+                          discovered=self._take_discovered())
 
     def step(self, actions: dict[str, Any]) -> StepResult:
         if self.sim is None:
@@ -198,61 +240,87 @@ class EpisodeCore:
         before_set = set(before)
         valid = {a: act for a, act in actions.items() if a in before_set}
         self.usecase.apply_actions(sim, valid)
-        t0 = sim.simt
+        self._actions, self._t0 = valid, sim.simt
         self._left = {}
         self._advance()
-        now_alive = self._live_aircraft()
+        now_alive = self._live_agents()
         alive_set = set(now_alive)
         over = self._scenario_over()
         truncate = over and bool(now_alive)
         reported = before + [a for a in now_alive if a not in before_set]
-        nmac_min, lowc_set = self._interval_events(t0)
         stay = [a for a in reported if a in alive_set]
         live_obs = self.usecase.observe(sim, stay) if stay else None
-        live_closest = self.usecase.closest_distances(sim, stay) if stay else np.empty(0)
-        # Assemble per reported agent: live ones from now, leaving ones from their capture.
-        rows: list[Any] = []
-        closest = np.empty(len(reported))
-        terminated = np.zeros(len(reported), bool)
-        index_live = {a: k for k, a in enumerate(stay)}
+        live_fb = self.usecase.feedback(sim, stay, valid, self._t0)
+        check_feedback(self.usecase, live_fb, len(stay))
+        n = len(reported)
+        if len(stay) == n:  # nobody left: the live arrays are the result (the common case)
+            assert live_obs is not None or n == 0
+            obs = self._conform(live_obs) if live_obs is not None else self._stack_obs([], None)
+            rewards = np.array(live_fb.rewards, dtype=np.float64)
+            info: dict[str, np.ndarray] = {name: np.array(live_fb.info[name], dtype=dtype)
+                                           for name, dtype in self.usecase.info_fields.items()}
+            terminated = np.zeros(n, bool)
+        else:
+            obs, rewards, info, terminated = self._assemble(reported, stay, live_obs, live_fb)
         for k, a in enumerate(reported):
-            if a in index_live:
-                rows.append(("live", index_live[a]))
-                closest[k] = live_closest[index_live[a]]
-            else:
-                left = self._left.get(a)
-                if left is None:  # deleted without capture (should not happen): zero observation
-                    rows.append(("zero", 0))
-                    closest[k] = math.inf
-                else:
-                    rows.append(("left", a))
-                    closest[k] = left["closest"]
-                terminated[k] = True
-        obs = self._stack_obs(rows, live_obs)
-        rewards = self.usecase.rewards(sim, reported, valid, closest, nmac_min)
-        new_agents = set(reported) - before_set
-        for k, a in enumerate(reported):
-            if a in new_agents:
+            if a not in before_set:  # an agent's first observation comes with no reward
                 rewards[k] = 0.0
         truncated = np.array([truncate and a in alive_set for a in reported], bool)
-        nmac = np.array([a in nmac_min for a in reported], bool)
-        lowc = np.array([a in lowc_set for a in reported], bool)
-        self.agents = [] if truncate else [a for a in now_alive]
-        done = over
-        return StepResult(reported, obs, rewards, terminated, truncated, nmac, lowc, list(self.agents),
-                          sim.simt, done)
+        self.agents = [] if truncate else list(now_alive)
+        self._reported = set(self.agents)
+        return StepResult(reported, obs, rewards, terminated, truncated, list(self.agents), sim.simt, over,
+                          agent_info=info, discovered=self._take_discovered())
+
+    def _conform(self, obs: Observations) -> Observations:
+        """The use case's observation arrays in its space's dtypes (no copy when they already are)."""
+        space = self.usecase.observation_space()
+        if obs.parts is not None and isinstance(space, gym.spaces.Dict):
+            return Observations(parts={name: np.asarray(obs.parts[name], dtype=sub.dtype)
+                                       for name, sub in space.spaces.items()})
+        assert obs.flat is not None
+        return Observations(flat=np.asarray(obs.flat, dtype=space.dtype))
+
+    def _assemble(self, reported: list[str], stay: list[str], live_obs: Observations | None,
+                  live_fb: Feedback) -> tuple[Observations, np.ndarray, dict[str, np.ndarray], np.ndarray]:
+        """Per reported agent: live ones from now (one gather), leaving ones from their capture."""
+        rows: list[Any] = []
+        n = len(reported)
+        info = empty_info(self.usecase.info_fields, n)
+        terminated = np.zeros(n, bool)
+        index_live = {a: k for k, a in enumerate(stay)}
+        live_k = np.fromiter((k for k, a in enumerate(reported) if a in index_live), dtype=np.int64)
+        rewards = np.zeros(n)
+        rewards[live_k] = live_fb.rewards
+        for name, col in info.items():
+            col[live_k] = live_fb.info[name]
+        for k, a in enumerate(reported):
+            j = index_live.get(a)
+            if j is not None:
+                rows.append(("live", j))
+                continue
+            terminated[k] = True
+            left = self._left.get(a)
+            if left is None:  # deleted without capture (should not happen): zero observation
+                rows.append(("zero", 0))
+                continue
+            rows.append(("left", a))
+            rewards[k] = left.feedback.rewards[0]
+            for name, col in info.items():
+                col[k] = left.feedback.info[name][0]
+        return self._stack_obs(rows, live_obs), rewards, info, terminated
 
     def _stack_obs(self, rows: list[tuple[str, Any]], live: Observations | None) -> Observations:
         space = self.usecase.observation_space()
-        if hasattr(space, "spaces"):
-            parts = {name: np.zeros((len(rows),) + sub.shape, dtype=sub.dtype) for name, sub in space.spaces.items()}
+        if isinstance(space, gym.spaces.Dict):
+            parts = {name: np.zeros((len(rows), *(sub.shape or ())), dtype=sub.dtype)
+                     for name, sub in space.spaces.items()}
             for k, (kind, ref) in enumerate(rows):
-                src = live if kind == "live" else (self._left[ref]["obs"] if kind == "left" else None)
+                src = live if kind == "live" else (self._left[ref].obs if kind == "left" else None)
                 if src is None or src.parts is None:
                     continue
                 j = ref if kind == "live" else 0
-                for name in parts:
-                    parts[name][k] = src.parts[name][j]
+                for name, arr in parts.items():
+                    arr[k] = src.parts[name][j]
             return Observations(parts=parts)
         assert space.shape is not None
         flat = np.zeros((len(rows),) + space.shape, dtype=space.dtype)
@@ -261,7 +329,9 @@ class EpisodeCore:
                 assert live is not None and live.flat is not None
                 flat[k] = live.flat[ref]
             elif kind == "left":
-                flat[k] = self._left[ref]["obs"].flat[0]
+                left = self._left[ref].obs.flat
+                assert left is not None
+                flat[k] = left[0]
         return Observations(flat=flat)
 
     def metrics(self, groups: tuple[str, ...] = ("safety", "operational")) -> dict[str, Any]:
@@ -270,7 +340,11 @@ class EpisodeCore:
             return {}
         if self._scenario_over():
             conflicts_of(self.sim).finish(self.sim)
-        return metrics_of(self.sim).compute(self.sim, groups)
+        out = metrics_of(self.sim).compute(self.sim, groups)
+        extra = self.usecase.extra_metrics(self.sim)
+        if extra:
+            out[self.usecase.name] = extra
+        return out
 
     def stack(self, text: str) -> list[str]:
         """Run stack commands now; returns the messages they produced."""
@@ -284,11 +358,8 @@ class EpisodeCore:
         """The aircraft now flying: ``ids`` and SI arrays (deg, m, m/s) ``lat lon alt tas gs trk vs``."""
         if self.sim is None:
             raise RuntimeError("traffic_state() before reset()")
-        t = self.sim.traffic
-        state: dict[str, Any] = {"simt": self.sim.simt, "ids": list(t.ids[: t.n])}
-        for name in TRAFFIC_STATE_FIELDS:
-            state[name] = np.array(getattr(t, name), dtype=np.float64)
-        return state
+        assert self.sim.services is not None
+        return self.sim.services.snapshots.latest().as_dict(TRAFFIC_STATE_FIELDS)
 
     def close(self) -> None:
         self.sim = None

@@ -1,11 +1,14 @@
-"""Gymnasium and PettingZoo environments over an :class:`~rlbridge.core.EpisodeCore`.
+"""Gymnasium and PettingZoo environments over an :class:`~rlbridge.core.EpisodeCore`, for any use case.
 
-* :class:`AamParallelEnv` — PettingZoo ``ParallelEnv``: every airborne aircraft is an agent;
-* :class:`CorridorSAEnv` — Gymnasium ``Env`` (``aamgym/CorridorSA-v0``): one controlled
-  aircraft among traffic that follows a chosen policy (default: unequipped, no advisories).
+* :class:`AamParallelEnv` — PettingZoo ``ParallelEnv``: the use case's agents (for
+  ``corridor_sa`` every airborne aircraft);
+* :class:`AamSingleAgentEnv` — Gymnasium ``Env`` (``aamgym/<Name>-v0``, one id per use case;
+  :class:`CorridorSAEnv` is ``aamgym/CorridorSA-v0``): one controlled agent among others that
+  follow a chosen policy (default: no actions, e.g. unequipped aircraft).
 
-Both run in-process (``backend="local"``) or against a simulation server
-(``backend="zmq", address="tcp://host:port"``) with identical results.
+Both run in-process (``backend="local"``), against a simulation server
+(``backend="zmq", address="tcp://host:port"``) with identical results, or on
+BlueSky itself (``backend="bluesky"``, :mod:`rlbridge.backends`).
 """
 
 from __future__ import annotations
@@ -19,36 +22,21 @@ import gymnasium as gym
 import numpy as np
 from pettingzoo import ParallelEnv
 
-from rlbridge.core import EpisodeCore, StepResult
+from rlbridge.backends import make_backend
+from rlbridge.core import StepResult
 from rlbridge.usecases.registry import make_usecase
 
 
-def make_backend(scenario: str | Path, usecase: str, params: dict[str, Any], backend: str,
-                 address: str | None, time_limit_s: float | None, dt: float, timeout_s: float) -> Any:
-    if backend == "local":
-        return EpisodeCore(scenario, usecase, params, time_limit_s=time_limit_s, dt=dt)
-    if backend == "zmq":
-        from rlbridge.client import RemoteEpisode
-
-        if not address:
-            raise ValueError('backend="zmq" needs address="tcp://host:port"')
-        return RemoteEpisode(address, scenario, usecase, params, time_limit_s=time_limit_s, dt=dt,
-                             timeout_s=timeout_s)
-    raise ValueError(f'backend must be "local" or "zmq", not {backend!r}')
-
-
-def _infos(result: StepResult, k: int) -> dict[str, Any]:
-    return {"nmac": bool(result.nmac[k]), "lowc": bool(result.lowc[k]), "simt": result.simt}
-
-
 class AamParallelEnv(ParallelEnv):
-    """PettingZoo parallel environment: agents are the airborne aircraft of a scenario.
+    """PettingZoo parallel environment over one use case (default ``corridor_sa``: every aircraft is an agent).
 
     Agents appear when created and leave (``terminations[a] = True``) when
     deleted, e.g. on arrival; the episode ends when the scenario is done or at
     ``time_limit_s`` (remaining agents truncated). Omitting an agent from the
-    actions gives it no advisory this step (it flies its flight plan: the
-    unequipped baseline omits everyone).
+    actions gives it no action this step (in ``corridor_sa`` it flies its
+    flight plan: the unequipped baseline omits everyone). ``possible_agents``
+    starts with the agents the scenario names and grows, before they appear,
+    with those it creates otherwise (MCRE's random callsigns, PCALL, SCHEDULE).
     """
 
     metadata = {"name": "aamgym_corridor_sa_v0", "render_modes": [], "is_parallelizable": True}
@@ -66,6 +54,7 @@ class AamParallelEnv(ParallelEnv):
     ):
         super().__init__()
         self._usecase = make_usecase(usecase, **params)
+        self.metadata = {**self.metadata, "name": f"aamgym_{usecase}_v0"}
         self.core = make_backend(scenario, usecase, params, backend, address, time_limit_s, dt, timeout_s)
         self.possible_agents: list[str] = list(self.core.possible_agents)
         self.agents: list[str] = []
@@ -85,23 +74,27 @@ class AamParallelEnv(ParallelEnv):
             self._seed_rng = np.random.default_rng(seed)
         episode_seed = int(self._seed_rng.integers(2**31 - 1)) if seed is None else int(seed)
         result = self.core.reset(episode_seed)
-        self.last_result = result
-        self.agents = list(result.alive)
+        self._take(result)
         obs = {a: result.obs.row(k) for k, a in enumerate(result.agents)}
-        infos = {a: _infos(result, k) for k, a in enumerate(result.agents)}
+        infos = dict(zip(result.agents, result.infos()))
         return obs, infos
+
+    def _take(self, result: StepResult) -> None:
+        self.last_result = result
+        known = set(self.possible_agents)
+        self.possible_agents += [a for a in result.discovered if a not in known]
+        self.agents = list(result.alive)
 
     def step(self, actions: dict[str, Any]):
         result = self.core.step(actions)
-        self.last_result = result
-        obs, rewards, terms, truncs, infos = {}, {}, {}, {}, {}
+        self._take(result)
+        obs, rewards, terms, truncs = {}, {}, {}, {}
+        infos = dict(zip(result.agents, result.infos()))
         for k, a in enumerate(result.agents):
             obs[a] = result.obs.row(k)
             rewards[a] = float(result.rewards[k])
             terms[a] = bool(result.terminated[k])
             truncs[a] = bool(result.truncated[k])
-            infos[a] = _infos(result, k)
-        self.agents = list(result.alive)
         return obs, rewards, terms, truncs, infos
 
     def metrics(self) -> dict[str, Any]:
@@ -116,21 +109,21 @@ class AamParallelEnv(ParallelEnv):
 
 
 def parallel_env(scenario: str | Path = "nyc_train_100.scn", **kwargs: Any) -> AamParallelEnv:
-    """The corridor separation-assurance environment as a PettingZoo ``ParallelEnv``."""
+    """A use case (``usecase=``, default corridor separation assurance) as a PettingZoo ``ParallelEnv``."""
     return AamParallelEnv(scenario, **kwargs)
 
 
 TrafficPolicy = Callable[[str, Any], int | None]
 
 
-class CorridorSAEnv(gym.Env):
-    """Single-agent view: control one aircraft; the others follow ``traffic_policy``.
+class AamSingleAgentEnv(gym.Env):
+    """Single-agent view of a use case: control one agent; the others follow ``traffic_policy``.
 
-    ``ego`` is the controlled callsign (default: the first aircraft the
-    scenario creates). The episode starts when the ego aircraft exists and
-    ends when it leaves (terminated) or the scenario ends (truncated).
-    ``traffic_policy(agent, obs) -> action or None`` drives the other aircraft;
-    None (the default) leaves them unequipped.
+    ``ego`` is the controlled agent (default: the first agent the scenario
+    names). The episode starts when the ego agent exists and ends when it
+    leaves (terminated) or the scenario ends (truncated).
+    ``traffic_policy(agent, obs) -> action or None`` drives the other agents;
+    None (the default) gives them no action (in ``corridor_sa``: unequipped).
     """
 
     metadata = {"render_modes": []}
@@ -153,7 +146,7 @@ class CorridorSAEnv(gym.Env):
             raise ValueError(f"scenario {scenario} creates no aircraft")
         self.ego = (ego or self._multi.possible_agents[0]).upper()
         if self.ego not in self._multi.possible_agents:
-            raise ValueError(f"ego {self.ego} is not created by the scenario")
+            raise ValueError(f"ego {self.ego} is not an agent the scenario names")
         self.traffic_policy = traffic_policy
         self.observation_space = self._multi.observation_space(self.ego)
         self.action_space = self._multi.action_space(self.ego)
@@ -183,7 +176,7 @@ class CorridorSAEnv(gym.Env):
 
     def step(self, action: Any):
         actions = self._traffic_actions()
-        actions[self.ego] = int(action)
+        actions[self.ego] = int(action) if isinstance(self.action_space, gym.spaces.Discrete) else action
         obs, rewards, terms, truncs, infos = self._multi.step(actions)
         self._obs = obs
         info = dict(infos.get(self.ego, {}))
@@ -195,3 +188,12 @@ class CorridorSAEnv(gym.Env):
 
     def close(self) -> None:
         self._multi.close()
+
+
+class CorridorSAEnv(AamSingleAgentEnv):
+    """``aamgym/CorridorSA-v0``: one aircraft of the corridor separation-assurance use case."""
+
+    def __init__(self, scenario: str | Path = "nyc_train_100.scn", ego: str | None = None,
+                 traffic_policy: TrafficPolicy | None = None, **kwargs: Any):
+        kwargs.setdefault("usecase", "corridor_sa")
+        super().__init__(scenario, ego, traffic_policy, **kwargs)

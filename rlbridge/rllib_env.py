@@ -38,7 +38,7 @@ from rlbridge.envs import AamParallelEnv
 
 
 class AamMultiAgentEnv(MultiAgentEnv):
-    """Every airborne aircraft of an aamsim scenario is an RLlib agent (see the module docstring)."""
+    """The agents of a use case (``corridor_sa``: every airborne aircraft) as RLlib agents (module docstring)."""
 
     def __init__(self, config: dict[str, Any] | None = None):
         super().__init__()
@@ -49,20 +49,37 @@ class AamMultiAgentEnv(MultiAgentEnv):
         self.agents = []
         if not self.possible_agents:
             raise ValueError(f"scenario {scenario} creates no aircraft")
-        obs_space: gym.Space = self.env.observation_space(self.possible_agents[0])
-        act_space: gym.Space = self.env.action_space(self.possible_agents[0])
-        self.observation_spaces = {a: obs_space for a in self.possible_agents}
-        self.action_spaces = {a: act_space for a in self.possible_agents}
+        # Every agent of a use case shares its spaces; agents that join possible_agents later
+        # (MCRE, PCALL, SCHEDULE) get them through get_observation_space / get_action_space.
+        self._obs_space: gym.Space = self.env.observation_space(self.possible_agents[0])
+        self._act_space: gym.Space = self.env.action_space(self.possible_agents[0])
+        self._discrete = isinstance(self._act_space, gym.spaces.Discrete)
+        self.observation_spaces = {a: self._obs_space for a in self.possible_agents}
+        self.action_spaces = {a: self._act_space for a in self.possible_agents}
+
+    def get_observation_space(self, agent_id: Any) -> gym.Space:
+        return self._obs_space
+
+    def get_action_space(self, agent_id: Any) -> gym.Space:
+        return self._act_space
+
+    def _sync_agents(self) -> None:
+        self.agents = list(self.env.agents)
+        for a in self.env.possible_agents[len(self.possible_agents):]:
+            self.possible_agents.append(a)
+            self.observation_spaces = {**(self.observation_spaces or {}), a: self._obs_space}
+            self.action_spaces = {**(self.action_spaces or {}), a: self._act_space}
 
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None) -> Any:
         obs, infos = self.env.reset(seed=seed, options=options)
-        self.agents = list(self.env.agents)
+        self._sync_agents()
         return obs, infos
 
     def step(self, action_dict: Any) -> Any:
         """Actions of the agents flying -> (obs, rewards, terminateds, truncateds, infos) with ``__all__``."""
-        obs, rewards, terms, truncs, infos = self.env.step({a: int(x) for a, x in action_dict.items()})
-        self.agents = list(self.env.agents)
+        actions = {a: int(x) for a, x in action_dict.items()} if self._discrete else dict(action_dict)
+        obs, rewards, terms, truncs, infos = self.env.step(actions)
+        self._sync_agents()
         result = self.env.last_result
         done = bool(result is not None and result.done)
         truncated_all = done and any(truncs.values())

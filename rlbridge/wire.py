@@ -12,19 +12,20 @@ import numpy as np
 
 from rlbridge.core import StepResult
 from rlbridge.protocol import ProtocolError
-from rlbridge.usecases.registry import Observations
+from rlbridge.usecases.protocol import INFO_DTYPES, Observations
 
-_ARRAYS = {"rewards": np.float64, "terminated": np.bool_, "truncated": np.bool_, "nmac": np.bool_,
-           "lowc": np.bool_}
+_ARRAYS = {"rewards": np.float64, "terminated": np.bool_, "truncated": np.bool_}
 _INT_KINDS = "iu"
+_INFO_DTYPES = tuple(np.dtype(d) for d in INFO_DTYPES)
 
 
 def step_result_to_payload(result: StepResult) -> dict[str, Any]:
     obs: Any = result.obs.parts if result.obs.parts is not None else result.obs.flat
     return {
         "agents": list(result.agents), "obs": obs, "rewards": result.rewards, "terminated": result.terminated,
-        "truncated": result.truncated, "nmac": result.nmac, "lowc": result.lowc, "alive": list(result.alive),
-        "simt": float(result.simt), "done": bool(result.done), "info": dict(result.info),
+        "truncated": result.truncated, "alive": list(result.alive), "simt": float(result.simt),
+        "done": bool(result.done), "info": dict(result.info), "agent_info": dict(result.agent_info),
+        "discovered": list(result.discovered),
     }
 
 
@@ -58,7 +59,21 @@ def step_result_from_payload(payload: dict[str, Any]) -> StepResult:
     if not isinstance(simt, float) or not isinstance(done, bool) or not isinstance(info, dict):
         raise ProtocolError("reply fields simt (number), done (boolean) and info (map) are required")
     return StepResult(agents, observations, arrays["rewards"], arrays["terminated"], arrays["truncated"],
-                      arrays["nmac"], arrays["lowc"], _str_list(payload, "alive"), simt, done, info)
+                      _str_list(payload, "alive"), simt, done, info, _agent_info(payload, n),
+                      _str_list(payload, "discovered") if "discovered" in payload else [])
+
+
+def _agent_info(payload: dict[str, Any], n: int) -> dict[str, np.ndarray]:
+    """The use case's per-agent info columns: a map name -> bool, int64 or float64 array of n values."""
+    value = payload.get("agent_info", {})
+    if not isinstance(value, dict):
+        raise ProtocolError("reply field 'agent_info' must be a map of arrays")
+    for name, col in value.items():
+        if not isinstance(name, str) or not isinstance(col, np.ndarray) or col.shape != (n,) \
+                or col.dtype not in _INFO_DTYPES:
+            raise ProtocolError(f"reply field agent_info[{name!r}] must be a bool, int64 or float64 array of "
+                                f"{n} values")
+    return dict(value)
 
 
 def actions_to_payload(actions: dict[str, Any]) -> dict[str, Any]:

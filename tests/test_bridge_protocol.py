@@ -139,11 +139,10 @@ def test_check_fields():
 def test_step_results_and_actions_cross_the_wire_unchanged():
     n = 3
     flat = StepResult(["A", "B", "C"], Observations(flat=np.random.default_rng(1).random((n, 5), np.float32)),
-                      np.array([-0.1, 0.0, 1e-300]), np.array([0, 1, 0], bool), np.zeros(n, bool), np.ones(n, bool),
-                      np.zeros(n, bool), ["A", "C"], 12.5, False, {"note": "x"})
+                      np.array([-0.1, 0.0, 1e-300]), np.array([0, 1, 0], bool), np.zeros(n, bool), ["A", "C"], 12.5,
+                      False, {"note": "x"}, {"nmac": np.ones(n, bool), "dist_m": np.array([1.0, 2.0, np.inf])}, ["C"])
     parts = StepResult([], Observations(parts={"own": np.zeros((0, 2), np.float32), "mask": np.zeros((0, 4), np.float32)}),
-                       np.zeros(0), np.zeros(0, bool), np.zeros(0, bool), np.zeros(0, bool), np.zeros(0, bool), [],
-                       0.0, True)
+                       np.zeros(0), np.zeros(0, bool), np.zeros(0, bool), [], 0.0, True)
     for result in (flat, parts):
         back = step_result_from_payload(decode(encode({"v": 1, **step_result_to_payload(result)})))
         assert same(back.__dict__ | {"obs": back.obs.__dict__}, result.__dict__ | {"obs": result.obs.__dict__})

@@ -136,13 +136,23 @@ def test_compare_risk_ratio_and_refusals(tmp_path):
     assert {e["encounter"] for e in events} == {"head-on"}
     assert {(float(e["trk1_deg"]), float(e["trk2_deg"])) for e in events} == {(0.0, 180.0)}
     assert all(float(e["gs1_mps"]) > 50 and float(e["vs2_mps"]) == 0.0 for e in events)
-    # "Equipped": the same scenario with one aircraft pair avoided by a speed change.
-    equipped_dir = tmp_path / "eq"
-    equipped_dir.mkdir()
-    eq = _run(equipped_dir, "enc", HEAD_ON, 1)
+    # "Equipped": the same scenario and seed, where a plugin stops A and B as they are created.
+    # From 100 kt (51.4 m/s) at the default 2 m/s^2 each stops within 51.4^2 / 4 = 661 m, so the
+    # pair, 4.0 km apart, stays > 2.6 km apart: no event; C-D still meet. Both ratios: 1 / 2.
+    (tmp_path / "equip_ab.py").write_text(
+        "def init_plugin(sim):\n"
+        "    def stop(sim, slot):\n"
+        "        if sim.view.ids[slot] in ('A', 'B'):\n"
+        "            sim.select_speed(slot, 0.0)\n"
+        "    sim.hooks.created.add(stop, name='equip_ab')\n")
+    eq = tmp_path / "eq"
+    proc = aamsim("run", str(tmp_path / "enc.scn"), "--out", str(eq), "--seed", "1", "--quiet", "--log-period", "0",
+                  "--plugin", "equip_ab", cwd=tmp_path)
+    assert proc.returncode == 0, proc.stderr
     proc = aamsim("compare", str(eq), str(base))
-    assert proc.returncode == 0 and "risk ratio (NMAC): 1.0000" in proc.stdout
-    assert json.loads((eq / "comparison.json").read_text())["risk_ratio"]["mean"] == 1.0
+    assert proc.returncode == 0 and "risk ratio (NMAC): 0.5000" in proc.stdout, proc.stdout
+    comparison = json.loads((eq / "comparison.json").read_text())
+    assert comparison["risk_ratio"]["mean"] == 0.5 and comparison["lowc_ratio"]["mean"] == 0.5
     other_seed = _run(tmp_path, "enc", HEAD_ON, 2)
     proc = aamsim("compare", str(other_seed), str(base))
     assert proc.returncode == 2 and "seed" in proc.stderr

@@ -61,7 +61,7 @@ def test_nmac_flags_in_infos():
     while env.agents:
         _, _, _, _, info = env.step({})
         flagged |= {a for a, i in info.items() if i["nmac"]}
-    events = [e for e in env.core.sim.extensions["conflicts"].events if e.volume == "nmac"]
+    events = [e for e in env.core.sim.services.conflicts.events if e.volume == "nmac"]
     assert flagged == {a for e in events for a in (e.ac1, e.ac2)}
 
 

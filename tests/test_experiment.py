@@ -154,7 +154,11 @@ def test_evaluate_compare_and_report(tmp_path, trained_run):
     ev = json.loads((ev_dir / "evaluation.json").read_text())
     assert ev["scenario"] == "tiny_conflict" and ev["episodes"] == 3 and ev["seeds"] == [0, 1, 2]
     assert set(ev["policies"]) == {"d2mava_a", "unequipped", "mvp_speed"}
-    assert ev["policies"]["unequipped"]["risk_ratio"]["mean"] == 1.0
+    # tiny_conflict: unequipped, the pair meets at the merge fix (one NMAC per episode); MVP's speed
+    # change sequences them (none), so its risk ratio is 0 / 1 on every seed.
+    assert ev["policies"]["unequipped"]["nmac_events"] == {"mean": 1.0, "std": 0.0}
+    assert ev["policies"]["mvp_speed"]["nmac_events"]["mean"] == 0.0
+    assert ev["policies"]["mvp_speed"]["risk_ratio"]["mean"] == 0.0
     for policy in ev["policies"]:
         summaries = sorted((ev_dir / "episodes" / policy).glob("seed-*/summary.json"))
         assert len(summaries) == 3

@@ -9,26 +9,49 @@ import gymnasium as gym
 import numpy as np
 import pytest
 
-import rlbridge
+import rlbridge  # noqa: F401  (registers the aamgym/* Gymnasium ids)
 
 TINY = str(Path(__file__).parent / "data" / "tiny_conflict.scn")
 ROOT = Path(__file__).resolve().parent.parent
 
 
+REACH_ONE = str(Path(__file__).parent / "data" / "reach_one.scn")
+
+
+def _greedy_return(env: gym.Env, act) -> float:
+    obs, _ = env.reset(seed=1)
+    total, done = 0.0, False
+    while not done:
+        obs, reward, terminated, truncated, _ = env.step(act(obs))
+        total += float(reward)
+        done = terminated or truncated
+    return total
+
+
 @pytest.mark.slow
 @pytest.mark.parametrize("algo", ["ppo", "dqn"])
-def test_stable_baselines3_trains_on_the_single_agent_env(algo):
+def test_stable_baselines3_learns_to_fly_fast_on_the_single_agent_env(algo):
+    """SB3 learns the one thing reach_destination rewards on reach_one.scn: the fast speed.
+
+    Hand-derived bounds (reward = 1 on arrival - 0.01 per second): the aircraft starts at 60 kt
+    CAS and is deleted 92.6 m (0.05 NM) short of its destination 5003.8 m north, so it flies
+    4911 m. A policy that never picks 90 kt flies at most 60 kt CAS (31.33 m/s TAS at 1000 ft):
+    T >= 156.8 s, return <= 1 - 1.568 = -0.568. No policy beats 90 kt (47.0 m/s TAS):
+    T >= 104.5 s, return <= -0.045.
+    """
     from stable_baselines3 import DQN, PPO
 
-    env = gym.make(rlbridge.ENV_ID, scenario=TINY, time_limit_s=600.0, n_intruders=4)
+    env = gym.make("aamgym/ReachDestination-v0", scenario=REACH_ONE, time_limit_s=900.0, time_penalty=0.01)
+    slow = _greedy_return(env, lambda obs: 1)
+    assert slow == pytest.approx(-0.568, abs=0.005)  # the bound is reached: it starts at 60 kt
     if algo == "ppo":
-        model = PPO("MlpPolicy", env, n_steps=256, batch_size=64, n_epochs=2, seed=0, device="cpu")
+        model = PPO("MlpPolicy", env, n_steps=256, batch_size=64, n_epochs=4, seed=0, device="cpu")
     else:
-        model = DQN("MlpPolicy", env, learning_starts=200, buffer_size=5000, train_freq=4, seed=0, device="cpu")
-    model.learn(total_timesteps=2000)
-    obs, _ = env.reset(seed=1)
-    action, _ = model.predict(obs, deterministic=True)
-    assert env.action_space.contains(int(action))
+        model = DQN("MlpPolicy", env, learning_starts=200, buffer_size=5000, train_freq=4, seed=0, device="cpu",
+                    exploration_fraction=0.3, target_update_interval=250)
+    model.learn(total_timesteps=3000)
+    learned = _greedy_return(env, lambda obs: int(model.predict(obs, deterministic=True)[0]))
+    assert -0.5 < learned <= -0.045 + 1e-9
     env.close()
 
 

@@ -8,6 +8,7 @@ from aamsim.conflicts.service import (
     SeparationVolume,
     closest_intruders,
     conflicts_of,
+    pairs_within,
 )
 
 __all__ = [
@@ -19,4 +20,5 @@ __all__ = [
     "SeparationVolume",
     "closest_intruders",
     "conflicts_of",
+    "pairs_within",
 ]

@@ -30,15 +30,16 @@ from aamsim.conflicts.events import EventLog, SeparationEvent
 from aamsim.conflicts.fused import detect_all, new_pair_count, volume_pass
 from aamsim.conflicts.grid import candidate_pairs, snapshot_arrays, swept_boxes
 from aamsim.conflicts.pairs import nearest_per_aircraft, slant_distances
-from aamsim.traffic import fields as f
+from aamsim.traffic.view import field_rows, kinematic_matrix
 from aamsim.units import R_EARTH
 
 if TYPE_CHECKING:
     from aamsim.simulation import Simulation
     from aamsim.traffic.traffic import Traffic
 
-EXTENSION_KEY = "conflicts"
-_SNAPSHOT_ROWS = np.array([f.LAT, f.LON, f.ALT, f.GSEAST, f.GSNORTH, f.VS], dtype=np.int64)
+# The state the compiled passes read, in the order they expect it.
+_KINEMATIC_FIELDS = ("lat", "lon", "alt", "gseast", "gsnorth", "vs")
+_SNAPSHOT_ROWS = field_rows(_KINEMATIC_FIELDS)
 
 
 @dataclass(frozen=True)
@@ -105,7 +106,8 @@ class TrafficSnapshot:
 def traffic_snapshot(sim: Simulation) -> TrafficSnapshot:
     """Positions, velocities (east, north, up) and the local frame of all aircraft now."""
     t = sim.traffic
-    lat, lon, alt, u, v, w, x, y, err, *frame = snapshot_arrays(t.F, t.n, _SNAPSHOT_ROWS, R_EARTH)
+    matrix, rows = kinematic_matrix(t, _KINEMATIC_FIELDS)
+    lat, lon, alt, u, v, w, x, y, err, *frame = snapshot_arrays(matrix, t.n, rows, R_EARTH)
     return TrafficSnapshot(list(t.ids), lat, lon, alt, u, v, w, x, y, err, tuple(frame))  # type: ignore[arg-type]
 
 
@@ -141,8 +143,9 @@ class ConflictService:
 
     # ------------------------------------------------------------- lifecycle
     def attach(self, sim: Simulation) -> None:
-        sim.extensions[EXTENSION_KEY] = self
-        sim.hooks.post_step.add(self.check, interval_s=sim.settings.cd_interval_s, name="conflicts", priority=10)
+        # The interval is read from the settings each time the check runs, so DT ASAS takes effect.
+        sim.hooks.post_step.add(self.check, interval_s=lambda: sim.settings.cd_interval_s, name="conflicts",
+                                priority=10)
         sim.hooks.deleted.add(self.on_deleted, name="conflicts.deleted")
         sim.hooks.reset.add(self.on_reset, name="conflicts.reset")
 
@@ -168,7 +171,7 @@ class ConflictService:
     def _lookback(self, sim: Simulation, n: int) -> np.ndarray:
         """Per aircraft, how far back the last interval reaches: to the last check or its creation."""
         now = sim.simt
-        created = sim.traffic.F[f.CREATED_S, :n]
+        created = sim.view.created_s[:n]
         return np.maximum(np.minimum(now - self._last_check_s, now - created), 0.0)
 
     def check(self, sim: Simulation) -> None:
@@ -178,8 +181,9 @@ class ConflictService:
         n = t.n
         cd_on = st.cd_method != "OFF"
         radii, cylinder, half_heights = self._volume_arrays()
+        matrix, rows = kinematic_matrix(t, _KINEMATIC_FIELDS)
         (ci, cj, tcpa, dcpa, tin, li, lj, inconf, tcpamax, _eq, ei, ej, e_in, e_out, e_dmin, e_tmin, e_pos, count,
-         closest, dnow) = detect_all(t.F, n, _SNAPSHOT_ROWS, R_EARTH, self._lookback(sim, n), cd_on, st.zoner_m,
+         closest, dnow) = detect_all(matrix, n, rows, R_EARTH, self._lookback(sim, n), cd_on, st.zoner_m,
                                      st.zonedh_m, st.dtlook_s, radii, cylinder, half_heights, self.closest_range_m,
                                      self._conflicts_hint)
         self._conflicts_hint = len(ci) + len(ci) // 4
@@ -327,18 +331,21 @@ def closest_intruders(sim: Simulation, max_range_m: float = 3000.0) -> tuple[np.
 
     Beyond ``max_range_m`` the distance is ``inf`` and the slot -1.
     """
+    pi, pj, d = pairs_within(sim, max_range_m)
+    return nearest_per_aircraft(sim.traffic.n, pi, pj, d, max_range_m)
+
+
+def pairs_within(sim: Simulation, radius_m: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Aircraft pairs (slots ``pi < pj``) now within ``radius_m`` horizontally or closer, and their 3-D distances.
+
+    The pair search is a superset: filter on the distances for an exact radius.
+    """
     s = traffic_snapshot(sim)
-    n = len(s.ids)
-    zeros = np.zeros(n)
-    pi, pj = search_pairs(s, zeros, zeros, max_range_m)
-    d = slant_distances(s.lat, s.lon, s.alt, pi, pj)
-    return nearest_per_aircraft(n, pi, pj, d, max_range_m)
+    zeros = np.zeros(len(s.ids))
+    pi, pj = search_pairs(s, zeros, zeros, radius_m)
+    return pi, pj, slant_distances(s.lat, s.lon, s.alt, pi, pj)
 
 
 def conflicts_of(sim: Simulation) -> ConflictService:
-    """The conflict service of a simulation (attached on first use)."""
-    service = sim.extensions.get(EXTENSION_KEY)
-    if service is None:
-        service = ConflictService()
-        service.attach(sim)
-    return service
+    """The conflict service of a simulation (``sim.services.conflicts``; see :mod:`aamsim.services`)."""
+    return sim.require_services().conflicts

@@ -16,7 +16,6 @@ from aamsim.metrics.standard import register_standard_metrics
 if TYPE_CHECKING:
     from aamsim.simulation import Simulation
 
-EXTENSION_KEY = "metrics"
 DEFAULT_GROUPS = ("safety", "operational")
 CONFLICT_COLUMNS = ["volume", "ac1", "ac2", "start_s", "end_s", "min_dist_m", "t_min_s",
                     "lat1", "lon1", "alt1_m", "lat2", "lon2", "alt2_m",
@@ -34,17 +33,11 @@ class MetricsService:
     groups: tuple[str, ...] = DEFAULT_GROUPS
     registry: MetricRegistry = field(default_factory=_standard_registry)
 
-    def attach(self, sim: Simulation) -> None:
-        sim.extensions[EXTENSION_KEY] = self
-        conflicts_of(sim)
-
     def context(self, sim: Simulation) -> MetricContext:
-        from aamsim.simulation import iter_flights
-
         service = conflicts_of(sim)
         return MetricContext(
             sim=sim,
-            flights=list(iter_flights(sim)),
+            flights=list(sim.flights()),
             events=list(service.events),
             duration_s=sim.simt,
             hold_speed_mps=sim.settings.hold_speed_mps,
@@ -57,12 +50,8 @@ class MetricsService:
 
 
 def metrics_of(sim: Simulation) -> MetricsService:
-    """The metrics service of a simulation (attached on first use)."""
-    service = sim.extensions.get(EXTENSION_KEY)
-    if service is None:
-        service = MetricsService()
-        service.attach(sim)
-    return service
+    """The metrics service of a simulation (``sim.services.metrics``; see :mod:`aamsim.services`)."""
+    return sim.require_services().metrics
 
 
 def record_advisory(sim: Simulation, acid: str, action: str) -> None:

@@ -18,13 +18,14 @@ from typing import IO, TYPE_CHECKING
 import numpy as np
 
 from aamsim.output.fastcsv import format_rows, pack_names
-from aamsim.traffic import fields as f
+from aamsim.services import services_of
 
 if TYPE_CHECKING:
     from aamsim.simulation import Simulation
+    from aamsim.snapshots import TrafficSnapshot
 
 TRAJECTORY_HEADER = "id,simt,lat,lon,alt_m,tas_mps,cas_mps,gs_mps,trk_deg,vs_mps\n"
-_ROWS = (f.LAT, f.LON, f.ALT, f.TAS, f.CAS, f.GS, f.TRK, f.VS)
+_FIELDS = ("lat", "lon", "alt", "tas", "cas", "gs", "trk", "vs")
 _DECIMALS = np.array([2, 7, 7, 3, 4, 4, 4, 4, 4], dtype=np.int64)
 _FLUSH_ROWS = 500_000
 
@@ -45,22 +46,23 @@ class TrajectoryRecorder:
     def attach(self, sim: Simulation) -> None:
         self._file = open(self.path, "wb")
         self._file.write(TRAJECTORY_HEADER.encode())
-        sim.hooks.pre_step.add(self.sample, interval_s=self.period_s, name="trajectory-recorder", priority=900)
+        services_of(sim).snapshots.subscribe(self.sample, self.period_s, name="trajectory-recorder",
+                                             phase="pre_step", priority=900)
 
-    def sample(self, sim: Simulation) -> None:
-        n = sim.traffic.n
+    def sample(self, snap: TrafficSnapshot) -> None:
+        n = len(snap)
         if n == 0:
             return
         ids = np.empty(n, dtype=np.int64)
-        for k, acid in enumerate(sim.traffic.ids):
+        for k, acid in enumerate(snap.ids):
             j = self._name_ids.get(acid)
             if j is None:
                 j = self._name_ids[acid] = len(self._names)
                 self._names.append(acid)
             ids[k] = j
-        cols = np.empty((len(_ROWS) + 1, n))
-        cols[0] = sim.simt
-        cols[1:] = sim.traffic.F[_ROWS, :n]
+        cols = np.empty((len(_FIELDS) + 1, n))
+        cols[0] = snap.simt
+        cols[1:] = snap.columns(_FIELDS)
         self._chunks.append((ids, cols))
         self._buffered += n
         if self._buffered >= _FLUSH_ROWS:

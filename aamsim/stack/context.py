@@ -12,7 +12,6 @@ from typing import TYPE_CHECKING
 
 from aamsim.errors import UnknownAircraft
 from aamsim.stack.argtypes import Position
-from aamsim.traffic.fields import LAT, LON
 
 if TYPE_CHECKING:
     from aamsim.simulation import Simulation
@@ -27,8 +26,8 @@ class LiveContext:
 
     def aircraft_index(self, acid: str) -> int:
         i = self.sim.traffic.index(acid)
-        self.ref_lat = float(self.sim.traffic.F[LAT, i])
-        self.ref_lon = float(self.sim.traffic.F[LON, i])
+        self.ref_lat = float(self.sim.traffic.lat[i])
+        self.ref_lon = float(self.sim.traffic.lon[i])
         return i
 
     def named_position(self, name: str) -> Position | None:

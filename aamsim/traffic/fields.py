@@ -1,4 +1,4 @@
-"""Row numbers of the per-aircraft state arrays.
+"""Row numbers of the per-aircraft state arrays (private to :mod:`aamsim.traffic`).
 
 Traffic keeps one float64 row per quantity in a 2-D array ``F[field, slot]``
 (and booleans in ``B``), so that the Numba step kernel receives the whole
@@ -115,46 +115,120 @@ BOOL_FIELDS = (
 N_FLOAT = len(FLOAT_FIELDS)
 N_BOOL = len(BOOL_FIELDS)
 
-# Row numbers (checked against the tuples above by the asserts at the end).
-LAT, LON, ALT, HDG, TRK, TAS, CAS, MACH, GS, GSNORTH, GSEAST, VS, AX, COSLAT = range(14)
-DISTFLOWN, AIRBORNE_S, SLOW_S, CREATED_S = range(14, 18)
-SELSPD, SELALT, SELVS = range(18, 21)
-AP_TRK, AP_TAS, AP_ALT, AP_VS, VNAVVS, DIST2VS, QDR2WP, DIST2WP, TURNPHI, BANKDEF, VSDEF = range(21, 32)
-VMIN, VMAX, VSMIN, VSMAX, HMAX, AXMAX, AXMAX_TYPE, MMO = range(32, 40)
-(
-    WP_LAT,
-    WP_LON,
-    WP_NEXTALTCO,
-    WP_XTOALT,
-    WP_NEXTSPD,
-    WP_SPD,
-    WP_SPDCON,
-    WP_VS,
-    WP_TURNDIST,
-    WP_NEXTQDR,
-    WP_CURLEGDIR,
-    WP_CURLEGLEN,
-) = range(40, 52)
-C_ALT, C_RHO, C_P, C_A, C_HDG, C_SINHDG, C_COSHDG = range(52, 59)
-C_TAS_IN, C_CAS_OUT, C_SPD_IN, C_APTAS_OUT, C_WPLAT, C_WPSIN, C_WPCOS, C_BANK, C_TANBANK = range(59, 68)
-C_LAT, C_SINLAT, C_LA0, C_SINLA0, C_COSLA0, C_Q0, C_Q0COS, C_Q0SIN = range(68, 76)
 
-(
-    B_SWLNAV,
-    B_SWVNAV,
-    B_SWVNAVSPD,
-    B_SWVNAVVS,
-    B_SWHDGSEL,
-    B_SWALTSEL,
-    B_SWTOC,
-    B_SWTOD,
-    B_SELSPD_MACH,
-    B_ROTOR,
-    B_WP_FLYBY,
-    B_WP_LASTWP,
-    B_C_SPD_MACH,
-    B_HAS_MOVED,
-) = range(14)
+def _row(name: str) -> int:
+    """Row of a float field, looked up in the tuple (a misspelt name fails at import)."""
+    return FLOAT_FIELDS.index(name)
 
-assert N_FLOAT == 76 and FLOAT_FIELDS[C_Q0SIN] == "c_q0sin"
-assert N_BOOL == 14 and BOOL_FIELDS[B_HAS_MOVED] == "has_moved"
+
+def _flag(name: str) -> int:
+    """Row of a boolean field, looked up in the tuple."""
+    return BOOL_FIELDS.index(name)
+
+
+# Row numbers, generated from the tuples above: the constant for field ``x`` is ``X``
+# (``B_X`` for booleans); :func:`_check_rows` proves every field has its constant.
+LAT = _row("lat")
+LON = _row("lon")
+ALT = _row("alt")
+HDG = _row("hdg")
+TRK = _row("trk")
+TAS = _row("tas")
+CAS = _row("cas")
+MACH = _row("mach")
+GS = _row("gs")
+GSNORTH = _row("gsnorth")
+GSEAST = _row("gseast")
+VS = _row("vs")
+AX = _row("ax")
+COSLAT = _row("coslat")
+DISTFLOWN = _row("distflown")
+AIRBORNE_S = _row("airborne_s")
+SLOW_S = _row("slow_s")
+CREATED_S = _row("created_s")
+SELSPD = _row("selspd")
+SELALT = _row("selalt")
+SELVS = _row("selvs")
+AP_TRK = _row("ap_trk")
+AP_TAS = _row("ap_tas")
+AP_ALT = _row("ap_alt")
+AP_VS = _row("ap_vs")
+VNAVVS = _row("vnavvs")
+DIST2VS = _row("dist2vs")
+QDR2WP = _row("qdr2wp")
+DIST2WP = _row("dist2wp")
+TURNPHI = _row("turnphi")
+BANKDEF = _row("bankdef")
+VSDEF = _row("vsdef")
+VMIN = _row("vmin")
+VMAX = _row("vmax")
+VSMIN = _row("vsmin")
+VSMAX = _row("vsmax")
+HMAX = _row("hmax")
+AXMAX = _row("axmax")
+AXMAX_TYPE = _row("axmax_type")
+MMO = _row("mmo")
+WP_LAT = _row("wp_lat")
+WP_LON = _row("wp_lon")
+WP_NEXTALTCO = _row("wp_nextaltco")
+WP_XTOALT = _row("wp_xtoalt")
+WP_NEXTSPD = _row("wp_nextspd")
+WP_SPD = _row("wp_spd")
+WP_SPDCON = _row("wp_spdcon")
+WP_VS = _row("wp_vs")
+WP_TURNDIST = _row("wp_turndist")
+WP_NEXTQDR = _row("wp_nextqdr")
+WP_CURLEGDIR = _row("wp_curlegdir")
+WP_CURLEGLEN = _row("wp_curleglen")
+C_ALT = _row("c_alt")
+C_RHO = _row("c_rho")
+C_P = _row("c_p")
+C_A = _row("c_a")
+C_HDG = _row("c_hdg")
+C_SINHDG = _row("c_sinhdg")
+C_COSHDG = _row("c_coshdg")
+C_TAS_IN = _row("c_tas_in")
+C_CAS_OUT = _row("c_cas_out")
+C_SPD_IN = _row("c_spd_in")
+C_APTAS_OUT = _row("c_aptas_out")
+C_WPLAT = _row("c_wplat")
+C_WPSIN = _row("c_wpsin")
+C_WPCOS = _row("c_wpcos")
+C_BANK = _row("c_bank")
+C_TANBANK = _row("c_tanbank")
+C_LAT = _row("c_lat")
+C_SINLAT = _row("c_sinlat")
+C_LA0 = _row("c_la0")
+C_SINLA0 = _row("c_sinla0")
+C_COSLA0 = _row("c_cosla0")
+C_Q0 = _row("c_q0")
+C_Q0COS = _row("c_q0cos")
+C_Q0SIN = _row("c_q0sin")
+
+B_SWLNAV = _flag("swlnav")
+B_SWVNAV = _flag("swvnav")
+B_SWVNAVSPD = _flag("swvnavspd")
+B_SWVNAVVS = _flag("swvnavvs")
+B_SWHDGSEL = _flag("swhdgsel")
+B_SWALTSEL = _flag("swaltsel")
+B_SWTOC = _flag("swtoc")
+B_SWTOD = _flag("swtod")
+B_SELSPD_MACH = _flag("selspd_mach")
+B_ROTOR = _flag("rotor")
+B_WP_FLYBY = _flag("wp_flyby")
+B_WP_LASTWP = _flag("wp_lastwp")
+B_C_SPD_MACH = _flag("c_spd_mach")
+B_HAS_MOVED = _flag("has_moved")
+
+
+def _check_rows() -> None:
+    """Every field has its constant, at its index, and names are unique (runs at import)."""
+    for names, prefix in ((FLOAT_FIELDS, ""), (BOOL_FIELDS, "B_")):
+        if len(set(names)) != len(names):
+            raise ImportError("aamsim.traffic.fields: a field name appears twice")
+        for k, name in enumerate(names):
+            if globals().get(prefix + name.upper()) != k:
+                raise ImportError(f"aamsim.traffic.fields: row constant {prefix}{name.upper()} is not {k}")
+
+
+_check_rows()

@@ -50,6 +50,11 @@ class FlightRecord:
     advisories: int = 0
 
 
+# State that must stay finite; checked after every kernel batch (a few microseconds at 1,000 aircraft).
+_FINITE_NAMES = ("lat", "lon", "alt", "tas", "hdg", "vs")
+_FINITE_ROWS = np.array([f.LAT, f.LON, f.ALT, f.TAS, f.HDG, f.VS])
+
+
 @dataclass
 class Traffic:
     """All aircraft of one simulation."""
@@ -99,6 +104,18 @@ class Traffic:
         return iter(list(self.ids))
 
     # Named views of the fields users read most.
+    def all_finite(self) -> bool:
+        """Whether every aircraft's position, altitude, speed, heading and vertical speed are finite."""
+        return bool(np.isfinite(self.F[_FINITE_ROWS, : self.n]).all())
+
+    def non_finite_slots(self) -> list[int]:
+        """Slots whose position, altitude, speed, heading or vertical speed are not finite."""
+        return np.flatnonzero(~np.isfinite(self.F[_FINITE_ROWS, : self.n]).all(axis=0)).tolist()
+
+    def describe_state(self, i: int) -> str:
+        """``lat .., lon .., alt .., tas .., hdg .., vs ..`` of slot ``i`` (SI units), for messages."""
+        return ", ".join(f"{name} {self.F[row, i]:.6g}" for name, row in zip(_FINITE_NAMES, _FINITE_ROWS))
+
     lat = property(lambda self: self.F[f.LAT, : self.n])
     lon = property(lambda self: self.F[f.LON, : self.n])
     alt = property(lambda self: self.F[f.ALT, : self.n])

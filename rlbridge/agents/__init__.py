@@ -16,22 +16,47 @@ rebuild the acting half of an algorithm (it crosses process boundaries as plain 
 
 from __future__ import annotations
 
+from dataclasses import fields
 from typing import Any
 
-from rlbridge.usecases.registry import make_usecase
+import gymnasium as gym
+
+from rlbridge.usecases.registry import make_usecase, usecase_class
 
 LEARNER_KINDS = ("d2mava", "dqn")
 BASELINE_KINDS = ("unequipped", "mvp_speed")
 
 
 def usecase_dims(usecase: str, params: dict[str, Any]) -> dict[str, int]:
-    """Observation and action sizes of a corridor-style use case (flat and dict formats)."""
+    """Observation and action sizes of any use case, from its spaces.
+
+    Always ``flat_dim`` (the flattened observation) and ``n_actions`` (a
+    Discrete action space) or ``action_dim`` (anything else, flattened). A
+    use case with an ``obs_format`` parameter and a Dict format made of
+    ``ownship`` / ``intruders`` parts (the attention models' input, e.g.
+    ``corridor_sa``) adds ``own_dim``, ``intruder_dim`` and ``n_intruders``.
+    """
     p = {k: v for k, v in params.items() if k != "obs_format"}
-    flat: Any = make_usecase(usecase, **p, obs_format="flat")
-    parts: Any = make_usecase(usecase, **p, obs_format="dict").observation_space()
-    n_intr, intr_dim = parts["intruders"].shape
-    return {"flat_dim": int(flat.observation_space().shape[0]), "own_dim": int(parts["ownship"].shape[0]),
-            "intruder_dim": int(intr_dim), "n_intruders": int(n_intr), "n_actions": int(flat.action_space().n)}
+    flat_uc = make_usecase(usecase, **p, obs_format="flat") if _has_obs_format(usecase) else make_usecase(usecase, **p)
+    act = flat_uc.action_space()
+    dims = {"flat_dim": int(gym.spaces.flatdim(flat_uc.observation_space()))}
+    if isinstance(act, gym.spaces.Discrete):
+        dims["n_actions"] = int(act.n)
+    else:
+        dims["action_dim"] = int(gym.spaces.flatdim(act))
+    if _has_obs_format(usecase):
+        parts = make_usecase(usecase, **p, obs_format="dict").observation_space()
+        if isinstance(parts, gym.spaces.Dict) and {"ownship", "intruders"} <= set(parts.spaces):
+            own, intr = parts.spaces["ownship"], parts.spaces["intruders"]
+            assert own.shape is not None and intr.shape is not None
+            dims.update(own_dim=int(own.shape[0]), intruder_dim=int(intr.shape[1]), n_intruders=int(intr.shape[0]))
+    return dims
+
+
+def _has_obs_format(usecase: str) -> bool:
+    """Whether the use case takes an ``obs_format`` parameter (flat or dict observations)."""
+    params = getattr(usecase_class(usecase), "params_class", None)
+    return params is not None and "obs_format" in {f.name for f in fields(params)}
 
 
 def make_actor(spec: dict[str, Any]) -> Any:

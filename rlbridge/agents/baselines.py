@@ -24,7 +24,6 @@ import numpy as np
 
 from aamsim.conflicts.pairs import statebased
 from aamsim.conflicts.service import search_pairs, traffic_snapshot
-from aamsim.traffic import fields as f
 from aamsim.units import KTS
 from rlbridge.agents.rollout import ActOutput
 from rlbridge.core import EpisodeCore, StepResult
@@ -123,6 +122,7 @@ class SpeedMVPActor:
         if key != self._episode:  # a new episode: forget the previous aircraft
             self._episode, self._cruise, self._advised = key, {}, set()
         t = sim.traffic
+        view = sim.view
         band = self.config.resume_band_kts * KTS
         act_band = self.config.act_band_kts * KTS
         dv = self.speed_changes(core)
@@ -134,14 +134,14 @@ class SpeedMVPActor:
             if i is None or a not in alive:
                 continue
             if a not in self._cruise:
-                self._cruise[a] = float(t.F[f.SELSPD, i])
+                self._cruise[a] = float(view.selspd[i])
             if not math.isnan(dv[i]):
                 # Track the MVP resolution speed with the discrete advisories.
                 actions[k] = ACCELERATE if dv[i] > act_band else DECELERATE if dv[i] < -act_band else HOLD
                 advise[k] = True
                 self._advised.add(a)
             elif a in self._advised:
-                cas, cruise = float(t.F[f.CAS, i]), self._cruise[a]
+                cas, cruise = float(view.cas[i]), self._cruise[a]
                 actions[k] = ACCELERATE if cas < cruise - band else DECELERATE if cas > cruise + band else HOLD
                 advise[k] = True
         return ActOutput(actions, advise=advise)

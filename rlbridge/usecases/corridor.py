@@ -17,20 +17,17 @@ R(a) = -psi for any advisory but hold. All defaults are the paper's table
 from __future__ import annotations
 
 import math
-from dataclasses import asdict, dataclass, fields
+from dataclasses import asdict, dataclass
 from typing import TYPE_CHECKING, Any
 
 import gymnasium as gym
 import numpy as np
 
-from aamsim.conflicts import SeparationVolume, conflicts_of
-from aamsim.conflicts.pairs import slant_distances
-from aamsim.conflicts.service import search_pairs, traffic_snapshot
+from aamsim.conflicts import SeparationVolume, conflicts_of, pairs_within
 from aamsim.metrics import record_advisory
-from aamsim.traffic import fields as f
 from aamsim.units import FT, KTS
 from rlbridge.observe import corridor_features, nearest_neighbours
-from rlbridge.usecases.registry import Observations
+from rlbridge.usecases.protocol import Feedback, Observations, UseCaseBase, make_params
 
 if TYPE_CHECKING:
     from aamsim import Simulation
@@ -90,21 +87,21 @@ class CorridorParams:
 
     @classmethod
     def from_dict(cls, params: dict[str, Any] | None) -> CorridorParams:
-        params = dict(params or {})
-        known = {fl.name for fl in fields(cls)}
-        unknown = sorted(set(params) - known)
-        if unknown:
-            raise ValueError(f"unknown use-case parameter(s) {', '.join(unknown)}; known: {', '.join(sorted(known))}")
-        return cls(**params)
+        params_: CorridorParams = make_params(cls, params)
+        return params_
 
     def to_dict(self) -> dict[str, Any]:
         return asdict(self)
 
 
-class CorridorSA:
-    """The corridor separation-assurance use case (``corridor_sa``)."""
+class CorridorSA(UseCaseBase):
+    """The corridor separation-assurance use case (``corridor_sa``, ``aamgym/CorridorSA-v0``)."""
 
     name = "corridor_sa"
+    env_name = "CorridorSA"
+    params_class = CorridorParams
+    # Per agent: was it in an NMAC / LoWC event at some time during the interval.
+    info_fields = {"nmac": np.bool_, "lowc": np.bool_}  # noqa: RUF012
 
     def __init__(self, **params: Any):
         self.params = CorridorParams.from_dict(params)
@@ -125,6 +122,10 @@ class CorridorSA:
         self._act_space: gym.spaces.Discrete = gym.spaces.Discrete(3)
         self._pairs_memo: tuple[tuple[np.ndarray, ...], tuple[int, np.ndarray, np.ndarray, np.ndarray]] | None = None
 
+    @property
+    def decision_interval_s(self) -> float:
+        return self.params.decision_interval_s
+
     # ------------------------------------------------------------------ spaces
     def observation_space(self) -> gym.Space:
         return self._obs_space
@@ -142,7 +143,7 @@ class CorridorSA:
 
             def jitter(sim: Simulation, i: int) -> None:
                 noise = float(sim.rng.uniform(-p.alt_noise_ft, p.alt_noise_ft)) * FT
-                alt = sim.traffic.F[f.ALT, i]
+                alt = sim.view.alt[i]
                 off = lanes_m - alt
                 k = int(np.argmin(np.abs(off))) if len(off) else -1
                 if k >= 0 and abs(off[k]) <= p.alt_noise_ft * FT + 1e-6:
@@ -150,8 +151,7 @@ class CorridorSA:
                     dz = float(off[k]) + noise
                 else:
                     dz = noise
-                sim.traffic.F[f.ALT, i] += dz
-                sim.traffic.F[f.SELALT, i] += dz
+                sim.offset_altitude(i, dz)
             sim.hooks.created.add(jitter, name="corridor.alt_noise")
 
     # ------------------------------------------------------------ observation
@@ -164,7 +164,8 @@ class CorridorSA:
         dest_lon = np.full(n, np.nan)
         wlat = np.empty((n, nw))
         wlon = np.empty((n, nw))
-        lat, lon = t.lat, t.lon
+        view = sim.view
+        lat, lon, lnav = view.lat, view.lon, view.lnav
         for s in range(n):
             route = t.routes[s]
             wps = route.waypoints
@@ -174,7 +175,7 @@ class CorridorSA:
                     dest_lat[s], dest_lon[s] = rec.dest_lat, rec.dest_lon
                 else:
                     dest_lat[s], dest_lon[s] = wps[-1].lat, wps[-1].lon
-                start = route.iactwp if t.B[f.B_SWLNAV, s] and route.iactwp >= 0 else len(wps)
+                start = route.iactwp if lnav[s] and route.iactwp >= 0 else len(wps)
                 for j in range(nw):
                     k = start + j
                     if k < len(wps):
@@ -198,17 +199,14 @@ class CorridorSA:
         speed arrays, memoised on them: a step observes the agents and then asks
         for their closest distances on the same state, which then costs one search.
         """
-        t = sim.traffic
+        t = sim.view
         state = (t.lat, t.lon, t.alt, t.trk, t.gs)
         memo = self._pairs_memo
         if memo is not None and all(np.array_equal(a, b) for a, b in zip(memo[0], state)):
             return memo[1]
-        s = traffic_snapshot(sim)
-        n = len(s.ids)
         rng = max(self.params.intruder_range_m, self.params.d_max_m)
-        zeros = np.zeros(n)
-        pi, pj = search_pairs(s, zeros, zeros, rng)
-        result = (n, pi, pj, slant_distances(s.lat, s.lon, s.alt, pi, pj))
+        pi, pj, d = pairs_within(sim, rng)
+        result = (t.n, pi, pj, d)
         self._pairs_memo = (tuple(a.copy() for a in state), result)
         return result
 
@@ -225,7 +223,7 @@ class CorridorSA:
         if self.params.n_intruders == 0:
             nbr, nbr_d = nbr[:, :0], nbr_d[:, :0]
         ddest, wlat, wlon, _, _ = self._route_arrays(sim)
-        t = sim.traffic
+        t = sim.view
         own, intr, mask = corridor_features(
             slots, t.lat, t.lon, t.alt, t.hdg, t.trk, t.ax, t.gs, ddest, wlat, wlon, nbr, nbr_d, self._scales,
             self.params.frame == "track", self.params.relative_velocity,
@@ -242,6 +240,17 @@ class CorridorSA:
         return nbr_d[:, 0] if len(slots) else np.empty(0)
 
     # ----------------------------------------------------------------- reward
+    def feedback(self, sim: Simulation, agents: list[str], actions: dict[str, Any], since_s: float) -> Feedback:
+        """Rewards from the closest intruder now and the interval's NMACs; info flags NMAC and LoWC events."""
+        service = conflicts_of(sim)
+        nmac_min = service.involved_since("nmac", since_s)
+        lowc = service.involved_since("lowc", since_s)
+        closest = self.closest_distances(sim, agents) if agents else np.empty(0)
+        rewards = self.rewards(sim, agents, actions, closest, nmac_min)
+        info = {"nmac": np.array([a in nmac_min for a in agents], dtype=np.bool_),
+                "lowc": np.array([a in lowc for a in agents], dtype=np.bool_)}
+        return Feedback(rewards, info)
+
     def rewards(self, sim: Simulation, agents: list[str], actions: dict[str, Any],
                 closest_m: np.ndarray, interval_nmac_min_m: dict[str, float]) -> np.ndarray:
         """Per-agent reward from the closest-intruder distance and the advisory given."""
@@ -282,9 +291,7 @@ class CorridorSA:
         idx = np.array(slots, dtype=np.int64)
         code = np.array(codes, dtype=np.int64)
         target = np.where(code == DECELERATE, p.speed_low_kts * KTS,
-                          np.where(code == ACCELERATE, p.speed_high_kts * KTS, t.F[f.CAS, idx]))
-        t.F[f.SELSPD, idx] = target
-        t.B[f.B_SELSPD_MACH, idx] = False
-        t.B[f.B_SWVNAVSPD, idx] = False
+                          np.where(code == ACCELERATE, p.speed_high_kts * KTS, sim.view.cas[idx]))
+        sim.select_speed(idx, target)
         for acid, a in advised:  # hold advisories are not alerts
             record_advisory(sim, acid, ACTION_NAMES[a])

@@ -1,70 +1,24 @@
-"""Use-case registry: a use case defines spaces, observations, rewards and action effects.
+"""Use-case registry: use cases by name, and their Gymnasium ids.
 
 A new use case is a new module that defines a class following
-:class:`UseCase` and declares an entry point in the ``rlbridge.usecases``
-group (or is passed to an environment as an instance); the environments and
-the server look use cases up by name and need no edit.
+:class:`~rlbridge.usecases.protocol.UseCase` plus an entry here
+(``BUILTIN_USECASES``) or in the ``rlbridge.usecases`` entry-point group of
+another package; the environments and the server look use cases up by name
+and need no edit. Each gets the Gymnasium id ``aamgym/<env_name>-v0``.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
 from importlib import import_module
 from importlib.metadata import entry_points
-from typing import TYPE_CHECKING, Any, Protocol
+from typing import Any
 
-import gymnasium as gym
-import numpy as np
+from rlbridge.usecases.protocol import Feedback, Observations, UseCase, UseCaseBase
 
-if TYPE_CHECKING:
-    from aamsim import Simulation
-
-
-@dataclass
-class Observations:
-    """Observations of several agents as arrays (row k belongs to agent k)."""
-
-    flat: np.ndarray | None = None  # (n, dim) when the use case emits flat vectors
-    parts: dict[str, np.ndarray] | None = None  # name -> (n, ...) when it emits a Dict space
-
-    def row(self, k: int) -> Any:
-        if self.parts is not None:
-            return {name: arr[k] for name, arr in self.parts.items()}
-        assert self.flat is not None
-        return self.flat[k]
-
-    def __len__(self) -> int:
-        if self.parts is not None:
-            return len(next(iter(self.parts.values())))
-        return 0 if self.flat is None else len(self.flat)
-
-
-class UseCase(Protocol):
-    """What a use case provides (all methods pure functions of the simulation state)."""
-
-    name: str
-
-    def observation_space(self) -> gym.Space: ...
-
-    def action_space(self) -> gym.Space: ...
-
-    def attach(self, sim: Simulation) -> None:
-        """Prepare a fresh simulation (hooks, settings) before the scenario loads."""
-
-    def observe(self, sim: Simulation, agents: list[str]) -> Observations: ...
-
-    def closest_distances(self, sim: Simulation, agents: list[str]) -> np.ndarray:
-        """Per agent, the distance to its closest intruder [m] (inf when none is in range)."""
-
-    def rewards(self, sim: Simulation, agents: list[str], actions: dict[str, Any],
-                closest_m: np.ndarray, interval_nmac_min_m: dict[str, float]) -> np.ndarray:
-        """Per agent reward, given its closest-intruder distance now and the smallest NMAC
-        distance it reached during the interval (agents with no NMAC event are absent)."""
-
-    def apply_actions(self, sim: Simulation, actions: dict[str, Any]) -> None: ...
-
-
-BUILTIN_USECASES: dict[str, str] = {"corridor_sa": "rlbridge.usecases.corridor:CorridorSA"}
+BUILTIN_USECASES: dict[str, str] = {
+    "corridor_sa": "rlbridge.usecases.corridor:CorridorSA",
+    "reach_destination": "rlbridge.usecases.reach:ReachDestination",
+}
 
 
 def available() -> list[str]:
@@ -72,13 +26,29 @@ def available() -> list[str]:
     return sorted(names)
 
 
-def make_usecase(name: str, **params: Any) -> UseCase:
-    """Instantiate a use case by name with parameters (unknown parameters are an error)."""
+def usecase_class(name: str) -> Any:
+    """The class (or factory) registered under ``name``."""
     target = BUILTIN_USECASES.get(name)
     if target is None:
         for ep in entry_points(group="rlbridge.usecases"):
             if ep.name == name:
-                return ep.load()(**params)
+                return ep.load()
         raise KeyError(f"unknown use case {name!r}; available: {', '.join(available())}")
     module, _, attr = target.partition(":")
-    return getattr(import_module(module), attr)(**params)
+    return getattr(import_module(module), attr)
+
+
+def make_usecase(name: str, **params: Any) -> UseCase:
+    """Instantiate a use case by name with parameters (unknown parameters are an error)."""
+    usecase: UseCase = usecase_class(name)(**params)
+    return usecase
+
+
+def env_id(name: str) -> str:
+    """Gymnasium id of a use case: ``aamgym/<env_name>-v0``."""
+    cls = usecase_class(name)
+    return f"aamgym/{cls.env_name or name}-v0"
+
+
+__all__ = ["BUILTIN_USECASES", "Feedback", "Observations", "UseCase", "UseCaseBase", "available", "env_id",
+           "make_usecase", "usecase_class"]

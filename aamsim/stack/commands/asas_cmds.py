@@ -68,11 +68,12 @@ def sepvolume(sim: Simulation, name: Text = "", radius_m: Number | None = None,
     LoWC 450 m); with a half-height: a cylinder, as detect-and-avoid standards
     define them. Without arguments, list the volumes.
     """
-    from aamsim.conflicts.service import SeparationVolume, conflicts_of
+    from aamsim.conflicts.service import PAPER_VOLUMES, SeparationVolume, conflicts_of
 
+    if not name:  # a listing does not start conflict detection
+        volumes = sim.services.conflicts.volumes if sim.services is not None else PAPER_VOLUMES
+        return "\n".join(v.describe() for v in volumes)
     service = conflicts_of(sim)
-    if not name:
-        return "\n".join(v.describe() for v in service.volumes)
     if radius_m is None or radius_m <= 0 or (half_height_m is not None and half_height_m <= 0):
         raise CommandError("SEPVOLUME needs a positive radius [m] (and, for a cylinder, a positive half-height [m])")
     service.set_volume(SeparationVolume(name.lower(), radius_m, half_height_m))

@@ -25,8 +25,7 @@ from aamsim.stack.argtypes import (
 from aamsim.stack.context import LiveContext
 from aamsim.stack.registry import command, raw_arguments, static_validator
 from aamsim.stack.tokens import next_arg
-from aamsim.traffic import fields as f
-from aamsim.traffic.autopilot import activate_waypoint, compute_vnav, nearest_active_index
+from aamsim.traffic.autopilot import activate_waypoint
 from aamsim.traffic.route import Waypoint, WaypointKind
 from aamsim.units import FT, KTS, UnitParseError, parse_altitude, parse_speed
 
@@ -218,9 +217,8 @@ def dest(sim: Simulation, acid: AcIndex, pos: PositionValue | None = None, spd: 
     record.destination = name
     record.dest_lat, record.dest_lon = pos.lat, pos.lon
     if index == 0 or (record.origin and len(route) == 2):
-        traffic.B[f.B_SWLNAV, acid] = True
-        traffic.B[f.B_SWVNAV, acid] = True
-        activate_waypoint(traffic, acid, index)
+        sim.set_navigation(acid, lnav=True, vnav=True)
+        sim.direct_to(acid, index)
     return None
 
 
@@ -251,9 +249,7 @@ def delwpt(sim: Simulation, acid: AcIndex, wpname: RouteWaypoint) -> None:
     route.delete(index)
     route.plan()
     if not len(route):
-        traffic.B[f.B_SWLNAV, acid] = False
-        traffic.B[f.B_SWVNAV, acid] = False
-        traffic.B[f.B_SWVNAVSPD, acid] = False
+        sim.set_navigation(acid, lnav=False, vnav=False, vnav_speed=False)
 
 
 @command("DELRTE", aliases=("DELROUTE",), group="route")
@@ -264,9 +260,7 @@ def delrte(sim: Simulation, acid: AcIndex) -> None:
     route.waypoints.clear()
     route.iactwp = -1
     route.flyby_mode = True
-    traffic.B[f.B_SWLNAV, acid] = False
-    traffic.B[f.B_SWVNAV, acid] = False
-    traffic.B[f.B_SWVNAVSPD, acid] = False
+    sim.set_navigation(acid, lnav=False, vnav=False, vnav_speed=False)
 
 
 @command("DIRECT", aliases=("DIRECTTO", "DIRTO"), group="route")
@@ -275,7 +269,7 @@ def direct(sim: Simulation, acid: AcIndex, wpname: RouteWaypoint) -> None:
     route = sim.traffic.routes[acid]
     if wpname == "*":
         raise CommandError("DIRECT needs a waypoint name")
-    activate_waypoint(sim.traffic, acid, route.find(wpname))
+    sim.direct_to(acid, route.find(wpname))
 
 
 @command("LNAV", group="route")
@@ -284,15 +278,15 @@ def lnav(sim: Simulation, acid: AcIndex, on: OnOff | None = None) -> str | None:
     traffic = sim.traffic
     callsign = traffic.ids[acid]
     if on is None:
-        return f"{callsign}: LNAV is {'ON' if traffic.B[f.B_SWLNAV, acid] else 'OFF'}"
+        return f"{callsign}: LNAV is {'ON' if sim.view.lnav[acid] else 'OFF'}"
     if on:
         route = traffic.routes[acid]
         if not len(route):
             raise CommandError(f"LNAV {callsign}: no waypoints or destination specified")
-        if not traffic.B[f.B_SWLNAV, acid]:
-            activate_waypoint(traffic, acid, nearest_active_index(traffic, acid))
+        if not sim.view.lnav[acid]:
+            sim.resume_route(acid)
     else:
-        traffic.B[f.B_SWLNAV, acid] = False
+        sim.set_navigation(acid, lnav=False)
     return None
 
 
@@ -300,25 +294,18 @@ def lnav(sim: Simulation, acid: AcIndex, on: OnOff | None = None) -> str | None:
 def vnav(sim: Simulation, acid: AcIndex, on: OnOff | None = None) -> str | None:
     """VNAV acid, [ON/OFF]: vertical navigation (route altitude and speed constraints); needs LNAV."""
     traffic = sim.traffic
-    F, B = traffic.F, traffic.B
     callsign = traffic.ids[acid]
     if on is None:
-        return f"{callsign}: VNAV is {'ON' if B[f.B_SWVNAV, acid] else 'OFF'}"
+        return f"{callsign}: VNAV is {'ON' if sim.view.vnav[acid] else 'OFF'}"
     if on:
-        if not B[f.B_SWLNAV, acid]:
+        if not sim.view.lnav[acid]:
             raise CommandError(f"{callsign}: VNAV ON requires LNAV to be ON")
         route = traffic.routes[acid]
         if not len(route):
             raise CommandError(f"VNAV {callsign}: no waypoints or destination specified")
-        B[f.B_SWVNAV, acid] = True
-        B[f.B_SWVNAVSPD, acid] = True
-        route.plan()
-        wp = route.waypoints[route.iactwp]
-        compute_vnav(traffic, acid, wp.toalt, wp.xtoalt)
-        F[f.WP_NEXTALTCO, acid] = wp.toalt
+        sim.engage_vnav(acid)
     else:
-        B[f.B_SWVNAV, acid] = False
-        B[f.B_SWVNAVSPD, acid] = False
+        sim.set_navigation(acid, vnav=False, vnav_speed=False)
     return None
 
 
@@ -326,8 +313,8 @@ def vnav(sim: Simulation, acid: AcIndex, on: OnOff | None = None) -> str | None:
 def swtoc(sim: Simulation, acid: AcIndex, on: OnOff | None = None) -> str | None:
     """SWTOC acid, [ON/OFF]: climb as early as possible (ON) or on a constant gradient (OFF)."""
     if on is None:
-        return f"{sim.traffic.ids[acid]}: SWTOC is {'ON' if sim.traffic.B[f.B_SWTOC, acid] else 'OFF'}"
-    sim.traffic.B[f.B_SWTOC, acid] = on
+        return f"{sim.traffic.ids[acid]}: SWTOC is {'ON' if sim.view.early_climb[acid] else 'OFF'}"
+    sim.set_climb_profile(acid, early_climb=on)
     return None
 
 
@@ -335,8 +322,8 @@ def swtoc(sim: Simulation, acid: AcIndex, on: OnOff | None = None) -> str | None
 def swtod(sim: Simulation, acid: AcIndex, on: OnOff | None = None) -> str | None:
     """SWTOD acid, [ON/OFF]: descend as late as possible (ON) or on a constant gradient (OFF)."""
     if on is None:
-        return f"{sim.traffic.ids[acid]}: SWTOD is {'ON' if sim.traffic.B[f.B_SWTOD, acid] else 'OFF'}"
-    sim.traffic.B[f.B_SWTOD, acid] = on
+        return f"{sim.traffic.ids[acid]}: SWTOD is {'ON' if sim.view.late_descent[acid] else 'OFF'}"
+    sim.set_climb_profile(acid, late_descent=on)
     return None
 
 

@@ -5,7 +5,6 @@ from __future__ import annotations
 import math
 from typing import TYPE_CHECKING
 
-from aamsim import aero
 from aamsim.errors import CommandError
 from aamsim.stack.argtypes import (
     AcIndex,
@@ -21,7 +20,6 @@ from aamsim.stack.argtypes import (
     Word,
 )
 from aamsim.stack.registry import command
-from aamsim.traffic import fields as f
 from aamsim.units import FPM, FT, KTS, Speed
 
 if TYPE_CHECKING:
@@ -117,33 +115,13 @@ def move(
     vspd: VSpeed | None = None,
 ) -> None:
     """MOVE acid, lat, lon, [alt, hdg, spd, vspd]: put an aircraft somewhere else."""
-    F, B = sim.traffic.F, sim.traffic.B
-    F[f.LAT, acid] = pos.lat
-    F[f.LON, acid] = pos.lon
-    F[f.COSLAT, acid] = math.cos(math.radians(pos.lat))
-    if alt is not None:
-        F[f.ALT, acid] = alt
-        F[f.SELALT, acid] = alt
-    if hdg is not None:
-        F[f.HDG, acid] = hdg
-        F[f.AP_TRK, acid] = hdg
-    if spd is not None:
-        h = F[f.ALT, acid]
-        tas = aero.mach2tas(spd.value, h) if spd.is_mach else aero.cas2tas(spd.value, h)
-        F[f.TAS, acid] = float(tas)
-        F[f.SELSPD, acid] = spd.value
-        B[f.B_SELSPD_MACH, acid] = spd.is_mach
-    if vspd is not None:
-        F[f.VS, acid] = vspd
-        B[f.B_SWVNAV, acid] = False
+    sim.move(acid, pos.lat, pos.lon, alt, hdg, spd, vspd)
 
 
 @command("SPD", aliases=("SPEED",), group="autopilot")
 def spd(sim: Simulation, acid: AcIndex, speed: SpeedArg) -> None:
     """SPD acid, spd: select a speed (kts CAS, or Mach); VNAV speed control off."""
-    sim.traffic.F[f.SELSPD, acid] = speed.value
-    sim.traffic.B[f.B_SELSPD_MACH, acid] = speed.is_mach
-    sim.traffic.B[f.B_SWVNAVSPD, acid] = False
+    sim.select_speed(acid, speed)
 
 
 @command("ALT", aliases=("ALTITUDE",), group="autopilot")
@@ -153,39 +131,29 @@ def alt(sim: Simulation, acid: AcIndex, altitude: Altitude, vspd: VSpeed | None 
     Without a vertical speed, a previously selected one pointing the other way
     is dropped in favour of the default 1500 fpm.
     """
-    F, B = sim.traffic.F, sim.traffic.B
-    F[f.SELALT, acid] = altitude
-    B[f.B_SWVNAV, acid] = False
-    if vspd:
-        F[f.SELVS, acid] = vspd
-    else:
-        selvs = F[f.SELVS, acid]
-        if selvs * (altitude - F[f.ALT, acid]) < 0.0 and abs(selvs) > 0.01:
-            F[f.SELVS, acid] = 0.0
+    sim.select_altitude(acid, altitude, vspd)
 
 
 @command("VS", aliases=("VSPD",), group="autopilot")
 def vs(sim: Simulation, acid: AcIndex, vspd: VSpeed) -> None:
     """VS acid, vspd: select a vertical speed (fpm), used while the selected altitude differs; VNAV off."""
-    sim.traffic.F[f.SELVS, acid] = vspd
-    sim.traffic.B[f.B_SWVNAV, acid] = False
+    sim.select_vertical_speed(acid, vspd)
 
 
 @command("HDG", aliases=("HEADING", "TURN"), group="autopilot")
 def hdg(sim: Simulation, acid: AcIndex, heading: Heading) -> None:
     """HDG acid, hdg: fly a heading (degrees true); LNAV off."""
-    sim.traffic.F[f.AP_TRK, acid] = heading
-    sim.traffic.B[f.B_SWLNAV, acid] = False
+    sim.select_heading(acid, heading)
 
 
 @command("BANK", aliases=("BANKLIM",), group="autopilot")
 def bank(sim: Simulation, acid: AcIndex, bank_deg: Number | None = None) -> str | None:
     """BANK acid, [bank]: set (or show) the bank angle used in turns [deg]."""
     if bank_deg is None:
-        return f"{sim.traffic.ids[acid]} bank angle {math.degrees(sim.traffic.F[f.BANKDEF, acid]):.1f} deg"
+        return f"{sim.traffic.ids[acid]} bank angle {math.degrees(sim.view.bankdef[acid]):.1f} deg"
     if not 0.0 < bank_deg < 90.0:
         raise CommandError(f"bank angle must be between 0 and 90 deg, not {bank_deg:g}")
-    sim.traffic.F[f.BANKDEF, acid] = math.radians(bank_deg)
+    sim.set_bank(acid, math.radians(bank_deg))
     return None
 
 
@@ -194,14 +162,14 @@ def pos(sim: Simulation, name: Text) -> str:
     """POS acid/waypoint: show an aircraft's state or a waypoint's position."""
     i = sim.traffic.find(name)
     if i is not None:
-        F, B = sim.traffic.F, sim.traffic.B
+        v = sim.view
         route = sim.traffic.routes[i]
         active = route.waypoints[route.iactwp].name if 0 <= route.iactwp < len(route) else "-"
         return (
-            f"{name} {sim.traffic.types[i]} lat {F[f.LAT, i]:.6f} lon {F[f.LON, i]:.6f} "
-            f"alt {F[f.ALT, i] / FT:.0f} ft hdg {F[f.HDG, i]:.1f} CAS {F[f.CAS, i] / KTS:.1f} kts "
-            f"TAS {F[f.TAS, i] / KTS:.1f} kts VS {F[f.VS, i] / FPM:.0f} fpm "
-            f"LNAV {'ON' if B[f.B_SWLNAV, i] else 'OFF'} VNAV {'ON' if B[f.B_SWVNAV, i] else 'OFF'} "
+            f"{name} {sim.traffic.types[i]} lat {v.lat[i]:.6f} lon {v.lon[i]:.6f} "
+            f"alt {v.alt[i] / FT:.0f} ft hdg {v.hdg[i]:.1f} CAS {v.cas[i] / KTS:.1f} kts "
+            f"TAS {v.tas[i] / KTS:.1f} kts VS {v.vs[i] / FPM:.0f} fpm "
+            f"LNAV {'ON' if v.lnav[i] else 'OFF'} VNAV {'ON' if v.vnav[i] else 'OFF'} "
             f"active waypoint {active}"
         )
     found = sim.navdb.lookup(name)

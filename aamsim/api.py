@@ -1,0 +1,177 @@
+"""The public simulator API: read traffic through a view, change it through intents (docs/api.md).
+
+:class:`aamsim.Simulation` inherits :class:`SimulationAPI`, so a use case, a
+baseline or a plugin writes::
+
+    view = sim.view                      # read-only named arrays, SI units
+    slots = sim.slots(["UAM1", "UAM2"])
+    sim.select_speed(slots, 30.0)        # CAS 30 m/s for both, VNAV speed off
+    sim.select_altitude("UAM1", 300.0)
+    sim.direct_to("UAM1", "WP3")
+
+Targets are a callsign, a slot (int), a list of callsigns or an int array of
+slots. The stack commands (SPD, ALT, HDG, ...) call the same methods, so a
+change made here and one made by a scenario line are the same change.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Iterator, Sequence
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from aamsim.errors import CommandError
+from aamsim.traffic import intents
+from aamsim.traffic.view import PUBLIC_FLAGS, PUBLIC_FLOATS, TrafficView
+from aamsim.units import Speed
+
+if TYPE_CHECKING:
+    from aamsim.services import Services
+    from aamsim.traffic.traffic import FlightRecord, Traffic
+
+Target = str | int | Sequence[str] | np.ndarray
+
+__all__ = ["PUBLIC_FLAGS", "PUBLIC_FLOATS", "SimulationAPI", "Target", "TrafficView"]
+
+
+class SimulationAPI:
+    """Views and intents of a simulation (mixed into :class:`aamsim.Simulation`)."""
+
+    traffic: Traffic
+    flight_log: list[FlightRecord]
+    # Built-in services (conflict detection, metrics), set by aamsim.services.build_services.
+    services: Services | None = None
+    create_aircraft: Callable[..., int]
+    delete_aircraft: Callable[..., FlightRecord]
+
+    def require_services(self) -> Services:
+        """The built-in services, built with the defaults when no entry point built them (scripts, tests)."""
+        if self.services is None:
+            from aamsim.services import build_services
+
+            return build_services(self)  # type: ignore[arg-type]
+        return self.services
+
+    def flights(self) -> Iterator[FlightRecord]:
+        """Closed flights followed by the open ones (their distance and times brought up to date)."""
+        yield from self.flight_log
+        view = self.view
+        for i, rec in enumerate(self.traffic.flights):
+            rec.distance_m = float(view.distflown[i])
+            rec.airborne_s = float(view.airborne_s[i])
+            rec.slow_s = float(view.slow_s[i])
+            yield rec
+
+    # ------------------------------------------------------------------ reading
+    @property
+    def view(self) -> TrafficView:
+        """Read-only named arrays of the live aircraft (``view.lat``, ``view.ids``, ...)."""
+        view: TrafficView | None = self.__dict__.get("_traffic_view")
+        if view is None or view._traffic is not self.traffic:
+            view = self.__dict__["_traffic_view"] = TrafficView(self.traffic)
+        return view
+
+    def slot(self, acid: str | int) -> int:
+        """Slot of one aircraft (a callsign, or a slot checked to be live)."""
+        if isinstance(acid, (int, np.integer)):
+            if not 0 <= int(acid) < self.traffic.n:
+                raise IndexError(f"no aircraft in slot {acid}")
+            return int(acid)
+        return self.traffic.index(acid)
+
+    def slots(self, targets: Target) -> np.ndarray:
+        """Slots of one or more aircraft as an int64 array."""
+        if isinstance(targets, np.ndarray) and targets.dtype.kind in "iu":
+            return targets.astype(np.int64, copy=False)
+        if isinstance(targets, (str, int, np.integer)):
+            return np.array([self.slot(targets)], dtype=np.int64)
+        return np.fromiter((self.slot(a) for a in targets), dtype=np.int64, count=len(targets))
+
+    # ------------------------------------------------------------------ intents
+    def select_speed(self, targets: Target, speed: Speed | float | np.ndarray) -> None:
+        """Select a speed: a :class:`~aamsim.units.Speed` (CAS m/s or Mach) or CAS [m/s] per target.
+
+        VNAV speed control goes off, as with BlueSky's SPD.
+        """
+        slots = self.slots(targets)
+        if isinstance(speed, Speed):
+            intents.select_speed(self.traffic, slots, speed.value, speed.is_mach)
+        else:
+            intents.select_speed(self.traffic, slots, speed)
+
+    def hold_speed(self, targets: Target) -> None:
+        """Select each target's current CAS (a "maintain speed" advisory)."""
+        slots = self.slots(targets)
+        intents.select_speed(self.traffic, slots, self.view.cas[slots])
+
+    def select_altitude(self, target: str | int, altitude_m: float, vs_mps: float | None = None) -> None:
+        """Select an altitude [m], optionally a vertical speed [m/s]; VNAV off (BlueSky's ALT)."""
+        intents.select_altitude(self.traffic, self.slot(target), altitude_m, vs_mps)
+
+    def select_vertical_speed(self, target: str | int, vs_mps: float) -> None:
+        """Select a vertical speed [m/s]; VNAV off (BlueSky's VS)."""
+        intents.select_vertical_speed(self.traffic, self.slot(target), vs_mps)
+
+    def select_heading(self, target: str | int, heading_deg: float) -> None:
+        """Fly a heading [deg true]; LNAV off (BlueSky's HDG)."""
+        intents.select_heading(self.traffic, self.slot(target), heading_deg)
+
+    def set_bank(self, target: str | int, bank_rad: float) -> None:
+        """Bank angle used in turns [rad], in (0, pi/2)."""
+        if not 0.0 < bank_rad < np.pi / 2:
+            raise ValueError(f"bank angle must be between 0 and 90 deg, not {np.degrees(bank_rad):g}")
+        intents.set_bank(self.traffic, self.slot(target), bank_rad)
+
+    def move(self, target: str | int, lat: float, lon: float, alt_m: float | None = None,
+             hdg_deg: float | None = None, speed: Speed | None = None, vs_mps: float | None = None) -> None:
+        """Put an aircraft somewhere else (BlueSky's MOVE)."""
+        intents.move(self.traffic, self.slot(target), lat, lon, alt_m, hdg_deg,
+                     None if speed is None else speed.value, bool(speed and speed.is_mach), vs_mps)
+
+    def offset_altitude(self, targets: Target, dz_m: float | np.ndarray) -> None:
+        """Shift aircraft and their selected altitude by ``dz_m`` [m]."""
+        intents.offset_altitude(self.traffic, self.slots(targets), dz_m)
+
+    def direct_to(self, target: str | int, waypoint: str | int) -> None:
+        """Fly straight to a waypoint of the route (by name or index); LNAV on."""
+        slot = self.slot(target)
+        route = self.traffic.routes[slot]
+        index = route.find(waypoint) if isinstance(waypoint, str) else int(waypoint)
+        if not 0 <= index < len(route):
+            raise CommandError(f"{self.traffic.ids[slot]} has no waypoint {waypoint} in its route")
+        intents.direct_to(self.traffic, slot, index)
+
+    def set_navigation(self, target: str | int, lnav: bool | None = None, vnav: bool | None = None,
+                       vnav_speed: bool | None = None) -> None:
+        """Switch LNAV / VNAV / VNAV speed control (None: unchanged); no route checks (see LNAV, VNAV)."""
+        intents.set_navigation(self.traffic, self.slot(target), lnav, vnav, vnav_speed)
+
+    def resume_route(self, target: str | int) -> None:
+        """LNAV on towards the nearest waypoint of the route (BlueSky's LNAV ON)."""
+        intents.resume_route(self.traffic, self.slot(target))
+
+    def engage_vnav(self, target: str | int) -> None:
+        """VNAV on along the route's altitude and speed constraints (BlueSky's VNAV ON)."""
+        intents.engage_vnav(self.traffic, self.slot(target))
+
+    def set_climb_profile(self, target: str | int, early_climb: bool | None = None,
+                          late_descent: bool | None = None) -> None:
+        """BlueSky's SWTOC / SWTOD switches (None: unchanged)."""
+        intents.set_climb_profile(self.traffic, self.slot(target), early_climb, late_descent)
+
+    def create(self, acid: str, actype: str, lat: float, lon: float, hdg_deg: float = 0.0, alt_m: float = 0.0,
+               speed: Speed | float = 0.0) -> int:
+        """Create an aircraft (CAS [m/s] or a :class:`~aamsim.units.Speed`); returns its slot."""
+        spd = speed if isinstance(speed, Speed) else Speed(float(speed))
+        return self.create_aircraft(acid, actype, lat, lon, hdg_deg, alt_m, spd)
+
+    def delete(self, targets: Target) -> None:
+        """Delete aircraft (not counted as arrivals unless they are at their destination)."""
+        names = [self.traffic.ids[s] for s in self.slots(targets).tolist()]
+        for name in names:  # by callsign: deleting moves the last aircraft into the freed slot
+            self.delete_aircraft(self.traffic.index(name))
+
+    def describe(self) -> dict[str, Any]:
+        """The public fields and what they mean (for documentation and tools)."""
+        return {"floats": dict(PUBLIC_FLOATS), "flags": dict(PUBLIC_FLAGS)}

@@ -1,0 +1,106 @@
+"""The snapshot stream: frozen copies of the traffic, published to subscribers on a sim-time period.
+
+A :class:`TrafficSnapshot` is what a consumer outside the simulator sees of
+the traffic at one instant: the callsigns and the state arrays (SI units),
+copied and read-only, so it can be kept, queued to another thread (a web
+viewer) or sent over a socket (the bridge's ``state`` operation) while the
+simulation goes on. The trajectory recorder, the bridge and a viewer all
+consume it; none reaches into the traffic arrays.
+
+:class:`SnapshotStream` publishes one: ``stream.subscribe(fn, period_s)``
+calls ``fn(snapshot)`` every ``period_s`` of sim time, after the traffic moved
+(a post-step observer; ``phase="pre_step"`` samples after the commands due
+now, before the traffic moves, as the trajectory recorder does). Subscribers
+due at the same moment share one snapshot.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from aamsim.traffic.view import PUBLIC_FLOATS
+
+if TYPE_CHECKING:
+    from collections.abc import Callable
+
+    from aamsim.simulation import Simulation
+
+SNAPSHOT_FIELDS = ("lat", "lon", "alt", "hdg", "trk", "tas", "cas", "gs", "vs")
+
+
+@dataclass(frozen=True)
+class TrafficSnapshot:
+    """The traffic at ``simt``: ``ids`` and one read-only array per field of ``fields`` (SI units)."""
+
+    simt: float
+    ids: tuple[str, ...]
+    fields: tuple[str, ...]
+    values: np.ndarray  # (len(fields), len(ids)), read-only
+
+    def __len__(self) -> int:
+        return len(self.ids)
+
+    def __getattr__(self, name: str) -> np.ndarray:
+        if name.startswith("_") or name in ("fields", "values"):  # during copy/unpickle, before the fields exist
+            raise AttributeError(name)
+        try:
+            row = self.fields.index(name)
+        except ValueError:
+            raise AttributeError(f"a traffic snapshot has no field {name!r}; it has {', '.join(self.fields)}") \
+                from None
+        return self.values[row]
+
+    def columns(self, names: tuple[str, ...]) -> np.ndarray:
+        """Several fields as a new ``(len(names), n)`` array."""
+        return self.values[[self.fields.index(x) for x in names]]
+
+    def as_dict(self, names: tuple[str, ...] | None = None) -> dict[str, Any]:
+        """``simt``, ``ids`` (list) and float64 arrays by field name (a new array each)."""
+        out: dict[str, Any] = {"simt": self.simt, "ids": list(self.ids)}
+        for name in names or self.fields:
+            out[name] = np.array(getattr(self, name), dtype=np.float64)
+        return out
+
+
+def take_snapshot(sim: Simulation, fields: tuple[str, ...] = SNAPSHOT_FIELDS) -> TrafficSnapshot:
+    """A frozen copy of the traffic now."""
+    unknown = [x for x in fields if x not in PUBLIC_FLOATS]
+    if unknown:
+        raise ValueError(f"unknown traffic field(s) {', '.join(unknown)}; known: {', '.join(PUBLIC_FLOATS)}")
+    view = sim.view
+    values = view.rows(fields)  # a new array: the copy that freezes the state
+    values.flags.writeable = False
+    return TrafficSnapshot(sim.simt, view.ids, tuple(fields), values)
+
+
+class SnapshotStream:
+    """Publishes traffic snapshots to subscribers (see the module docstring)."""
+
+    def __init__(self, sim: Simulation, fields: tuple[str, ...] = SNAPSHOT_FIELDS):
+        self.sim = sim
+        self.fields = tuple(fields)
+        self._last: tuple[int, int, str, TrafficSnapshot] | None = None
+
+    def latest(self, phase: str = "post_step") -> TrafficSnapshot:
+        """The snapshot of now (shared with the other subscribers due at this moment)."""
+        sim = self.sim
+        key = (sim.simt_us, sim.traffic.layout_version, phase)
+        last = self._last
+        if last is None or last[:3] != key:
+            snap = take_snapshot(sim, self.fields)
+            self._last = (*key, snap)
+            return snap
+        return last[3]
+
+    def subscribe(self, fn: Callable[[TrafficSnapshot], None], period_s: float, *, name: str,
+                  phase: str = "post_step", priority: int = 500) -> None:
+        """Call ``fn(snapshot)`` every ``period_s`` of sim time (``phase``: ``post_step`` or ``pre_step``)."""
+        if phase not in ("post_step", "pre_step"):
+            raise ValueError(f"phase must be 'post_step' or 'pre_step', not {phase!r}")
+        if not period_s > 0:
+            raise ValueError(f"the snapshot period must be positive, not {period_s!r}")
+        hooks = self.sim.hooks.post_step if phase == "post_step" else self.sim.hooks.pre_step
+        hooks.add(lambda sim: fn(self.latest(phase)), interval_s=period_s, name=name, priority=priority)

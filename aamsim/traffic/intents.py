@@ -1,0 +1,155 @@
+"""Intents: the one place that turns "what an aircraft should do" into writes to the state arrays.
+
+Stack commands, use cases, baselines and plugins change aircraft through these
+functions (usually via the :class:`aamsim.api.SimulationAPI` methods of the
+simulation), never by writing the field matrices themselves. Every function
+takes slots (an int or an int array, so that a use case can advise hundreds of
+aircraft in one call) and SI values: m, m/s, degrees.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from aamsim import aero
+from aamsim.traffic import fields as f
+from aamsim.traffic.autopilot import activate_waypoint, compute_vnav, nearest_active_index
+from aamsim.traffic.traffic import Traffic
+
+Slots = int | np.ndarray
+
+
+def select_speed(traffic: Traffic, slots: Slots, value: float | np.ndarray, is_mach: bool = False) -> None:
+    """Select a speed (CAS m/s, or Mach when ``is_mach``); VNAV speed control off (BlueSky's SPD)."""
+    traffic.F[f.SELSPD, slots] = value
+    traffic.B[f.B_SELSPD_MACH, slots] = is_mach
+    traffic.B[f.B_SWVNAVSPD, slots] = False
+
+
+def select_altitude(traffic: Traffic, slot: int, altitude_m: float, vs_mps: float | None = None) -> None:
+    """Select an altitude, optionally a vertical speed; VNAV off (BlueSky's ALT).
+
+    Without a vertical speed, a previously selected one pointing the other way
+    is dropped in favour of the default.
+    """
+    F = traffic.F
+    F[f.SELALT, slot] = altitude_m
+    traffic.B[f.B_SWVNAV, slot] = False
+    if vs_mps:
+        F[f.SELVS, slot] = vs_mps
+    else:
+        selvs = F[f.SELVS, slot]
+        if selvs * (altitude_m - F[f.ALT, slot]) < 0.0 and abs(selvs) > 0.01:
+            F[f.SELVS, slot] = 0.0
+
+
+def select_vertical_speed(traffic: Traffic, slot: int, vs_mps: float) -> None:
+    """Select a vertical speed, used while the selected altitude differs; VNAV off (BlueSky's VS)."""
+    traffic.F[f.SELVS, slot] = vs_mps
+    traffic.B[f.B_SWVNAV, slot] = False
+
+
+def select_heading(traffic: Traffic, slot: int, heading_deg: float) -> None:
+    """Fly a heading [deg true]; LNAV off (BlueSky's HDG)."""
+    traffic.F[f.AP_TRK, slot] = heading_deg
+    traffic.B[f.B_SWLNAV, slot] = False
+
+
+def set_bank(traffic: Traffic, slot: int, bank_rad: float) -> None:
+    """Bank angle used in turns [rad]."""
+    traffic.F[f.BANKDEF, slot] = bank_rad
+
+
+def move(traffic: Traffic, slot: int, lat: float, lon: float, alt_m: float | None = None,
+         hdg_deg: float | None = None, speed: float | None = None, speed_is_mach: bool = False,
+         vs_mps: float | None = None) -> None:
+    """Put an aircraft somewhere else (BlueSky's MOVE); ``speed`` is CAS m/s or Mach."""
+    F, B = traffic.F, traffic.B
+    F[f.LAT, slot] = lat
+    F[f.LON, slot] = lon
+    F[f.COSLAT, slot] = math.cos(math.radians(lat))
+    if alt_m is not None:
+        F[f.ALT, slot] = alt_m
+        F[f.SELALT, slot] = alt_m
+    if hdg_deg is not None:
+        F[f.HDG, slot] = hdg_deg
+        F[f.AP_TRK, slot] = hdg_deg
+    if speed is not None:
+        h = F[f.ALT, slot]
+        tas = aero.mach2tas(speed, h) if speed_is_mach else aero.cas2tas(speed, h)
+        F[f.TAS, slot] = float(tas)
+        F[f.SELSPD, slot] = speed
+        B[f.B_SELSPD_MACH, slot] = speed_is_mach
+    if vs_mps is not None:
+        F[f.VS, slot] = vs_mps
+        B[f.B_SWVNAV, slot] = False
+
+
+def offset_altitude(traffic: Traffic, slots: Slots, dz_m: float | np.ndarray) -> None:
+    """Shift aircraft and their selected altitude by ``dz_m`` (e.g. altitude noise at creation)."""
+    traffic.F[f.ALT, slots] += dz_m
+    traffic.F[f.SELALT, slots] += dz_m
+
+
+def set_navigation(traffic: Traffic, slot: int, lnav: bool | None = None, vnav: bool | None = None,
+                   vnav_speed: bool | None = None) -> None:
+    """Switch lateral / vertical navigation and VNAV speed control (None: leave as is)."""
+    for row, on in ((f.B_SWLNAV, lnav), (f.B_SWVNAV, vnav), (f.B_SWVNAVSPD, vnav_speed)):
+        if on is not None:
+            traffic.B[row, slot] = on
+
+
+def set_climb_profile(traffic: Traffic, slot: int, early_climb: bool | None = None,
+                      late_descent: bool | None = None) -> None:
+    """BlueSky's SWTOC (climb as early as possible) and SWTOD (descend as late as possible)."""
+    if early_climb is not None:
+        traffic.B[f.B_SWTOC, slot] = early_climb
+    if late_descent is not None:
+        traffic.B[f.B_SWTOD, slot] = late_descent
+
+
+def direct_to(traffic: Traffic, slot: int, index: int) -> None:
+    """Fly straight to waypoint ``index`` of the aircraft's route (LNAV on)."""
+    activate_waypoint(traffic, slot, index)
+
+
+def resume_route(traffic: Traffic, slot: int) -> None:
+    """LNAV on towards the route's waypoint nearest to the aircraft (BlueSky's LNAV ON)."""
+    activate_waypoint(traffic, slot, nearest_active_index(traffic, slot))
+
+
+def engage_vnav(traffic: Traffic, slot: int) -> None:
+    """VNAV and VNAV speed on, planned to the active waypoint's altitude constraint."""
+    set_navigation(traffic, slot, vnav=True, vnav_speed=True)
+    route = traffic.routes[slot]
+    route.plan()
+    wp = route.waypoints[route.iactwp]
+    compute_vnav(traffic, slot, wp.toalt, wp.xtoalt)
+    traffic.F[f.WP_NEXTALTCO, slot] = wp.toalt
+
+
+def restore_type_acceleration(traffic: Traffic) -> None:
+    """Every aircraft's acceleration limit back to its type's (the performance refresh)."""
+    n = traffic.n
+    traffic.F[f.AXMAX, :n] = traffic.F[f.AXMAX_TYPE, :n]
+
+
+# State another simulator owns (the BlueSky backend overwrites aamsim's with BlueSky's).
+SYNC_FIELDS = ("lat", "lon", "alt", "hdg", "trk", "tas", "cas", "gs", "vs", "gsnorth", "gseast", "ax")
+
+
+def set_kinematic_state(traffic: Traffic, slots: np.ndarray, values: dict[str, np.ndarray]) -> None:
+    """Overwrite position, speeds and directions of ``slots`` (one array per name of ``SYNC_FIELDS``).
+
+    The caches that depend on them are invalidated, so the next step
+    recomputes them from the new state.
+    """
+    F = traffic.F
+    for name in SYNC_FIELDS:
+        F[f.FLOAT_FIELDS.index(name), slots] = values[name]
+    F[f.COSLAT, slots] = np.cos(np.radians(values["lat"]))
+    F[f.MACH, slots] = aero.tas2mach(values["tas"], values["alt"])
+    for row in (f.C_ALT, f.C_HDG, f.C_TAS_IN, f.C_SPD_IN, f.C_LAT, f.C_LA0, f.C_Q0, f.C_Q0COS, f.C_Q0SIN):
+        F[row, slots] = math.nan

@@ -1,0 +1,135 @@
+"""Episodes on BlueSky: ``backend="bluesky"`` (``bluesky-simulator``, in this process, headless).
+
+BlueSky flies the aircraft; aamsim keeps a *mirror* of the scenario so that
+any use case runs unchanged (it reads ``sim.view`` and changes aircraft with
+intents, as on the other backends):
+
+* BlueSky loads and runs the scenario file itself (its own parser, autopilot,
+  performance model and kinematics);
+* the mirror, an aamsim simulation of the same scenario, gives the routes,
+  the flight records and the creation/deletion events; at every conflict-check
+  instant (``DT ASAS``, 1 s) a post-step hook advances BlueSky to the mirror's
+  time and overwrites the mirror's positions, speeds and directions with
+  BlueSky's, before the conflict check runs, so observations, rewards and
+  NMAC/LoWC events are computed on BlueSky's trajectories;
+* actions: after the use case applied its intents to the mirror, the selected
+  speeds that changed are sent to BlueSky as ``SPD`` commands (the corridor
+  use case's speed advisories; altitude and heading intents are not forwarded
+  yet).
+
+BlueSky keeps its whole state in process globals, so one process runs one
+BlueSky episode at a time (a second :class:`BlueSkyEpisode` in the same process
+is refused while the first is open). For parallel rollouts, use one process
+per environment (Ray workers do).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import io
+import tempfile
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from aamsim import Simulation
+from aamsim.traffic.intents import SYNC_FIELDS, set_kinematic_state
+from aamsim.units import KTS
+from rlbridge.core import EpisodeCore, StepResult
+
+_BLUESKY: dict[str, Any] = {}  # BlueSky's module and the open episode: BlueSky itself is process-global
+
+
+def _bluesky() -> Any:
+    """BlueSky, initialised once per process (headless, detached, in a private work directory)."""
+    if "bs" not in _BLUESKY:
+        try:
+            with contextlib.redirect_stdout(io.StringIO()):
+                import bluesky as bs
+
+                workdir = tempfile.mkdtemp(prefix="aamgym-bluesky-")
+                bs.init(mode="sim", detached=True, workdir=workdir)
+        except ImportError as exc:
+            raise RuntimeError('backend="bluesky" needs bluesky-simulator (pip install "aamsim[test]")') from exc
+        bs.net.send = lambda *args, **kwargs: None  # detached: no network, no screen
+        _BLUESKY["bs"] = bs
+    return _BLUESKY["bs"]
+
+
+class BlueSkyEpisode(EpisodeCore):
+    """An :class:`~rlbridge.core.EpisodeCore` whose aircraft BlueSky flies (see the module docstring)."""
+
+    def __init__(self, scenario: str | Path, usecase: Any = "corridor_sa", params: dict[str, Any] | None = None,
+                 time_limit_s: float | None = None, dt: float = 0.05, **kwargs: Any):
+        super().__init__(scenario, usecase, params, time_limit_s=time_limit_s, dt=dt, **kwargs)
+        owner = _BLUESKY.get("owner")
+        if owner is not None and owner() is not None:
+            raise RuntimeError("BlueSky runs one episode per process; close the other BlueSky environment first")
+        import weakref
+
+        _BLUESKY["owner"] = weakref.ref(self)
+        self.bs = _bluesky()
+        self._pending: dict[str, float] | None = None
+
+    # ------------------------------------------------------------- simulation
+    def _new_simulation(self, seed: int | None) -> Simulation:
+        sim = super()._new_simulation(seed)
+        bs = self.bs
+        with contextlib.redirect_stdout(io.StringIO()):
+            bs.sim.reset()
+            bs.sim.simdt = self.dt
+            lines = bs.stack.simstack.readscn(str(self.path))
+            bs.stack.set_scendata([t for t, _ in lines], [c for _, c in lines])
+        # Before the conflict check (priority 10) at each of its instants.
+        sim.hooks.post_step.add(self._sync, interval_s=lambda: sim.settings.cd_interval_s, name="bluesky.sync",
+                                priority=0)
+        return sim
+
+    def _sync(self, sim: Simulation) -> None:
+        """Advance BlueSky to the mirror's time and copy its aircraft states into the mirror."""
+        bs = self.bs
+        target = sim.simt
+        while bs.sim.simt < target - 1e-9:
+            bs.sim.step()
+        # BlueSky runs the commands due now at the start of its next step; run them now instead (the
+        # same order: they come before the move), so its aircraft exist when actions are sent at t.
+        bs.stack.process()
+        index = {acid: k for k, acid in enumerate(bs.traf.id)}
+        view = sim.view
+        pairs = [(s, index[a]) for s, a in enumerate(view.ids) if a in index]
+        if not pairs:
+            return
+        slots = np.array([p[0] for p in pairs], dtype=np.int64)
+        rows = np.array([p[1] for p in pairs], dtype=np.int64)
+        values = {name: np.asarray(getattr(bs.traf, name), dtype=np.float64)[rows] for name in SYNC_FIELDS}
+        set_kinematic_state(sim.traffic, slots, values)
+
+    # ----------------------------------------------------------------- steps
+    def step(self, actions: dict[str, Any]) -> StepResult:
+        if self.sim is not None:
+            self._pending = dict(zip(self.sim.view.ids, self.sim.view.selspd.tolist()))
+        return super().step(actions)
+
+    def _advance(self) -> None:
+        if self._pending is not None and self.sim is not None:
+            # The use case applied its actions to the mirror: send the changed speeds to BlueSky.
+            view = self.sim.view
+            for acid, spd, mach in zip(view.ids, view.selspd.tolist(), view.selspd_mach.tolist()):
+                if acid in self._pending and spd != self._pending[acid] and not mach:
+                    self.bs.stack.stack(f"SPD {acid} {spd / KTS:.6f}")
+            self._pending = None
+        super()._advance()
+
+    def bluesky_state(self) -> dict[str, Any]:
+        """BlueSky's own traffic arrays now (``ids`` and SI arrays), for checks against the mirror."""
+        bs = self.bs
+        out: dict[str, Any] = {"simt": float(bs.sim.simt), "ids": list(bs.traf.id)}
+        for name in SYNC_FIELDS:
+            out[name] = np.array(getattr(bs.traf, name), dtype=np.float64)
+        return out
+
+    def close(self) -> None:
+        super().close()
+        if _BLUESKY.get("owner") is not None and _BLUESKY["owner"]() is self:
+            del _BLUESKY["owner"]

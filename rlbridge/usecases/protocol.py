@@ -1,0 +1,149 @@
+"""The use-case protocol: what every AAM use case provides to the episode engine (docs/usecases.md).
+
+A use case names only what every use case has:
+
+* **agents**: aircraft become agents through the simulation's creation events
+  (``agent_of`` maps an aircraft to its agent name, or None when it is not an
+  agent), so aircraft from CRE, MCRE, PCALL or SCHEDULE are all agents and
+  ``possible_agents`` grows with them; ``standing_agents`` live for the whole
+  episode whatever flies (a planner);
+* **decision events**: ``next_decision_s`` (default: every
+  ``decision_interval_s``);
+* **spaces**, **observe** and **apply_actions**;
+* **feedback**: per-agent rewards and a typed per-agent info (columns declared
+  in ``info_fields``, e.g. ``{"nmac": np.bool_}``), computed over the interval
+  since the last decision;
+* optional **extra metrics** added to the episode's standard metrics.
+
+The engine (:mod:`rlbridge.core`), the environments, the wire and the agents'
+dimension helpers use nothing else, so a new use case is one module plus a
+registry entry. :class:`UseCaseBase` gives every optional member a default.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field, fields
+from typing import TYPE_CHECKING, Any, ClassVar, Protocol
+
+import gymnasium as gym
+import numpy as np
+
+if TYPE_CHECKING:
+    from aamsim import Simulation
+
+# Per-agent info columns travel as arrays of these dtypes (docs/protocol.md).
+INFO_DTYPES = (np.bool_, np.int64, np.float64)
+
+
+@dataclass
+class Observations:
+    """Observations of several agents as arrays (row k belongs to agent k)."""
+
+    flat: np.ndarray | None = None  # (n, dim) when the use case emits flat vectors
+    parts: dict[str, np.ndarray] | None = None  # name -> (n, ...) when it emits a Dict space
+
+    def row(self, k: int) -> Any:
+        if self.parts is not None:
+            return {name: arr[k] for name, arr in self.parts.items()}
+        assert self.flat is not None
+        return self.flat[k]
+
+    def __len__(self) -> int:
+        if self.parts is not None:
+            return len(next(iter(self.parts.values())))
+        return 0 if self.flat is None else len(self.flat)
+
+
+@dataclass
+class Feedback:
+    """Rewards and per-agent info of several agents (row k belongs to agent k)."""
+
+    rewards: np.ndarray
+    info: dict[str, np.ndarray] = field(default_factory=dict)  # column name -> (n,) array
+
+
+class UseCase(Protocol):
+    """What a use case provides (see the module docstring)."""
+
+    name: str  # registry name, e.g. "corridor_sa"
+    env_name: str  # Gymnasium id part: aamgym/<env_name>-v0
+    standing_agents: tuple[str, ...]
+    info_fields: dict[str, type]
+
+    @property
+    def decision_interval_s(self) -> float: ...
+
+    def observation_space(self) -> gym.Space: ...
+
+    def action_space(self) -> gym.Space: ...
+
+    def attach(self, sim: Simulation) -> None:
+        """Prepare a fresh simulation (hooks, settings, services) before the scenario loads."""
+
+    def agent_of(self, sim: Simulation, slot: int) -> str | None:
+        """The agent that the aircraft in ``slot`` is (called on its creation and deletion), or None."""
+
+    def next_decision_s(self, sim: Simulation) -> float:
+        """Sim time of the next decision, from now."""
+
+    def observe(self, sim: Simulation, agents: list[str]) -> Observations: ...
+
+    def apply_actions(self, sim: Simulation, actions: dict[str, Any]) -> None: ...
+
+    def feedback(self, sim: Simulation, agents: list[str], actions: dict[str, Any], since_s: float) -> Feedback:
+        """Rewards and info of ``agents`` for the interval that began at ``since_s`` with ``actions``."""
+
+    def extra_metrics(self, sim: Simulation) -> dict[str, Any]:
+        """Metrics the use case adds to the episode's standard ones ({} when none)."""
+
+
+class UseCaseBase:
+    """Defaults for the optional members of :class:`UseCase`: every aircraft is an agent named by its callsign."""
+
+    name: ClassVar[str] = ""
+    env_name: ClassVar[str] = ""
+    standing_agents: tuple[str, ...] = ()
+    info_fields: dict[str, type] = {}  # noqa: RUF012 (read-only by convention; subclasses replace it)
+    default_decision_interval_s: ClassVar[float] = 10.0
+
+    @property
+    def decision_interval_s(self) -> float:
+        return self.default_decision_interval_s
+
+    def attach(self, sim: Simulation) -> None:
+        return None
+
+    def agent_of(self, sim: Simulation, slot: int) -> str | None:
+        return sim.view.ids[slot]
+
+    def next_decision_s(self, sim: Simulation) -> float:
+        return sim.simt + self.decision_interval_s
+
+    def extra_metrics(self, sim: Simulation) -> dict[str, Any]:
+        return {}
+
+
+def make_params(cls: Any, params: dict[str, Any] | None) -> Any:
+    """A use case's parameter dataclass from keyword parameters (an unknown name is an error naming it)."""
+    params = dict(params or {})
+    known = {fl.name for fl in fields(cls)}
+    unknown = sorted(set(params) - known)
+    if unknown:
+        raise ValueError(f"unknown use-case parameter(s) {', '.join(unknown)}; known: {', '.join(sorted(known))}")
+    return cls(**params)
+
+
+def empty_info(fields: dict[str, type], n: int) -> dict[str, np.ndarray]:
+    """Zeroed info columns for ``n`` agents."""
+    return {name: np.zeros(n, dtype=dtype) for name, dtype in fields.items()}
+
+
+def check_feedback(usecase: UseCase, feedback: Feedback, n: int) -> None:
+    """A use case's feedback must match its declaration (a clear error, not a wrong array later)."""
+    if np.shape(feedback.rewards) != (n,):
+        raise ValueError(f"use case {usecase.name}: feedback has {np.shape(feedback.rewards)} rewards for {n} agents")
+    for name, dtype in usecase.info_fields.items():
+        col = feedback.info.get(name)
+        if col is None or col.shape != (n,) or col.dtype != np.dtype(dtype):
+            raise ValueError(f"use case {usecase.name}: info column {name!r} must be a {np.dtype(dtype).name} "
+                             f"array of {n} values")
