@@ -165,6 +165,10 @@ def run(scenario: str, until: str | None, out_dir: Path | None, dt: float, seed:
         raise
     progress.close()
     s = result.summary
+    if s.get("interrupted"):
+        click.echo(f"{s['interrupted_by']}: stopped at sim time {s['sim_time_s']:.1f} s; the run directory "
+                   f"{result.out_dir} is complete up to there", err=True)
+        sys.exit(130 if s["interrupted_by"] == "SIGINT" else 143)
     if not quiet:
         click.echo(
             f"{s['scenario']}: {s['flights_created']} flights created, {s['flights_arrived']} arrived, "

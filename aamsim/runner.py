@@ -13,6 +13,8 @@ import hashlib
 import json
 import math
 import platform
+import signal
+import threading
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -132,24 +134,69 @@ def run_scenario(
         sim.stack(line)
     sim.load_scenario(path, text=text)
     wall0 = time.perf_counter()
-    try:
-        sim.run(
-            until_s=cfg.until_s,
-            progress=(lambda s: progress(s, time.perf_counter() - wall0)) if progress else None,
-            progress_interval_s=10.0,
-        )
-    finally:
-        wall = time.perf_counter() - wall0
-        if recorder is not None:
-            recorder.close()
-    summary = make_summary(sim, cfg, path, wall)
-    for finish in sim.extensions.get("run_outputs", []):
-        finish(sim, out_dir, summary)
-    write_flights(out_dir / "flights.csv", iter_flights(sim))
-    (out_dir / "summary.json").write_text(json.dumps(summary, indent=2, sort_keys=False) + "\n")
-    with open(out_dir / "messages.log", "w", encoding="utf-8") as fh:
-        fh.writelines(f"{msg.simt:10.2f} {msg}\n" for msg in sim.reporter.messages)
+    with StopOnSignal(sim) as stop:
+        try:
+            sim.run(
+                until_s=cfg.until_s,
+                progress=(lambda s: progress(s, time.perf_counter() - wall0)) if progress else None,
+                progress_interval_s=10.0,
+            )
+        finally:
+            wall = time.perf_counter() - wall0
+            if recorder is not None:
+                recorder.close()
+        stop.hold()  # a second signal now would leave half-written files: the outputs come first
+        summary = make_summary(sim, cfg, path, wall)
+        summary["interrupted"] = stop.signal_name is not None
+        if stop.signal_name is not None:
+            summary["interrupted_by"] = stop.signal_name
+            sim.report("note", f"{stop.signal_name}: run stopped at sim time {sim.simt:.2f} s; outputs written")
+        for finish in sim.extensions.get("run_outputs", []):
+            finish(sim, out_dir, summary)
+        write_flights(out_dir / "flights.csv", iter_flights(sim))
+        (out_dir / "summary.json").write_text(json.dumps(summary, indent=2, sort_keys=False) + "\n")
+        with open(out_dir / "messages.log", "w", encoding="utf-8") as fh:
+            fh.writelines(f"{msg.simt:10.2f} {msg}\n" for msg in sim.reporter.messages)
     return RunResult(sim, out_dir, summary, wall)
+
+
+class StopOnSignal:
+    """SIGINT (Ctrl-C) and SIGTERM end the run at the next step boundary instead of killing it.
+
+    The handler only asks the simulation to stop (as QUIT does), so the run
+    ends between two steps with its state whole, and the run directory is then
+    written as after a normal end, its summary saying ``"interrupted": true``.
+    While the outputs are written (:meth:`hold`), further signals are ignored.
+    Outside the main thread (where Python cannot install handlers) it does nothing.
+    """
+
+    SIGNALS = (signal.SIGINT, signal.SIGTERM)
+
+    def __init__(self, sim: Simulation):
+        self.sim = sim
+        self.signal_name: str | None = None
+        self._previous: dict[int, Any] = {}
+
+    def __enter__(self) -> StopOnSignal:
+        if threading.current_thread() is threading.main_thread():
+            for signum in self.SIGNALS:
+                self._previous[signum] = signal.signal(signum, self._handle)
+        return self
+
+    def _handle(self, signum: int, frame: Any) -> None:
+        self.signal_name = self.signal_name or signal.Signals(signum).name
+        self.sim.quit_requested = True
+
+    def hold(self) -> None:
+        for signum in self._previous:
+            signal.signal(signum, self._handle_late)
+
+    def _handle_late(self, signum: int, frame: Any) -> None:
+        self.signal_name = self.signal_name or signal.Signals(signum).name
+
+    def __exit__(self, *exc: object) -> None:
+        for signum, handler in self._previous.items():
+            signal.signal(signum, handler)
 
 
 def make_summary(sim: Simulation, cfg: RunConfig, path: Path, wall_s: float) -> dict[str, Any]:
