@@ -105,10 +105,9 @@ def run(scenario: str, until: str | None, out_dir: Path | None, dt: float, seed:
     SCENARIO is a path, or the name of a scenario shipped with aamsim
     (e.g. scn/nyc_day.scn).
     """
+    from aamsim.clock import TimeStepError, validate_dt
     from aamsim.runner import RunConfig, ScenarioNotFound, StrictValidationFailed, run_scenario
     from aamsim.scenarios import resolve_scenario
-
-    from aamsim.clock import TimeStepError, validate_dt
 
     try:
         dt = validate_dt(dt)
