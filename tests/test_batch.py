@@ -6,6 +6,7 @@ import csv
 import json
 import math
 import os
+import secrets
 import shutil
 import socket
 import statistics
@@ -163,14 +164,21 @@ def test_two_node_ray_cluster_matches_runs_one_by_one(tmp_path: Path) -> None:
         pytest.skip("the ray command is not installed (pip install -e '.[test]')")
     (tmp_path / "random.scn").write_text(RANDOM_TRAFFIC)
     port = _free_port()
-    env = {**os.environ, "RAY_USAGE_STATS_ENABLED": "0"}
+    # Token authentication for every process of the cluster (head, second node, driver) with a token of
+    # the test's own: Ray 2.5x turns it on for a head by itself once ~/.ray/auth_token exists (any earlier
+    # ray.init makes one), and a second node without the token then cannot join.
+    env = {**os.environ, "RAY_USAGE_STATS_ENABLED": "0", "RAY_AUTH_MODE": "token",
+           "RAY_AUTH_TOKEN": secrets.token_hex(32)}
     ray_tmp = Path("/tmp") / f"aamsim-ray-{os.getpid()}"  # Ray's socket paths must stay short
     common = ["--num-cpus=1", "--node-ip-address=127.0.0.1", "--disable-usage-stats"]
-    subprocess.run([str(ray_bin), "start", "--head", f"--port={port}", "--include-dashboard=false",
-                    f"--temp-dir={ray_tmp}", *common], check=True, env=env, capture_output=True, timeout=180)
+    head = subprocess.run([str(ray_bin), "start", "--head", f"--port={port}", "--include-dashboard=false",
+                           f"--temp-dir={ray_tmp}", *common], check=False, env=env, capture_output=True, text=True,
+                          timeout=180)
+    assert head.returncode == 0, head.stdout + head.stderr
     try:
-        subprocess.run([str(ray_bin), "start", f"--address=127.0.0.1:{port}", *common], check=True, env=env,
-                       capture_output=True, timeout=180)
+        node = subprocess.run([str(ray_bin), "start", f"--address=127.0.0.1:{port}", *common], check=False,
+                              env=env, capture_output=True, text=True, timeout=180)
+        assert node.returncode == 0, node.stdout + node.stderr
         proc = _aamsim("batch", "random.scn", "--seeds", "3", "--set", "until=300", "--set", "lowc=450",
                        "--set", "lowc=900", "--address", f"127.0.0.1:{port}", "--out", "out", cwd=tmp_path, env=env)
         assert proc.returncode == 0, proc.stderr
