@@ -178,6 +178,9 @@ def test_evaluate_compare_and_report(tmp_path, trained_run):
     assert table[0] == ["Algorithm", "Risk Ratio - tiny_conflict"]
     assert [r[0] for r in table[1:]] == ["D2MAV-A No Shared Layers", "MVP speed-only (rule-based)"]
     assert "±" in table[1][1]
+    # No path of this machine in a report meant to be committed (only run names).
+    assert str(tmp_path) not in (rep / "report.md").read_text()
+    assert f"Evaluation runs: {ev_dir.name}" in (rep / "report.md").read_text()
     assert (rep / "reward_curve.png").read_bytes()[:4] == b"\x89PNG"
     with open(rep / "nmac_encounters.csv", newline="") as fh:
         enc = list(csv.DictReader(fh))

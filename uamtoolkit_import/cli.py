@@ -186,6 +186,12 @@ def convert_command(
     help="Generate flights departing in the first HOURS of the day.",
 )
 @click.option("--type", "actype", default="EVTOL4", show_default=True, help="Aircraft type written in the schedule.")
+@click.option(
+    "--prefix",
+    default="UAM",
+    show_default=True,
+    help="Flight ids are PREFIXnnnn in departure order (another prefix keeps two days' callsigns apart).",
+)
 def synth_command(
     network_path: Path | None,
     out_path: str,
@@ -196,6 +202,7 @@ def synth_command(
     max_wait_min: float,
     hours: float,
     actype: str,
+    prefix: str,
 ) -> None:
     """Generate a synthetic UAMToolkit schedule (a day of fleet operations)."""
     from dataclasses import replace
@@ -213,6 +220,7 @@ def synth_command(
         max_wait_s=60.0 * max_wait_min,
         day_s=3600.0 * hours,
         aircraft_type=actype,
+        flight_prefix=prefix,
     )
     result = synthesize(network, config)
     with click.open_file(out_path, "w", encoding="utf-8") as fh:
