@@ -111,7 +111,7 @@ def convert_command(
     strict: bool,
 ) -> None:
     """Convert SCHEDULE.csv into a scenario file (the default command)."""
-    from uamtoolkit_import.convert import ConvertOptions, convert
+    from uamtoolkit_import.convert import ConvertOptions, write_scenario
     from uamtoolkit_import.headers import ScheduleFormatError
     from uamtoolkit_import.schedule import read_schedule
 
@@ -125,6 +125,8 @@ def convert_command(
     except ScheduleFormatError as exc:
         click.echo(f"error: {exc}", err=True)
         sys.exit(2)
+    for warning in schedule.warnings:
+        click.echo(f"warning: {warning}", err=True)
     for err in schedule.errors:
         click.echo(str(err), err=True)
     if strict and schedule.errors:
@@ -137,9 +139,9 @@ def convert_command(
     options = ConvertOptions(
         start_s=start or 0.0, end_s=end, alt_noise_ft=alt_noise_ft, aircraft_type=actype, seed=seed
     )
-    result = convert(schedule, network, options)
     out_path.parent.mkdir(parents=True, exist_ok=True)
-    out_path.write_text(result.text, encoding="utf-8")
+    with open(out_path, "w", encoding="utf-8", newline="\n") as fh:
+        result = write_scenario(schedule, network, fh, options)
     window = f", {result.outside_window} outside the time window" if start is not None or end is not None else ""
     click.echo(f"{out_path}: {len(result.written)} flights written, {schedule.skipped_rows} skipped{window}")
 
