@@ -2,8 +2,8 @@
 
 N EC35 helicopters fly 3-waypoint routes (LNAV on) in a 60 km box around
 40.7N 74.0W at 1400-1600 ft and 100-150 kts, all created with stack text, as
-in the BlueSky measurements of ``/work/shared/reference/bluesky-facts.md``
-section 7. Only the stepping loop is timed (600 s of sim time at dt 0.05 s
+in the BlueSky measurements of the project's BlueSky reference notes
+(section 7). Only the stepping loop is timed (600 s of sim time at dt 0.05 s
 by default); creation and compilation are not. When bluesky-simulator is
 installed the same scenario runs in BlueSky, in a subprocess, in the same
 invocation, and the table shows the ratio. Conflict detection is off in both.

@@ -7,6 +7,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 import torch
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from rlbridge.agents import make_learner, usecase_dims
 from rlbridge.agents.core import ddqn_target, dqn_target
@@ -190,3 +192,55 @@ def test_unequipped_collides_and_mvp_resolves_the_tiny_conflict():
     assert all(s.metrics["operational"]["advisories"] == 0 for s in base)
     assert sum(s.nmac_events for s in mvp) == 0
     assert all(s.metrics["operational"]["flights_completed"] == 2 for s in mvp)
+
+
+def test_truncated_agents_bootstrap_from_the_critic_and_arrived_ones_from_zero():
+    """At the time limit the stored value of an agent's last observation is the critic's (not 0)."""
+    d = dims()
+    learner = make_learner("d2mava", {}, d, seed=0)
+    env = EnvSpec(TINY, params=PARAMS, time_limit_s=60.0)  # both aircraft still flying at 60 s
+    w = RolloutWorker(env, {"policy": learner.actor_spec("d2mava")})
+    (b,) = w.collect([3], "policy", learner.weights(), {"greedy": False})
+    assert b.truncated.sum() == 2 and not b.terminated.any()
+    final = b.next_idx[b.truncated]
+    with torch.no_grad():
+        _, critic = learner.model(*(torch.from_numpy(b.obs[k][final]) for k in ("ownship", "intruders", "mask")))
+    assert np.all(critic.numpy() != 0.0)
+    np.testing.assert_allclose(b.values[final], critic.numpy(), rtol=1e-5, atol=1e-7)
+    # GAE: a truncated transition's return is r + gamma * V(last observation).
+    gamma = learner.config.gamma
+    data = learner.prepare([b])
+    t = np.flatnonzero(b.truncated)
+    np.testing.assert_allclose(data["ret"][t], b.rewards[t] + gamma * critic.numpy(), rtol=1e-5, atol=1e-6)
+
+
+def test_arrived_agents_bootstrap_from_zero():
+    d = dims()
+    learner = make_learner("d2mava", {}, d, seed=0)
+    b = hand_batch(d, flat=False)  # transition 2 is terminal, its next row holds a value of 7.0
+    data = learner.prepare([b])
+    assert data["ret"][2] == pytest.approx(0.5)  # reward only: 7.0 is not bootstrapped
+    assert data["ret"][3] == pytest.approx(2.0 + learner.config.gamma * 0.3, rel=1e-6)  # truncated: r + gamma V
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.integers(1, 12), st.integers(1, 8), st.lists(st.integers(2, 12), min_size=1, max_size=40),
+       st.integers(0, 2**31 - 1))
+def test_replay_ring_next_rows_stay_in_their_episode_across_wraps(capacity, initial, lengths, seed):
+    """Episodes of any length through a tiny ring (split across its end, partly overwritten): every
+    sampled transition's next observation is the row its episode pointed to."""
+    rng = np.random.default_rng(seed)
+    mem = ReplayMemory(capacity=capacity, initial=initial)
+    for k, m in enumerate(x for x in lengths if x <= capacity):
+        obs_idx = np.sort(rng.choice(m - 1, size=int(rng.integers(1, m)), replace=False))
+        next_idx = np.array([int(rng.integers(o + 1, m)) for o in obs_idx])
+        n = len(obs_idx)
+        rows = np.stack([np.full(m, k), np.arange(m)], axis=1).astype(np.float32)  # (episode, row) tags
+        mem.add(EpisodeBatch({"flat": rows}, np.zeros(m, np.float32), obs_idx, next_idx, np.zeros(n, np.int64),
+                             np.zeros(n, np.float32), next_idx.astype(np.float32), np.zeros(n, bool),
+                             np.zeros(n, bool), np.zeros(n, np.int32), ["a"], stats()))
+        assert mem.size <= capacity and mem.allocated <= capacity
+        s = mem.sample(32, rng)
+        o, nx = s["obs"]["flat"], s["next_obs"]["flat"]
+        np.testing.assert_array_equal(nx[:, 0], o[:, 0])  # same episode
+        np.testing.assert_array_equal(nx[:, 1], s["rewards"])  # the row it pointed to (stored as reward)

@@ -182,6 +182,9 @@ def test_evaluate_compare_and_report(tmp_path, trained_run):
     assert table[0] == ["Algorithm", "Risk Ratio - tiny_conflict"]
     assert [r[0] for r in table[1:]] == ["D2MAV-A No Shared Layers", "MVP speed-only (rule-based)"]
     assert "±" in table[1][1]
+    # No path of this machine in a report meant to be committed (only run names).
+    assert str(tmp_path) not in (rep / "report.md").read_text()
+    assert f"Evaluation runs: {ev_dir.name}" in (rep / "report.md").read_text()
     assert (rep / "reward_curve.png").read_bytes()[:4] == b"\x89PNG"
     with open(rep / "nmac_encounters.csv", newline="") as fh:
         enc = list(csv.DictReader(fh))
@@ -229,3 +232,52 @@ def test_ray_workers_produce_the_same_transitions_as_in_process():
         for bl, br in zip(part_l, part_r):
             np.testing.assert_array_equal(bl.actions, br.actions)
             np.testing.assert_array_equal(bl.rewards, br.rewards)
+
+
+class _RunsCode:
+    """Unpickling this object would call ``Path.touch(marker)``: stands for any code in a hostile file."""
+
+    def __init__(self, marker: Path):
+        self.marker = marker
+
+    def __reduce__(self):
+        return (Path.touch, (self.marker,))
+
+
+def test_checkpoint_with_a_pickled_object_is_refused_without_running_it(tmp_path):
+    marker = tmp_path / "code-ran"
+    path = tmp_path / "hostile.pt"
+    torch.save({"format": 1, "algorithm": {"kind": "d2mava"}, "learner": _RunsCode(marker)}, path)
+    with pytest.raises(ValueError, match=r"hostile\.pt: refused"):
+        load_checkpoint(path)
+    assert not marker.exists()
+
+
+def test_checkpoint_is_plain_data_loadable_with_weights_only(tmp_path):
+    d = usecase_dims("corridor_sa", {"n_intruders": 4})
+    a = make_learner("dqn", {}, d, seed=1)
+    meta = {"algorithm": {"kind": "dqn"}, "dims": {"n": np.int64(3)}, "env": {"metrics": ("safety",)},
+            "where": tmp_path, "array": np.arange(3.0)}
+    save_checkpoint(tmp_path / "c.pt", a, TrainState(), meta)
+    raw = torch.load(tmp_path / "c.pt", weights_only=True)
+    assert raw["dims"]["n"] == 3 and type(raw["dims"]["n"]) is int
+    assert raw["where"] == str(tmp_path) and torch.equal(raw["array"], torch.arange(3.0, dtype=torch.float64))
+    with pytest.raises(TypeError, match=r"checkpoint\.bad"):
+        save_checkpoint(tmp_path / "d.pt", a, TrainState(), {"bad": object()})
+
+
+def test_evaluation_keeps_the_training_runs_time_limit_and_dt_unless_overridden():
+    from rlbridge.agents.rollout import EnvSpec
+    from rlbridge.experiment.evaluate import evaluation_env
+
+    trained = EnvSpec(TINY, params={"n_intruders": 4}, time_limit_s=600.0, dt=0.5)
+    with initialize_config_module("rlbridge.conf", version_base="1.3"):
+        default = compose("evaluate", overrides=["run=x"])
+        override = compose("evaluate", overrides=["run=x", "env.time_limit_s=90", "env.dt=0.25"])
+    env = evaluation_env(default, trained)
+    assert (env.time_limit_s, env.dt, env.scenario) == (600.0, 0.5, TINY)
+    assert env.params["n_intruders"] == 4 and env.params["alt_noise_ft"] == 100.0
+    env = evaluation_env(override, trained)
+    assert (env.time_limit_s, env.dt) == (90.0, 0.25)
+    # A training run on the engine's default stays on it.
+    assert evaluation_env(default, EnvSpec(TINY)).time_limit_s is None

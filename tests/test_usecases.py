@@ -137,3 +137,26 @@ def test_agent_info_and_discovered_cross_the_wire():
     payload["agent_info"] = {"nmac": np.zeros(len(result.agents), np.float32)}
     with pytest.raises(ProtocolError, match="agent_info"):
         step_result_from_payload(decode(encode({"v": 1, **payload})))
+
+
+def test_discovered_agents_and_typed_info_over_zmq(mixed_scenario):
+    """Over ZeroMQ the same episode: possible_agents grows with MCRE/PCALL/SCHEDULE aircraft, float info intact."""
+    from bridge_util import thread_server
+
+    with thread_server(scenario_roots=(mixed_scenario.parent,)) as server:
+        runs = []
+        for backend, address in (("local", None), ("zmq", server.endpoint)):
+            env = rlbridge.parallel_env(str(mixed_scenario), usecase="reach_destination", backend=backend,
+                                        address=address, time_limit_s=60)
+            trace = [env.reset(seed=3)[1]]
+            assert set(env.agents) <= set(env.possible_agents)
+            while env.agents:
+                *_, infos = env.step({a: 2 for a in env.agents})
+                assert set(infos) <= set(env.possible_agents)
+                trace.append(infos)
+            runs.append((list(env.possible_agents), trace))
+            env.close()
+    assert runs[0] == runs[1]
+    possible, trace = runs[0]
+    assert len(possible) == 5 and {"X", "P1", "S1"} <= set(possible)
+    assert all(isinstance(i["dist_m"], float) and isinstance(i["arrived"], bool) for step in trace for i in step.values())

@@ -111,7 +111,7 @@ def convert_command(
     strict: bool,
 ) -> None:
     """Convert SCHEDULE.csv into a scenario file (the default command)."""
-    from uamtoolkit_import.convert import ConvertOptions, convert
+    from uamtoolkit_import.convert import ConvertOptions, write_scenario
     from uamtoolkit_import.headers import ScheduleFormatError
     from uamtoolkit_import.schedule import read_schedule
 
@@ -125,6 +125,8 @@ def convert_command(
     except ScheduleFormatError as exc:
         click.echo(f"error: {exc}", err=True)
         sys.exit(2)
+    for warning in schedule.warnings:
+        click.echo(f"warning: {warning}", err=True)
     for err in schedule.errors:
         click.echo(str(err), err=True)
     if strict and schedule.errors:
@@ -137,9 +139,9 @@ def convert_command(
     options = ConvertOptions(
         start_s=start or 0.0, end_s=end, alt_noise_ft=alt_noise_ft, aircraft_type=actype, seed=seed
     )
-    result = convert(schedule, network, options)
     out_path.parent.mkdir(parents=True, exist_ok=True)
-    out_path.write_text(result.text, encoding="utf-8")
+    with open(out_path, "w", encoding="utf-8", newline="\n") as fh:
+        result = write_scenario(schedule, network, fh, options)
     window = f", {result.outside_window} outside the time window" if start is not None or end is not None else ""
     click.echo(f"{out_path}: {len(result.written)} flights written, {schedule.skipped_rows} skipped{window}")
 
@@ -186,6 +188,12 @@ def convert_command(
     help="Generate flights departing in the first HOURS of the day.",
 )
 @click.option("--type", "actype", default="EVTOL4", show_default=True, help="Aircraft type written in the schedule.")
+@click.option(
+    "--prefix",
+    default="UAM",
+    show_default=True,
+    help="Flight ids are PREFIXnnnn in departure order (another prefix keeps two days' callsigns apart).",
+)
 def synth_command(
     network_path: Path | None,
     out_path: str,
@@ -196,6 +204,7 @@ def synth_command(
     max_wait_min: float,
     hours: float,
     actype: str,
+    prefix: str,
 ) -> None:
     """Generate a synthetic UAMToolkit schedule (a day of fleet operations)."""
     from dataclasses import replace
@@ -213,6 +222,7 @@ def synth_command(
         max_wait_s=60.0 * max_wait_min,
         day_s=3600.0 * hours,
         aircraft_type=actype,
+        flight_prefix=prefix,
     )
     result = synthesize(network, config)
     with click.open_file(out_path, "w", encoding="utf-8") as fh:

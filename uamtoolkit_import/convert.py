@@ -19,9 +19,11 @@ BlueSky's navigation database.
 
 from __future__ import annotations
 
+import io
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
+from typing import IO
 
 import numpy as np
 
@@ -61,7 +63,7 @@ class ConvertOptions:
 class Conversion:
     """The scenario text and what went into it."""
 
-    text: str
+    text: str  # empty when :func:`write_scenario` wrote it to a stream
     written: list[ScheduledFlight]
     outside_window: int
     names: dict[str, str] = field(default_factory=dict)
@@ -77,17 +79,22 @@ def scenario_names(network: Network) -> dict[str, str]:
     return names
 
 
+def _noise_draws(schedule: Schedule, options: ConvertOptions) -> np.ndarray:
+    """One uniform draw per line number up to the last valid row [ft] (index = row)."""
+    if not schedule.flights:
+        return np.zeros(0)
+    last_row = max(f.row for f in schedule.flights)
+    rng = np.random.default_rng(options.seed)
+    return rng.uniform(-options.alt_noise_ft, options.alt_noise_ft, size=last_row + 1)
+
+
 def altitude_noise_ft(schedule: Schedule, options: ConvertOptions) -> dict[int, float]:
     """Uniform noise in [-alt_noise_ft, +alt_noise_ft] per schedule row [ft].
 
     The draw depends only on the seed and the row number, so a flight keeps
     its altitude whatever time window is converted.
     """
-    if not schedule.flights:
-        return {}
-    last_row = max(f.row for f in schedule.flights)
-    rng = np.random.default_rng(options.seed)
-    draws = rng.uniform(-options.alt_noise_ft, options.alt_noise_ft, size=last_row + 1)
+    draws = _noise_draws(schedule, options)
     return {f.row: float(draws[f.row]) for f in schedule.flights}
 
 
@@ -136,27 +143,42 @@ def flight_block(
 
 def convert(schedule: Schedule, network: Network, options: ConvertOptions | None = None) -> Conversion:
     """Turn a validated schedule into scenario text (flights outside the window are left out)."""
+    buf = io.StringIO()
+    result = write_scenario(schedule, network, buf, options)
+    result.text = buf.getvalue()
+    return result
+
+
+def write_scenario(
+    schedule: Schedule, network: Network, out: IO[str], options: ConvertOptions | None = None
+) -> Conversion:
+    """Write the scenario to ``out`` flight by flight (a million flights never make one string).
+
+    The flights in the window are ordered by (departure, row) with an index sort over two
+    arrays, not by sorting objects.
+    """
     options = options or ConvertOptions()
     names = scenario_names(network)
-    noise = altitude_noise_ft(schedule, options)
-    kept = sorted(
-        (f for f in schedule.flights if in_window(f.departure_s, options)), key=lambda f: (f.departure_s, f.row)
-    )
+    draws = _noise_draws(schedule, options)
+    window = [f for f in schedule.flights if in_window(f.departure_s, options)]
+    order = np.lexsort((np.fromiter((f.row for f in window), np.int64, len(window)),
+                        np.fromiter((f.departure_s for f in window), np.float64, len(window))))
+    kept = [window[i] for i in order]
+    del window
     used: set[str] = set()
     for f in kept:
         used.update((f.origin, f.destination, *f.route))
-    body: list[str] = []
-    for f in kept:
-        actype = (f.aircraft_type or "EC35") if options.aircraft_type.upper() == "SCHEDULE" else options.aircraft_type
-        body.extend(flight_block(f, network, names, options.start_s, noise[f.row], actype.upper()))
-    head = _header(schedule, network, options, kept, names, used)
-    defs = []
+    out.write("\n".join(_header(schedule, network, options, kept, names, used)) + "\n")
     for pid in network.point_ids:
         if pid in used:
             lat, lon = network.position(pid)
-            defs.append(f"00:00:00.00>DEFWPT {names[pid]} {lat:.6f} {lon:.6f}")
-    text = "\n".join([*head, *defs, *body]) + "\n"
-    return Conversion(text, kept, len(schedule.flights) - len(kept), names)
+            out.write(f"00:00:00.00>DEFWPT {names[pid]} {lat:.6f} {lon:.6f}\n")
+    by_type = options.aircraft_type.upper() == "SCHEDULE"
+    for f in kept:
+        actype = (f.aircraft_type or "EC35") if by_type else options.aircraft_type
+        out.write("\n".join(flight_block(f, network, names, options.start_s, float(draws[f.row]), actype.upper())))
+        out.write("\n")
+    return Conversion("", kept, len(schedule.flights) - len(kept), names)
 
 
 def _header(

@@ -6,17 +6,25 @@ Headers are matched by name, with aliases and units
 Every row is validated on its own. A bad row yields :class:`RowError`\\ s
 that name the file, the row (its line number; the header is line 1) and the
 field, and the row is left out; a bad header makes the whole file unusable
-(:class:`ScheduleFormatError`).
+(:class:`ScheduleFormatError`). A row is one line: a quoted field cannot span
+lines, so an unterminated quote costs only its own row.
+
+Files are read line by line (a 100 MB schedule is never held as one text) in
+the encoding :func:`read_lines` detects: a BOM (UTF-8 or UTF-16), UTF-16
+without BOM, else UTF-8, and a line that is not UTF-8 is read as cp1252 with a
+warning naming the first such line and byte offset.
 """
 
 from __future__ import annotations
 
+import codecs
 import csv
-import io
+import logging
 import math
 import re
-from collections.abc import Callable, Iterable
-from dataclasses import dataclass
+import sys
+from collections.abc import Callable, Iterable, Iterator
+from dataclasses import dataclass, field
 from datetime import date
 from itertools import pairwise
 from pathlib import Path
@@ -26,13 +34,15 @@ from uamtoolkit_import.headers import CANONICAL_HEADER, ScheduleFormatError, res
 from uamtoolkit_import.network import Network
 from uamtoolkit_import.times import TimeParseError, format_clock, parse_schedule_time
 
+log = logging.getLogger(__name__)
+
 Report = Callable[[str, str], None]
 """Records an error: (field, message)."""
 
 _ROUTE_SPLIT = re.compile(r"[\s;,|>]+")
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, slots=True)
 class ScheduledFlight:
     """One valid schedule row, in the contract's units.
 
@@ -45,7 +55,7 @@ class ScheduledFlight:
         passengers: count, or None when not given; cargo_kg: [kg], or None when not given.
     """
 
-    row: int
+    row: int  # (slots: a million flights of a 100 MB schedule fit in a few hundred MB)
     flight_id: str
     callsign: str
     tail_id: str
@@ -82,6 +92,8 @@ class Schedule:
     flights: list[ScheduledFlight]
     errors: list[RowError]
     rows: int
+    warnings: list[str] = field(default_factory=list)  # e.g. the encoding fallback
+    encoding: str = "utf-8"
 
     @property
     def skipped_rows(self) -> int:
@@ -108,6 +120,9 @@ class _RowReader:
         self.source = source
         self.reference_day: date | None = None
         self.callsigns: dict[str, int] = {}
+        # Valid routes by (text, origin, destination): rows share a few hundred routes, so they
+        # share the tuples too (and skip re-checking the segments).
+        self.routes: dict[tuple[str, str, str], tuple[str, ...]] = {}
 
     def _cell(self, cells: list[str], name: str) -> str:
         spec = self.columns.get(name)
@@ -142,6 +157,8 @@ class _RowReader:
                 bad(name, "missing value")
             elif value not in self.network.vertiports:
                 bad(name, f'unknown vertiport "{value}"')
+            else:
+                ends[name] = sys.intern(value)  # one string per vertiport, not one per row
         origin, destination = ends["origin"], ends["destination"]
         if origin and origin == destination:
             bad("destination", f'"{destination}" is also the origin')
@@ -181,8 +198,8 @@ class _RowReader:
             row,
             flight_id,
             callsign,
-            self._cell(cells, "tail_id"),
-            self._cell(cells, "aircraft_type"),
+            sys.intern(self._cell(cells, "tail_id")),
+            sys.intern(self._cell(cells, "aircraft_type")),
             origin,
             destination,
             dep,
@@ -216,7 +233,23 @@ class _RowReader:
 
     def _route(self, cells: list[str], origin: str, destination: str, report: Report) -> tuple[str, ...]:
         text = self._cell(cells, "route")
-        tokens = [t for t in _ROUTE_SPLIT.split(text) if t]
+        key = (text, origin, destination)
+        cached = self.routes.get(key)
+        if cached is not None:
+            return cached
+        errors: list[str] = []
+
+        def note(fieldname: str, message: str) -> None:
+            errors.append(message)
+            report(fieldname, message)
+
+        route = self._check_route(text, origin, destination, note)
+        if not errors:
+            self.routes[key] = route
+        return route
+
+    def _check_route(self, text: str, origin: str, destination: str, report: Report) -> tuple[str, ...]:
+        tokens = [sys.intern(t) for t in _ROUTE_SPLIT.split(text) if t]
         if tokens and tokens[0] == origin:
             tokens = tokens[1:]
         if tokens and tokens[-1] == destination:
@@ -241,31 +274,42 @@ class _RowReader:
         return tuple(tokens)
 
 
+def split_row(line: str) -> list[str]:
+    """The cells of one CSV line (RFC 4180 quoting within the line).
+
+    Raises:
+        csv.Error: an unterminated quote (a quoted field cannot span lines).
+    """
+    if '"' not in line:  # the common case, and what the csv module would return
+        return line.rstrip("\r\n").split(",")
+    return next(csv.reader([line], strict=True))
+
+
 def parse_schedule(stream: Iterable[str], network: Network, source: str = "<schedule>") -> Schedule:
-    """Read a schedule from lines of CSV text.
+    """Read a schedule from its lines (one row per line; line 1 is the header).
 
     Raises:
         ScheduleFormatError: the header row is missing or unusable.
     """
-    reader = csv.reader(stream)
-    try:
-        headers = next(reader)
-    except StopIteration:
-        raise ScheduleFormatError(f"{source}: the file is empty (no header row)") from None
-    except csv.Error as exc:
-        raise ScheduleFormatError(f"{source}:1: {exc}") from None
-    rows = _RowReader(network, resolve_headers(headers, source), source)
+    lines = enumerate(stream, start=1)
+    rows: _RowReader | None = None
     flights: list[ScheduledFlight] = []
     errors: list[RowError] = []
     count = 0
-    while True:
-        line = reader.line_num + 1
+    for line, text in lines:
+        if rows is None:
+            try:
+                headers = split_row(text)
+            except csv.Error as exc:
+                raise ScheduleFormatError(f"{source}:{line}: unreadable header ({exc})") from None
+            rows = _RowReader(network, resolve_headers(headers, source), source)
+            continue
         try:
-            cells = next(reader)
-        except StopIteration:
-            break
+            cells = split_row(text)
         except csv.Error as exc:
-            errors.append(RowError(source, line, "*", f"unreadable CSV ({exc})"))
+            errors.append(RowError(source, line, "*", f"unreadable CSV row ({exc}: a quote is not closed "
+                                   "on this line)"))
+            count += 1
             continue
         if not any(c.strip() for c in cells) or cells[0].lstrip().startswith("#"):
             continue
@@ -274,23 +318,101 @@ def parse_schedule(stream: Iterable[str], network: Network, source: str = "<sche
         if flight is not None:
             flights.append(flight)
         errors.extend(row_errors)
+    if rows is None:
+        raise ScheduleFormatError(f"{source}: the file is empty (no header row)")
     return Schedule(source, flights, errors, count)
 
 
+_CR_SPLIT = re.compile(rb"(?<=\r)(?!\n)")  # after a lone CR (old Mac line ends)
+_FALLBACK = "cp1252"
+
+
+class _Lines:
+    """The decoded lines of a schedule file, read lazily; ``warnings`` gathers the encoding notes."""
+
+    def __init__(self, path: Path):
+        self.path = path
+        self.warnings: list[str] = []
+        with open(path, "rb") as fh:
+            head = fh.read(4)
+        if head.startswith(codecs.BOM_UTF8):
+            self.encoding = "utf-8-sig"
+        elif head.startswith((codecs.BOM_UTF16_LE, codecs.BOM_UTF16_BE)):
+            self.encoding = "utf-16"
+        elif len(head) >= 2 and head[0] != 0 and head[1] == 0:  # ASCII text as UTF-16 without a BOM
+            self.encoding = "utf-16-le"
+        elif len(head) >= 2 and head[0] == 0 and head[1] != 0:
+            self.encoding = "utf-16-be"
+        else:
+            self.encoding = "utf-8"
+
+    def __iter__(self) -> Iterator[str]:
+        if self.encoding.startswith("utf-16"):
+            yield from self._utf16()
+        else:
+            yield from self._utf8()
+
+    def _utf16(self) -> Iterator[str]:
+        line = 0
+        with open(self.path, encoding=self.encoding, newline="") as fh:
+            try:
+                for text in fh:
+                    line += 1
+                    yield text.lstrip("\ufeff") if line == 1 else text
+            except UnicodeDecodeError as exc:
+                raise ScheduleFormatError(f"{self.path}:{line + 1}: not valid {self.encoding} text ({exc.reason})") \
+                    from None
+
+    def _utf8(self) -> Iterator[str]:
+        """UTF-8 line by line (exact: a newline byte never occurs inside a UTF-8 sequence)."""
+        line, offset, fallback_lines = 0, 0, 0
+        with open(self.path, "rb") as fh:
+            for raw in fh:
+                for part in _CR_SPLIT.split(raw) if b"\r" in raw.rstrip(b"\r\n") else (raw,):
+                    line += 1
+                    if line == 1 and part.startswith(codecs.BOM_UTF8):
+                        part, offset = part[3:], offset + 3
+                    try:
+                        text = part.decode("utf-8")
+                    except UnicodeDecodeError as exc:
+                        if not fallback_lines:
+                            self._warn_fallback(line, offset + exc.start, part[exc.start])
+                        fallback_lines += 1
+                        text = self._fallback(part)
+                    offset += len(part)
+                    yield text
+        if fallback_lines > 1:
+            self.warnings.append(f"{self.path}: {fallback_lines} lines in all were read as {_FALLBACK}")
+
+    def _warn_fallback(self, line: int, offset: int, byte: int) -> None:
+        msg = (f"{self.path}:{line}: byte 0x{byte:02X} at offset {offset} is not UTF-8; "
+               f"this line and any other such line are read as {_FALLBACK}")
+        log.warning("%s", msg)
+        self.warnings.append(msg)
+
+    @staticmethod
+    def _fallback(part: bytes) -> str:
+        try:
+            return part.decode(_FALLBACK)
+        except UnicodeDecodeError:  # the five bytes cp1252 leaves undefined: Latin-1 has them all
+            return part.decode("latin-1")
+
+
 def read_schedule(path: str | Path, network: Network) -> Schedule:
-    """Read a schedule CSV file (UTF-8, with or without BOM).
+    """Read a schedule CSV file, line by line (see the module docstring for the encodings).
 
     Raises:
         ScheduleFormatError: the file cannot be read or its header is unusable.
     """
     path = Path(path)
     try:
-        text = path.read_text(encoding="utf-8-sig")
+        lines = _Lines(path)
+        schedule = parse_schedule(lines, network, str(path))
     except OSError as exc:
         raise ScheduleFormatError(f"{path}: cannot read the schedule ({exc.strerror})") from None
-    except UnicodeDecodeError:
-        raise ScheduleFormatError(f"{path}: not UTF-8 text") from None
-    return parse_schedule(io.StringIO(text, newline=""), network, str(path))
+    schedule.warnings.extend(lines.warnings)
+    schedule.encoding = lines.encoding
+    return schedule
 
 
 def write_schedule(flights: Iterable[ScheduledFlight], out: IO[str]) -> int:

@@ -30,8 +30,24 @@ TIME_UNITS_S = {
 }
 
 
+MAX_SCHEDULE_TIME_S = 7 * 86400.0
+"""The schedule horizon: times are at most a week after midnight of the schedule's day [s].
+
+A scenario file's clock (``HH:MM:SS.hh``) has no upper bound, but a time far beyond any
+schedule (``1e303`` s) is a typo or garbage that would only fail later, in ``aamsim run``."""
+
+
 class TimeParseError(ValueError):
     """A text is not a time of day."""
+
+
+def _in_horizon(seconds: float, text: str) -> float:
+    if not seconds <= MAX_SCHEDULE_TIME_S:  # also NaN
+        raise TimeParseError(
+            f'"{text}" is beyond the schedule horizon ({MAX_SCHEDULE_TIME_S / 3600:.0f} h after midnight '
+            "of the schedule's day)"
+        )
+    return seconds
 
 
 def parse_clock(text: str) -> float:
@@ -61,7 +77,7 @@ def parse_schedule_time(text: str, unit_s: float = 1.0, reference_day: date | No
     if not t:
         raise TimeParseError("missing value")
     if ":" in t and not _ISO.match(t):
-        return parse_clock(t), reference_day
+        return _in_horizon(parse_clock(t), text), reference_day
     if _ISO.match(t):
         try:
             stamp = datetime.fromisoformat(t)
@@ -72,14 +88,14 @@ def parse_schedule_time(text: str, unit_s: float = 1.0, reference_day: date | No
         seconds = (stamp - midnight).total_seconds()
         if seconds < 0:
             raise TimeParseError(f'"{text}" is before the schedule\'s first day ({day.isoformat()})')
-        return seconds, day
+        return _in_horizon(seconds, text), day
     try:
         value = float(t)
     except ValueError:
         raise TimeParseError(f'"{text}" is not a time (HH:MM:SS, seconds or ISO 8601)') from None
     if not math.isfinite(value) or value < 0:
         raise TimeParseError(f'"{text}" is not a time of day (negative or not finite)')
-    return value * unit_s, reference_day
+    return _in_horizon(value * unit_s, text), reference_day
 
 
 def format_clock(seconds: float, decimals: int = 0) -> str:

@@ -203,7 +203,15 @@ class RolloutWorker:
         reward_total = 0.0
         pending: dict[str, tuple[int, int, float]] = {}  # agent -> (row, action, logp) of its last decision
         while True:
-            out = ActOutput(None) if result.done else act.act(result, core, rng, explore)
+            if not result.done:
+                out = act.act(result, core, rng, explore)
+            elif rec is not None and len(result.agents):
+                # The episode is over, but agents cut by the time limit bootstrap from the critic's
+                # value of their last observation (GAE, docs/algorithms.md); arrived agents' values
+                # are stored too but never used (terminated: bootstrap 0). Only the values are kept.
+                out = ActOutput(None, values=act.act(result, core, rng, explore).values)
+            else:
+                out = ActOutput(None)
             rows = rec.add(result, out, pending) if rec is not None else np.zeros(len(result.agents), np.int64)
             transitions += len(pending)
             reward_total += float(np.sum(result.rewards))

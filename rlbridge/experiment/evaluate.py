@@ -55,6 +55,23 @@ def group_means(stats: list[EpisodeStats], group: str) -> dict[str, dict[str, fl
     return {k: _mean_std([s.metrics.get(group, {}).get(k) for s in stats]) for k in keys}
 
 
+def evaluation_env(cfg: DictConfig, trained_env: EnvSpec) -> EnvSpec:
+    """The episode settings of an evaluation: the training run's, overridden by ``cfg``.
+
+    ``scenario``, ``env.time_limit_s`` and ``env.dt`` left null keep the training run's
+    values (a training run's own null time limit stays null: the engine's default, last
+    command of the evaluated scenario + 2 h); the altitude noise and metrics are the
+    evaluation's.
+    """
+    scenario = resolve_scenario_path(str(cfg.scenario)) if cfg.scenario else trained_env.scenario
+    params = dict(trained_env.params, alt_noise_ft=float(cfg.alt_noise_ft),
+                  alt_noise_lanes_ft=[float(x) for x in cfg.alt_noise_lanes_ft])
+    return replace(trained_env, scenario=scenario, params=params, metrics=tuple(cfg.metrics),
+                   time_limit_s=trained_env.time_limit_s if cfg.env.time_limit_s is None
+                   else float(cfg.env.time_limit_s),
+                   dt=trained_env.dt if cfg.env.dt is None else float(cfg.env.dt))
+
+
 def run_evaluation(cfg: DictConfig, out_dir: str | Path) -> dict[str, Any]:
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
@@ -64,12 +81,8 @@ def run_evaluation(cfg: DictConfig, out_dir: str | Path) -> dict[str, Any]:
     ckpt = load_checkpoint(ckpt_path)
     algo = ckpt["algorithm"]
     trained_env = EnvSpec(**{**ckpt["env"], "metrics": tuple(ckpt["env"]["metrics"])})
-    scenario = resolve_scenario_path(str(cfg.scenario)) if cfg.scenario else trained_env.scenario
-    params = dict(trained_env.params, alt_noise_ft=float(cfg.alt_noise_ft),
-                  alt_noise_lanes_ft=[float(x) for x in cfg.alt_noise_lanes_ft])
-    env = replace(trained_env, scenario=scenario, params=params, metrics=tuple(cfg.metrics),
-                  time_limit_s=None if cfg.env.time_limit_s is None else float(cfg.env.time_limit_s),
-                  dt=trained_env.dt if cfg.env.dt is None else float(cfg.env.dt))
+    env = evaluation_env(cfg, trained_env)
+    scenario = env.scenario
     name = str(algo["name"])
     label = str(cfg.name or algo.get("label", name))
     if algo["kind"] == "d2mava":

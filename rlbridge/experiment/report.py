@@ -396,7 +396,8 @@ def make_report(eval_dirs: list[Path], train_dirs: list[Path], out: Path, window
                     out / "nmac_encounters.md"]
         for name in ("risk_ratio", "lowc_ratio", "operational", "nmac_encounters"):
             parts += [(out / f"{name}.md").read_text(), ""]
-        parts += ["Evaluation runs: " + ", ".join(str(d) for d in eval_dirs), ""]
+        # Run names only: a report is meant to be committed, the machine's paths are not.
+        parts += ["Evaluation runs: " + ", ".join(d.resolve().name for d in eval_dirs), ""]
     if train_dirs:
         runs = [load_train_run(d) for d in train_dirs]
         training_table(runs, out)

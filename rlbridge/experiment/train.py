@@ -23,6 +23,7 @@ import json
 import logging
 import shutil
 import time
+from collections import OrderedDict
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
@@ -97,19 +98,68 @@ def find_checkpoint(path: str | Path, which: str = "last") -> Path:
     raise FileNotFoundError(f"no checkpoint {cand}")
 
 
+class UntrustedCheckpointError(ValueError):
+    """A checkpoint file that is not plain data (tensors, numbers, strings, lists, dicts)."""
+
+
+def plain_data(x: Any, where: str = "checkpoint") -> Any:
+    """``x`` as the plain data ``torch.load(weights_only=True)`` accepts, or a TypeError naming the field.
+
+    numpy arrays become tensors, numpy scalars Python numbers, paths strings; anything else that is
+    not a tensor, number, string, None, list, tuple or dict is refused at save time, so that every
+    checkpoint written here loads without unpickling objects.
+    """
+    if x is None or isinstance(x, (bool, int, float, str, torch.Tensor, torch.Size, torch.dtype, torch.device)):
+        return x
+    if isinstance(x, np.ndarray):
+        return torch.from_numpy(np.ascontiguousarray(x))
+    if isinstance(x, np.generic):
+        return x.item()
+    if isinstance(x, Path):
+        return str(x)
+    if isinstance(x, dict):
+        out = {k if isinstance(k, (str, int)) else str(k): plain_data(v, f"{where}.{k}") for k, v in x.items()}
+        if isinstance(x, OrderedDict):  # a module's state_dict: keep its version metadata
+            kept = OrderedDict(out)
+            if hasattr(x, "_metadata"):
+                kept._metadata = plain_data(x._metadata, f"{where}._metadata")  # type: ignore[attr-defined]
+            return kept
+        return out
+    if isinstance(x, (list, tuple)):
+        return type(x)(plain_data(v, f"{where}[{i}]") for i, v in enumerate(x))
+    raise TypeError(f"{where}: {type(x).__name__} cannot be stored in a checkpoint (plain data only)")
+
+
 def load_checkpoint(path: str | Path) -> dict[str, Any]:
-    """Read a checkpoint written by :func:`save_checkpoint` (a trusted file: full unpickling)."""
-    ckpt = torch.load(Path(path), map_location="cpu", weights_only=False)
-    if ckpt.get("format") != CHECKPOINT_FORMAT:
-        raise ValueError(f"{path}: not an aamgym checkpoint (format {ckpt.get('format')})")
+    """Read a checkpoint written by :func:`save_checkpoint`.
+
+    Loads with ``weights_only=True``: tensors and plain containers only, so a checkpoint from
+    someone else cannot run code. A file carrying any other object is refused with
+    :class:`UntrustedCheckpointError` (checkpoints of earlier versions hold only plain data and
+    load unchanged; see docs/algorithms.md, "Checkpoints").
+    """
+    import pickle
+
+    try:
+        ckpt = torch.load(Path(path), map_location="cpu", weights_only=True)
+    except pickle.UnpicklingError as exc:
+        first = str(exc).strip().splitlines()
+        raise UntrustedCheckpointError(
+            f"{path}: refused: the checkpoint holds objects other than tensors and plain data, which would "
+            f"run code when unpickled ({first[0] if first else 'unpickling refused'})") from None
+    if not isinstance(ckpt, dict) or ckpt.get("format") != CHECKPOINT_FORMAT:
+        got = ckpt.get("format") if isinstance(ckpt, dict) else type(ckpt).__name__
+        raise ValueError(f"{path}: not an aamgym checkpoint (format {got})")
     return ckpt
 
 
 def save_checkpoint(path: Path, learner: Any, state: TrainState, meta: dict[str, Any]) -> None:
+    """Write atomically; the payload is checked to be plain data (:func:`plain_data`)."""
     path.parent.mkdir(parents=True, exist_ok=True)
     tmp = path.with_suffix(".tmp")
-    torch.save({"format": CHECKPOINT_FORMAT, **meta, "learner": learner.state_dict(), "state": asdict(state),
-                "torch_rng": torch.get_rng_state()}, tmp)
+    payload = plain_data({"format": CHECKPOINT_FORMAT, **meta, "learner": learner.state_dict(),
+                          "state": asdict(state), "torch_rng": torch.get_rng_state()})
+    torch.save(payload, tmp)
     tmp.replace(path)
 
 
