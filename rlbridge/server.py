@@ -13,6 +13,8 @@ reply when the request is bad; nothing a client sends stops the server
 
 from __future__ import annotations
 
+import ctypes
+import ctypes.util
 import logging
 import math
 import time
@@ -77,6 +79,29 @@ class RequestError(Exception):
     def __init__(self, code: str, message: str):
         super().__init__(message)
         self.code = code
+
+
+def _find_malloc_trim() -> Any:
+    try:
+        libc = ctypes.CDLL(ctypes.util.find_library("c") or "libc.so.6")
+        return libc.malloc_trim
+    except (OSError, AttributeError):  # not glibc: nothing to do
+        return None
+
+
+_MALLOC_TRIM = _find_malloc_trim()
+RELEASE_AFTER_BYTES = 256 * 1024  # a request at least this large is followed by release_memory()
+
+
+def release_memory() -> None:
+    """Give the heap's free memory back to the operating system.
+
+    glibc keeps freed memory for reuse, so the server's resident size only grew
+    after large or malformed messages (195.6 -> 283.7 MB over 21,000 of them) and
+    after sessions were freed. Called after large requests and freed sessions.
+    """
+    if _MALLOC_TRIM is not None:
+        _MALLOC_TRIM(0)
 
 
 class ServerStopping(BaseException):
@@ -153,6 +178,7 @@ class SimulationServer:
         self.started = time.monotonic()
         self._stop = False
         self.busy = False  # answering a request (a stop signal then abandons it)
+        self._freed = False  # a session was freed while answering: release memory after the reply
         self._context = zmq.Context()
         self._socket = self._context.socket(zmq.ROUTER)
         self._socket.setsockopt(zmq.LINGER, 0)
@@ -225,6 +251,8 @@ class SimulationServer:
             session = self.sessions.pop(identity)
             if session.core is not None:
                 session.core.close()
+            del session
+            release_memory()
             log.info("session %s idle for more than %.1f s: freed", identity.hex(), limit)
 
     # -------------------------------------------------------------- requests
@@ -244,6 +272,10 @@ class SimulationServer:
         finally:
             self.busy = False
         self._socket.send_multipart(envelope + answer, copy=False)
+        if self._freed or sum(len(f) for f in body) >= RELEASE_AFTER_BYTES:
+            del body, frames, answer
+            self._freed = False
+            release_memory()
 
     def _answer(self, identity: bytes, body: list[Any]) -> list[Any]:
         msg_id = None
@@ -353,6 +385,7 @@ class SimulationServer:
             if session.core is not None:
                 session.core.close()
             del self.sessions[identity]
+            self._freed = True  # memory given back once the reply is sent
             log.info("session %s closed by its client", identity.hex())
         return {"closed": session is not None}
 
