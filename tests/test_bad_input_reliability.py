@@ -43,6 +43,9 @@ def echoes(sim: Simulation) -> list[str]:
     (f"00:00:00.00>SCHEDULE {HUGE}:00 ECHO x", "beyond the longest simulated time"),
     ("00:00:00.00>CRE A EC35 40.7 -74 0 1000 60; ALT A FL" + HUGE, "flight level above FL2000"),
     ("00:00:00.00>PCALL .", '"." is not a file name'),
+    # Found by the fuzzing harness (tests/fuzz): an IndexError and a ValueError escaped.
+    ("00:00:00.00>CRE A EC35 40.7 -74 0 1000 60; RTA A * 01:00:00", "A has no waypoint * in its route"),
+    ("00:00:00.00>SEED -1", "SEED must be a whole number from 0, not -1"),
     ("00:00:00.00>PCALL ..", '".." is not a file name'),
 ])
 def test_numbers_and_names_beyond_range_are_line_errors(tmp_path: Path, line: str, fragment: str) -> None:

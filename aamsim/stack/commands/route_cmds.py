@@ -447,6 +447,8 @@ def rta(sim: Simulation, acid: AcIndex, wpname: RouteWaypoint, time_s: Seconds) 
     """RTA acid, wpname, time: required time of arrival at a waypoint (book-keeping for delay metrics)."""
     route = sim.traffic.routes[acid]
     index = route.find(wpname)
+    if index < 0:  # "*" or a name that left the route: -1 once set the last waypoint's RTA, or crashed
+        raise CommandError(f"{sim.traffic.ids[acid]} has no waypoint {wpname} in its route")
     route.waypoints[index].rta_s = time_s
     if index == len(route) - 1:
         sim.traffic.flights[acid].scheduled_arrival_s = time_s

@@ -206,6 +206,8 @@ def echo(sim: Simulation, text: RestOfLine = "") -> str:
 @command("SEED", group="simulation")
 def seed(sim: Simulation, value: Count) -> None:
     """SEED value: seed the random generator (MCRE and every seeded model)."""
+    if value < 0:
+        raise CommandError(f"SEED must be a whole number from 0, not {value}")
     sim.reseed(value)
 
 
