@@ -19,13 +19,13 @@ from tests.fuzz.scenario import TYPE_VALUES, WORDS, Harness, LineMaker
 SPECS = list(Simulation(use_bluesky_navdata=False).commands.specs())
 # One harness for all hypothesis examples: a fresh simulation every 50 lines (creating one per
 # example would dominate the test's time).
-SHARED = Harness(Path("."), budget_s=10.0, hard_limit_s=30.0, fresh_every=50)
+SHARED = Harness(Path("."), budget_s=30.0, hard_limit_s=60.0, fresh_every=50)
 
 
 def test_two_thousand_random_lines_neither_crash_nor_hang(tmp_path: Path) -> None:
     logging.disable(logging.CRITICAL)
     try:
-        harness = Harness(tmp_path, budget_s=10.0, hard_limit_s=30.0)
+        harness = Harness(tmp_path, budget_s=30.0, hard_limit_s=60.0)
         for line in LineMaker(seed=0).lines(2000):
             harness.run(line)
     finally:
