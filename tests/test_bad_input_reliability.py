@@ -46,6 +46,10 @@ def echoes(sim: Simulation) -> list[str]:
     # Found by the fuzzing harness (tests/fuzz): an IndexError and a ValueError escaped.
     ("00:00:00.00>CRE A EC35 40.7 -74 0 1000 60; RTA A * 01:00:00", "A has no waypoint * in its route"),
     ("00:00:00.00>SEED -1", "SEED must be a whole number from 0, not -1"),
+    ("00:00:00.00>CRE A EC35 40.7 -74 0 1000 60; SEPVOLUME LOWC 1e308", "at most 1e+06 m"),
+    ("00:00:00.00>ZONER 1e308", "protected-zone radius must be positive and at most 1e+06 m"),
+    ("00:00:00.00>ZONEDH 1e308", "protected-zone height must be positive and at most 1e+06 m"),
+    ("00:00:00.00>DTLOOK 1000000", "look-ahead time must be positive and at most 86400 s"),
     ("00:00:00.00>PCALL ..", '".." is not a file name'),
 ])
 def test_numbers_and_names_beyond_range_are_line_errors(tmp_path: Path, line: str, fragment: str) -> None:

@@ -26,14 +26,24 @@ def asas(sim: Simulation, method: Text = "") -> str | None:
     return None
 
 
+# Largest separation distances and look-ahead accepted: beyond them the conflict search's grid
+# overflows (SEPVOLUME LOWC 1e308 crashed the pair search, found by tests/fuzz).
+MAX_SEPARATION_M = 1_000_000.0  # 1,000 km
+MAX_LOOKAHEAD_S = 86_400.0  # a day
+
+
+def _positive_up_to(value: float, limit: float, what: str, unit: str) -> float:
+    if not 0.0 < value <= limit:
+        raise CommandError(f"{what} must be positive and at most {limit:g} {unit}, not {value:g}")
+    return value
+
+
 @command("ZONER", aliases=("PZR", "RPZ", "PZRADIUS"), group="conflicts")
 def zoner(sim: Simulation, radius_nm: Number | None = None) -> str | None:
     """ZONER [radius]: horizontal protected-zone radius [NM] (default 5; 450 m is 0.243)."""
     if radius_nm is None:
         return f"PZ radius {sim.settings.zoner_m / NM:g} NM ({sim.settings.zoner_m:.1f} m)"
-    if radius_nm <= 0:
-        raise CommandError("the protected-zone radius must be positive")
-    sim.settings.zoner_m = radius_nm * NM
+    sim.settings.zoner_m = _positive_up_to(radius_nm * NM, MAX_SEPARATION_M, "the protected-zone radius", "m")
     return None
 
 
@@ -42,9 +52,7 @@ def zonedh(sim: Simulation, height_ft: Number | None = None) -> str | None:
     """ZONEDH [height]: vertical protected-zone half-height [ft] (default 1000)."""
     if height_ft is None:
         return f"PZ half-height {sim.settings.zonedh_m / FT:g} ft"
-    if height_ft <= 0:
-        raise CommandError("the protected-zone height must be positive")
-    sim.settings.zonedh_m = height_ft * FT
+    sim.settings.zonedh_m = _positive_up_to(height_ft * FT, MAX_SEPARATION_M, "the protected-zone height", "m")
     return None
 
 
@@ -53,9 +61,7 @@ def dtlook(sim: Simulation, time_s: Seconds | None = None) -> str | None:
     """DTLOOK [time]: conflict-detection look-ahead time [s] (default 300)."""
     if time_s is None:
         return f"look-ahead {sim.settings.dtlook_s:g} s"
-    if time_s <= 0:
-        raise CommandError("the look-ahead time must be positive")
-    sim.settings.dtlook_s = time_s
+    sim.settings.dtlook_s = _positive_up_to(time_s, MAX_LOOKAHEAD_S, "the look-ahead time", "s")
     return None
 
 
@@ -74,8 +80,10 @@ def sepvolume(sim: Simulation, name: Text = "", radius_m: Number | None = None,
         volumes = sim.services.conflicts.volumes if sim.services is not None else PAPER_VOLUMES
         return "\n".join(v.describe() for v in volumes)
     service = conflicts_of(sim)
-    if radius_m is None or radius_m <= 0 or (half_height_m is not None and half_height_m <= 0):
-        raise CommandError("SEPVOLUME needs a positive radius [m] (and, for a cylinder, a positive half-height [m])")
+    if radius_m is None or not 0 < radius_m <= MAX_SEPARATION_M or (
+            half_height_m is not None and not 0 < half_height_m <= MAX_SEPARATION_M):
+        raise CommandError(f"SEPVOLUME needs a radius [m] (and, for a cylinder, a half-height [m]) above 0 and at "
+                           f"most {MAX_SEPARATION_M:g} m")
     service.set_volume(SeparationVolume(name.lower(), radius_m, half_height_m))
     return None
 
