@@ -50,9 +50,11 @@ class FlightRecord:
     advisories: int = 0
 
 
-# State that must stay finite; checked after every kernel batch (a few microseconds at 1,000 aircraft).
-_FINITE_NAMES = ("lat", "lon", "alt", "tas", "hdg", "vs")
-_FINITE_ROWS = np.array([f.LAT, f.LON, f.ALT, f.TAS, f.HDG, f.VS])
+# State that must stay finite, checked after every kernel batch: the rows from lat to vs (position,
+# altitude, heading, track, speeds, vertical speed) are contiguous, so one sum over a view tells (a NaN
+# or an infinity makes it non-finite; the values are bounded, so a sum of finite ones cannot overflow).
+_FINITE = slice(f.LAT, f.VS + 1)
+_FINITE_NAMES = f.FLOAT_FIELDS[f.LAT : f.VS + 1]
 
 
 @dataclass
@@ -61,7 +63,7 @@ class Traffic:
 
     capacity: int = 64
     n: int = 0
-    layout_version: int = 0  # changes whenever an aircraft is created or deleted (slots move)
+    layout_version: int = 0  # changes whenever an aircraft is created or deleted (slots move) or the arrays grow
     F: np.ndarray = field(init=False, repr=False)
     B: np.ndarray = field(init=False, repr=False)
     ids: list[str] = field(default_factory=list)
@@ -105,16 +107,16 @@ class Traffic:
 
     # Named views of the fields users read most.
     def all_finite(self) -> bool:
-        """Whether every aircraft's position, altitude, speed, heading and vertical speed are finite."""
-        return bool(np.isfinite(self.F[_FINITE_ROWS, : self.n]).all())
+        """Whether every aircraft's position, altitude, speeds, heading and vertical speed are finite."""
+        return math.isfinite(self.F[_FINITE, : self.n].sum())
 
     def non_finite_slots(self) -> list[int]:
-        """Slots whose position, altitude, speed, heading or vertical speed are not finite."""
-        return np.flatnonzero(~np.isfinite(self.F[_FINITE_ROWS, : self.n]).all(axis=0)).tolist()
+        """Slots whose position, altitude, speeds, heading or vertical speed are not finite."""
+        return np.flatnonzero(~np.isfinite(self.F[_FINITE, : self.n]).all(axis=0)).tolist()
 
     def describe_state(self, i: int) -> str:
-        """``lat .., lon .., alt .., tas .., hdg .., vs ..`` of slot ``i`` (SI units), for messages."""
-        return ", ".join(f"{name} {self.F[row, i]:.6g}" for name, row in zip(_FINITE_NAMES, _FINITE_ROWS))
+        """``lat .., lon .., alt .., ...`` of slot ``i`` (SI units, as the field names say), for messages."""
+        return ", ".join(f"{name} {value:.6g}" for name, value in zip(_FINITE_NAMES, self.F[_FINITE, i]))
 
     lat = property(lambda self: self.F[f.LAT, : self.n])
     lon = property(lambda self: self.F[f.LON, : self.n])
@@ -137,6 +139,7 @@ class Traffic:
         F[:, : self.n] = self.F[:, : self.n]
         B[:, : self.n] = self.B[:, : self.n]
         self.F, self.B, self.capacity = F, B, new_cap
+        self.layout_version += 1  # the arrays are new: views of the old ones are stale
 
     def create(
         self,

@@ -80,7 +80,7 @@ def _field_view(name: str, row: int, flag: bool, doc: str) -> Any:
         # Views are cached until the arrays are replaced or aircraft come or go: hot paths
         # read a dozen fields per decision, and making a read-only view costs more than the lookup.
         t = self._traffic
-        key = (t.n, t.layout_version, id(t.F), id(t.B))
+        key = t.layout_version  # bumped by every creation, deletion and growth of the arrays
         if key != self._key:
             self._key = key
             self._cache = {}
@@ -108,7 +108,7 @@ class TrafficView:
 
     def __init__(self, traffic: Traffic):
         self._traffic = traffic
-        self._key: tuple[int, int, int, int] | None = None
+        self._key: int | None = None
         self._cache: dict[str, np.ndarray] = {}
 
     def __len__(self) -> int:
