@@ -28,6 +28,7 @@ from aamsim.units import Speed
 
 if TYPE_CHECKING:
     from aamsim.services import Services
+    from aamsim.traffic.route import Route
     from aamsim.traffic.traffic import FlightRecord, Traffic
 
 Target = str | int | Sequence[str] | np.ndarray
@@ -141,6 +142,18 @@ class SimulationAPI:
         if not 0 <= index < len(route):
             raise CommandError(f"{self.traffic.ids[slot]} has no waypoint {waypoint} in its route")
         intents.direct_to(self.traffic, slot, index)
+
+    def edit_route(self, slot: int) -> Route:
+        """The aircraft's route, to be changed in place (ADDWPT, DELWPT, ...); see :meth:`activate_waypoint`."""
+        return self.traffic.routes[self.slot(slot)]
+
+    def activate_waypoint(self, slot: int, index: int) -> None:
+        """Make waypoint ``index`` of the route the active one (guidance follows it from the next step)."""
+        intents.activate_waypoint(self.traffic, self.slot(slot), index)
+
+    def flight_record(self, slot: int) -> FlightRecord:
+        """The aircraft's flight record, to be annotated (DEST, ORIG, RTA)."""
+        return self.traffic.flights[self.slot(slot)]
 
     def set_navigation(self, target: str | int, lnav: bool | None = None, vnav: bool | None = None,
                        vnav_speed: bool | None = None) -> None:

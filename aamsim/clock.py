@@ -36,3 +36,37 @@ def validate_dt(dt_s: float) -> float:
     if not math.isfinite(value) or not DT_MIN_S <= value <= DT_MAX_S:
         raise TimeStepError(f"time step must be between {DT_MIN_S:g} s and {DT_MAX_S:g} s, not {dt_s!r}")
     return value
+
+
+class Clock:
+    """Simulation time in integer microseconds and the time step that advances it.
+
+    The step is owned here (``DT`` and every entry point set it through
+    :meth:`set_dt`); times are integers so that a day of 0.05 s steps ends
+    exactly at 86,400 s.
+    """
+
+    __slots__ = ("dt_s", "dt_us", "simt_us")
+
+    def __init__(self, dt_s: float = 0.05):
+        self.simt_us = 0
+        self.dt_s = 0.0
+        self.dt_us = 0
+        self.set_dt(dt_s)
+
+    @property
+    def simt(self) -> float:
+        """Simulation time [s]."""
+        return self.simt_us / US_PER_S
+
+    def set_dt(self, dt_s: float) -> None:
+        """Set the time step [s]; raises :class:`TimeStepError` outside the bounds above."""
+        self.dt_s = validate_dt(dt_s)
+        self.dt_us = round(self.dt_s * US_PER_S)
+
+    def advance(self, steps: int) -> None:
+        self.simt_us += steps * self.dt_us
+
+    def reset(self) -> None:
+        """Back to time 0; the step is kept (RESET keeps DT, as BlueSky does)."""
+        self.simt_us = 0

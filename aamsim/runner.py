@@ -87,9 +87,9 @@ def build_simulation(cfg: RunConfig, path: Path, text: str) -> Simulation:
     """A simulation with the run's settings, plugins and services attached."""
     sim = Simulation(seed=cfg.seed, dt=cfg.dt_s, threads=cfg.threads)
     sim.settings.delete_on_arrival = cfg.delete_on_arrival
-    sim.scenario_name = cfg.name or path.stem
-    sim.scenario_path = path
-    sim.scenario_text = text
+    sim.files.name = cfg.name or path.stem
+    sim.files.path = path
+    sim.files.text = text
     from aamsim.services import attach_run_services
 
     attach_run_services(sim, cfg)
@@ -205,11 +205,11 @@ def make_summary(sim: Simulation, cfg: RunConfig, path: Path, wall_s: float) -> 
     return {
         "scenario": cfg.name or path.stem,
         "scenario_file": str(path),
-        "scenario_sha256": hashlib.sha256(sim.scenario_text.encode("utf-8")).hexdigest(),
+        "scenario_sha256": hashlib.sha256(sim.files.text.encode("utf-8")).hexdigest(),
         "aamsim_version": aamsim.__version__,
         "python": platform.python_version(),
         "seed": cfg.seed,
-        "dt_s": sim.settings.dt_s,
+        "dt_s": sim.dt,
         "threads": sim.threads,
         "until_s": cfg.until_s,
         "sim_time_s": round(simt, 6),

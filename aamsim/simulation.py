@@ -18,32 +18,26 @@ from __future__ import annotations
 import math
 import os
 from collections.abc import Callable, Iterable
-from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numba
 import numpy as np
 
 from aamsim.api import SimulationAPI
-from aamsim.clock import TimeStepError, validate_dt
-from aamsim.errors import ArgumentError, CommandError, ScenarioSyntaxError, SourceRef
+from aamsim.clock import Clock, TimeStepError
+from aamsim.errors import CommandError, SourceRef
 from aamsim.geo import qdrdist
 from aamsim.hooks import Hooks
 from aamsim.messages import Reporter
 from aamsim.navdb import NavDatabase
-from aamsim.stack.argtypes import ACID
-from aamsim.stack.context import LiveContext
-from aamsim.stack.parser import (
-    Command,
-    ParsedScenario,
-    TimedCommand,
-    parse_line,
-    parse_scenario,
-    resolve_command_form,
-    split_commands,
-)
-from aamsim.stack.queue import US_PER_S, CommandQueue, to_us
+from aamsim.scenario_files import ScenarioFiles
+from aamsim.scheduler import Scheduler
+from aamsim.settings import SimSettings
+from aamsim.stack.context import CommandContext
+from aamsim.stack.executor import CommandExecutor
+from aamsim.stack.parser import Command, ParsedScenario, parse_scenario
+from aamsim.stack.queue import CommandQueue, to_us
 from aamsim.stack.registry import CommandRegistry
 from aamsim.traffic import intents
 from aamsim.traffic.autopilot import pass_waypoint
@@ -51,7 +45,7 @@ from aamsim.traffic.conditions import Conditions
 from aamsim.traffic.kernel import STATUS_CONDITION, STATUS_REACHED, advance, advance_parallel
 from aamsim.traffic.performance import PerformanceTable
 from aamsim.traffic.traffic import FlightRecord, Traffic
-from aamsim.units import FT, KTS, MAX_ALTITUDE_FT, MIN_ALTITUDE_FT, NM, Speed
+from aamsim.units import FT, KTS, MAX_ALTITUDE_FT, MIN_ALTITUDE_FT, Speed
 
 # Fewest aircraft for which the parallel kernel is used. Measured on a shared
 # 2-core machine: no gain up to a few thousand aircraft, 1.3-1.8x at 10,000.
@@ -63,28 +57,16 @@ OVERSPEED_FACTOR = 2.0  # a created speed beyond this times the type's maximum i
 MAX_MACH = 5.0  # for types without a Mach limit (rotorcraft: mmo = inf)
 
 
-@dataclass
-class SimSettings:
-    """Run-wide settings (stack commands change most of them)."""
-
-    dt_s: float = 0.05
-    perf_interval_s: float = 1.0
-    delete_on_arrival: bool = False
-    arrival_radius_m: float = 0.1 * NM
-    hold_speed_mps: float = 5.0 * KTS
-    airborne_alt_m: float = 10.0 * FT
-    mcre_area: tuple[float, float, float, float] = (-1.0, -1.0, 1.0, 1.0)  # lat0, lon0, lat1, lon1
-    # Conflict detection, as BlueSky's ASAS settings (used by aamsim.conflicts).
-    cd_method: str = "OFF"
-    zoner_m: float = 5.0 * NM
-    zonedh_m: float = 1000.0 * FT
-    dtlook_s: float = 300.0
-    cd_interval_s: float = 1.0
-    reso: str = "OFF"
-
-
 class Simulation(SimulationAPI):
-    """A simulated airspace: clock, traffic, command stack, hooks and plugins."""
+    """A simulated airspace: clock, traffic, command stack, hooks and plugins.
+
+    It is assembled from parts with one job each: the :class:`~aamsim.clock.Clock`
+    and the :class:`~aamsim.scheduler.Scheduler` (what is due when), the
+    :class:`~aamsim.scenario_files.ScenarioFiles`, the command stack
+    (:class:`~aamsim.stack.executor.CommandExecutor`, whose handlers receive this
+    object as a :class:`~aamsim.stack.context.CommandContext`), the traffic, and
+    the services. What stays here is the stepping loop that ties them together.
+    """
 
     STATE_INIT, STATE_OP, STATE_HOLD = "INIT", "OP", "HOLD"
 
@@ -97,43 +79,33 @@ class Simulation(SimulationAPI):
         register_builtins: bool = True,
         threads: int = 1,
     ):
+        try:
+            self.clock = Clock(dt)  # the one check every entry point shares (aamsim.clock)
+        except TimeStepError as exc:
+            raise CommandError(f"DT: {exc}") from None
         self.settings = SimSettings()
-        self.set_dt(dt)  # the one check every entry point shares (aamsim.clock)
         self.threads = 1
         self.set_threads(threads)
         self.seed = seed
-        self.rng = np.random.default_rng(seed)
-        self.simt_us = 0
+        self._rng = np.random.default_rng(seed)
         self.state = self.STATE_INIT
         self.traffic = Traffic()
-        self.commands = CommandRegistry()
-        self.queue = CommandQueue()
         self.hooks = Hooks()
+        self.scheduler = Scheduler(self.clock, self.hooks)
+        self.commands = CommandRegistry()
+        self.reporter = Reporter()
+        self.executor = CommandExecutor(self, self.commands, self.scheduler.queue, self.report)
+        self.files = ScenarioFiles()
         self.conditions = Conditions()
         self.navdb = NavDatabase(use_bluesky_data=use_bluesky_navdata)
         self.performance = performance or PerformanceTable()
-        self.reporter = Reporter()
         self.flight_log: list[FlightRecord] = []
-        self.scenario_name = ""
-        self.scenario_path: Path | None = None
-        self.scenario_text = ""
-        self.search_path: list[Path] = []
-        # Called with every file PCALL/IC resolve; raises CommandError to refuse it (the ZMQ server's roots).
-        self.file_guard: Callable[[Path], None] | None = None
-        # File -> the chain of files whose PCALL/IC loaded it (kept across IC's reset, so that
-        # files that IC each other are caught as a cycle too).
-        self.call_chains: dict[str, tuple[str, ...]] = {}
-        self._last_command: dict[str, tuple[str, SourceRef | None]] = {}  # callsign -> last command on it
-        self._command_text = ""  # the command being executed
         self.plugins: dict[str, Any] = {}
         self.extensions: dict[str, Any] = {}  # per-simulation state of services and plugins
         self.aircraft_steps = 0
         self.quit_requested = False
         self._conditions_idle_s = 0.0
-        self._next_perf_us = 0
-        self._perf_pending = False  # an aircraft waits for its first performance refresh
         self._noted: set[str] = set()
-        self._source: SourceRef | None = None
         self._scratch_cap = 0
         self._alloc_scratch()
         if register_builtins:
@@ -145,22 +117,37 @@ class Simulation(SimulationAPI):
     @property
     def simt(self) -> float:
         """Simulation time [s]."""
-        return self.simt_us / US_PER_S
+        return self.clock.simt_us / 1_000_000
+
+    @property
+    def simt_us(self) -> int:
+        """Simulation time [us] (exact)."""
+        return self.clock.simt_us
 
     @property
     def dt(self) -> float:
-        return self.settings.dt_s
+        """Time step [s]."""
+        return self.clock.dt_s
 
     @property
     def dt_us(self) -> int:
-        return to_us(self.settings.dt_s)
+        return self.clock.dt_us
 
     def set_dt(self, dt_s: float) -> None:
         """Set the time step [s]; raises :class:`CommandError` outside :mod:`aamsim.clock`'s bounds."""
         try:
-            self.settings.dt_s = validate_dt(dt_s)
+            self.clock.set_dt(dt_s)
         except TimeStepError as exc:
             raise CommandError(f"DT: {exc}") from None
+
+    @property
+    def rng(self) -> np.random.Generator:
+        """The simulation's random generator (SEED sets it)."""
+        return self._rng
+
+    def reseed(self, seed: int | None) -> None:
+        self.seed = seed
+        self._rng = np.random.default_rng(seed)
 
     def set_threads(self, threads: int) -> None:
         """Use ``threads`` Numba threads to step the traffic (1: serial, the default).
@@ -193,6 +180,11 @@ class Simulation(SimulationAPI):
             self.report("note", text, source)
 
     # --------------------------------------------------------------- scenarios
+    @property
+    def scenario_name(self) -> str:
+        """Name of the scenario (the first file loaded, or SCEN's name)."""
+        return self.files.name
+
     def parse(self, text: str, path: str = "<scenario>", **kwargs: Any) -> ParsedScenario:
         """Parse scenario text against this simulation's command table."""
         return parse_scenario(text, path, is_command=self.commands.__contains__, **kwargs)
@@ -203,11 +195,7 @@ class Simulation(SimulationAPI):
         if text is None:
             text = path.read_text(encoding="utf-8", errors="replace")
         parsed = self.parse(text, str(path))
-        self.scenario_name = self.scenario_name or path.stem
-        self.scenario_path = self.scenario_path or path
-        self.scenario_text = self.scenario_text or text
-        if path.parent not in self.search_path:
-            self.search_path.insert(0, path.parent)
+        self.files.loaded(path, text)
         for err in parsed.errors:
             self.report("error", err.message, err.source)
         self.queue.extend(parsed.commands)
@@ -222,92 +210,31 @@ class Simulation(SimulationAPI):
         return parsed
 
     def find_file(self, name: str) -> Path | None:
-        """Resolve a scenario file name (PCALL, IC) against the search path (and ``file_guard``)."""
-        found = self._find_file(name)
-        if found is not None and self.file_guard is not None:
-            self.file_guard(found)
-        return found
-
-    def _find_file(self, name: str) -> Path | None:
-        candidate = Path(name)
-        if not name.strip() or "\x00" in name or not candidate.name or candidate.name in (".", ".."):
-            raise CommandError(f'"{name}" is not a file name')
-        options = [candidate] if candidate.suffix else [candidate, candidate.with_suffix(".scn")]
-        for option in options:
-            try:
-                if option.is_absolute():
-                    if option.is_file():
-                        return option
-                    continue
-                for folder in [*self.search_path, Path.cwd()]:
-                    if (folder / option).is_file():  # a directory is not a scenario
-                        return folder / option
-            except OSError:  # a name the file system refuses (too long...)
-                continue
-            from aamsim.scenarios import packaged_scenario
-
-            packaged = packaged_scenario(str(option))
-            if packaged is not None:
-                return packaged
-        return None
+        """Resolve a scenario file name (PCALL, IC) against the search path (and the files' guard)."""
+        return self.files.find(name)
 
     # ---------------------------------------------------------------- commands
+    @property
+    def queue(self) -> CommandQueue:
+        """Pending timed commands."""
+        return self.scheduler.queue
+
     def stack(self, text: str, source: SourceRef | None = None) -> bool:
         """Execute command text now (``;`` separates commands). True if all succeeded."""
-        ok = True
-        for part in split_commands(text):
-            try:
-                command = parse_line(part, source)
-            except ScenarioSyntaxError as exc:
-                self.report("error", exc.message, source)
-                ok = False
-                continue
-            ok = self.execute(command, source) and ok
-        return ok
+        return self.executor.stack(text, source)
 
     def schedule(self, time_s: float, text: str, source: SourceRef | None = None) -> None:
         """Queue command text for a sim time [s]."""
-        for part in split_commands(text):
-            try:
-                command = parse_line(part, source)
-            except ScenarioSyntaxError as exc:
-                self.report("error", exc.message, source)
-                continue
-            self.queue.push(TimedCommand(time_s, command, source or SourceRef()))
+        self.executor.schedule(time_s, text, source)
 
     def execute(self, command: Command, source: SourceRef | None = None) -> bool:
         """Run one command through the command table; report any error."""
-        command = resolve_command_form(command, self.commands.__contains__)
-        spec = self.commands.get(command.name)
-        if spec is None and not command.argtext and (command.name in self.traffic or self.navdb.known(command.name)):
-            # A bare callsign or waypoint name is a position query, as in BlueSky.
-            command = Command("POS", command.name)
-            spec = self.commands.get("POS")
-        if spec is None:
-            self.report("error", f"unknown command {command.name}", source)
-            return False
-        ctx = LiveContext(self)
-        try:
-            args = spec.bind(command.argtext, ctx)
-            self._source = source
-            self._command_text = str(command)
-            if args and spec.params and spec.params[0].argtype is ACID and isinstance(args[0], int):
-                self._last_command[self.traffic.ids[args[0]]] = (str(command), source)
-            result = spec.handler(self, *args)
-        except ArgumentError as exc:
-            self.report("error", f"{command.name}: {exc.message}", source)
-            return False
-        except CommandError as exc:
-            self.report("error", f"{command.name}: {exc.message}", source)
-            return False
-        if isinstance(result, str) and result:
-            self.report("echo", result, source)
-        return True
+        return self.executor.execute(command, source)
 
     @property
     def current_source(self) -> SourceRef | None:
         """Source of the command being executed (for handlers that schedule more)."""
-        return self._source
+        return self.executor.source
 
     # ---------------------------------------------------------------- aircraft
     def create_aircraft(
@@ -334,11 +261,11 @@ class Simulation(SimulationAPI):
                 self.current_source,
             )
         spd = self._checked_creation(acid, lat, lon, alt, spd or Speed(0.0), envelope)
-        self._last_command[acid] = (self._command_text or "create", self._source)
+        self.executor.last_command[acid] = (self.executor.command_text or "create", self.executor.source)
         i = self.traffic.create(acid, actype, envelope, lat, lon, hdg, alt, spd or Speed(0.0), self.simt)
         if self.state == self.STATE_INIT:
             self.state = self.STATE_OP
-        self._perf_pending = True
+        self.scheduler.perf_pending = True
         self._alloc_scratch()
         self.hooks.created.call(self, i)
         return i
@@ -391,7 +318,7 @@ class Simulation(SimulationAPI):
         record.deleted_s = self.simt
         self.hooks.deleted.call(self, i, record)
         self.conditions.drop_aircraft(self.traffic.ids[i])
-        self._last_command.pop(self.traffic.ids[i], None)
+        self.executor.last_command.pop(self.traffic.ids[i], None)
         self.traffic.delete(i)
         self.flight_log.append(record)
         return record
@@ -410,51 +337,27 @@ class Simulation(SimulationAPI):
     def _run_due_commands(self) -> None:
         # Commands may queue more commands due now (SCHEDULE, PCALL, conditions).
         while True:
-            due = self.queue.pop_due(self.simt_us)
+            due = self.scheduler.due_commands()
             if not due:
                 return
             for cmd in due:
-                self.execute(cmd.command, cmd.source)
-
-    def _refresh_performance(self) -> None:
-        if self.simt_us >= self._next_perf_us:
-            if self._perf_pending:
-                intents.restore_type_acceleration(self.traffic)
-                self._perf_pending = False
-            interval = to_us(self.settings.perf_interval_s)
-            if self._next_perf_us <= self.simt_us:
-                self._next_perf_us += interval * ((self.simt_us - self._next_perf_us) // interval + 1)
+                self.executor.execute(cmd.command, cmd.source)
 
     def _boundary(self) -> None:
         """Everything that happens at the start of a step, at time simt."""
-        self.hooks.post_step.call_due(self.simt_us, self.dt_us, self)
+        scheduler = self.scheduler
+        scheduler.run_hooks("post_step", self)
         self._run_due_commands()
-        self._refresh_performance()
-        self.hooks.pre_step.call_due(self.simt_us, self.dt_us, self)
-
-    def _steps_to_next_event(self, end_us: int) -> int:
-        now = self.simt_us
-        dt_us = self.dt_us
-        if self.hooks.post_step.every_step() or self.hooks.pre_step.every_step():
-            return 1
-        candidates = [end_us]
-        if self._perf_pending:
-            # Only a refresh that changes something splits a batch: the
-            # envelope refresh rewrites values that are already in place once
-            # every aircraft has had its first one.
-            candidates.append(self._next_perf_us)
-        for t in (self.queue.next_due_us(), self.hooks.post_step.next_due_us(), self.hooks.pre_step.next_due_us()):
-            if t is not None:
-                candidates.append(t)
-        nxt = min(t for t in candidates if t > now) if any(t > now for t in candidates) else now + dt_us
-        return max(1, -(-(nxt - now) // dt_us))
+        if scheduler.performance_due(self.settings.perf_interval_s):
+            intents.restore_type_acceleration(self.traffic)
+        scheduler.run_hooks("pre_step", self)
 
     def _advance_steps(self, nsteps: int) -> None:
         """Advance the traffic ``nsteps`` steps, handling events inside the batch."""
         done = 0
         check_first = True
-        dt = self.settings.dt_s
-        dt_us = self.dt_us
+        clock = self.clock
+        dt = clock.dt_s
         while done < nsteps:
             traffic = self.traffic
             n = traffic.n
@@ -478,7 +381,7 @@ class Simulation(SimulationAPI):
                 *extra,
             )
             done += k
-            self.simt_us += k * dt_us
+            clock.advance(k)
             self.aircraft_steps += k * n
             if k and not traffic.all_finite():
                 self._remove_non_finite()
@@ -508,7 +411,7 @@ class Simulation(SimulationAPI):
         for i in reversed(traffic.non_finite_slots()):
             acid = traffic.ids[i]
             state = traffic.describe_state(i)
-            text, source = self._last_command.get(acid, ("(none)", None))
+            text, source = self.executor.last_command.get(acid, ("(none)", None))
             where = f"{source}: " if source is not None else ""
             self.report("error", f"{acid}: state not finite at t = {self.simt:.2f} s ({state}); last command on it: "
                                  f"{where}{text}; aircraft deleted", source)
@@ -553,7 +456,7 @@ class Simulation(SimulationAPI):
             self._boundary()
             if self.state == self.STATE_HOLD or self.quit_requested or self.simt_us >= end_us:
                 return
-            self._advance_steps(self._steps_to_next_event(end_us))
+            self._advance_steps(self.scheduler.steps_to_next_event(end_us))
 
     def run(self, until_s: float | None = None, progress: Callable[[Simulation], None] | None = None,
             progress_interval_s: float = 60.0) -> None:
@@ -614,23 +517,12 @@ class Simulation(SimulationAPI):
         """RESET: clear traffic, pending commands and time; keep plugins and hooks."""
         for i in range(self.traffic.n - 1, -1, -1):
             self.delete_aircraft(i, arrived=False)
-        self.queue.clear()
+        self.scheduler.reset()  # time 0, nothing pending; the step is kept
         self.conditions.clear()
         self.navdb.clear()
-        self.simt_us = 0
-        self._next_perf_us = 0
-        self._perf_pending = False
         self.state = self.STATE_INIT
-        dt = self.settings.dt_s
         self.settings = SimSettings()
-        self.set_dt(dt)  # the one check every entry point shares (aamsim.clock)
-        self.hooks.post_step.restart(0)
-        self.hooks.pre_step.restart(0)
         self.hooks.reset.call(self)
-
-    def reseed(self, seed: int | None) -> None:
-        self.seed = seed
-        self.rng = np.random.default_rng(seed)
 
 
 _NO_CONDITIONS = (
@@ -642,6 +534,11 @@ _NO_CONDITIONS = (
     np.empty(0),
     np.empty(0, dtype=np.bool_),
 )
+
+
+if TYPE_CHECKING:
+    def _implements_command_context(sim: Simulation) -> CommandContext:
+        return sim  # mypy checks here that a Simulation is everything a command handler may use
 
 
 def iter_flights(sim: Simulation) -> Iterable[FlightRecord]:

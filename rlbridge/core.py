@@ -143,11 +143,11 @@ class EpisodeCore:
     # ----------------------------------------------------------------- helpers
     def _new_simulation(self, seed: int | None) -> Simulation:
         sim = Simulation(seed=seed, dt=self.dt)
-        sim.scenario_name = self.path.stem
-        sim.scenario_path = self.path
-        sim.scenario_text = self.text
-        sim.search_path.insert(0, self.path.parent)
-        sim.file_guard = self.file_guard
+        sim.files.name = self.path.stem
+        sim.files.path = self.path
+        sim.files.text = self.text
+        sim.files.search_path.insert(0, self.path.parent)
+        sim.files.guard = self.file_guard
         build_services(sim)
         self.usecase.attach(sim)
         from aamsim.plugins import load_plugin

@@ -68,7 +68,7 @@ class ScenarioRoots:
                                   f"{', '.join(map(str, self.roots))} and the shipped scenarios)", "not_found")
 
     def guard(self, path: Path) -> None:
-        """``Simulation.file_guard``: refuse PCALL/IC of files outside the roots."""
+        """``ScenarioFiles.guard``: refuse PCALL/IC of files outside the roots."""
         if not self.allowed(path):
             raise ScenarioAccessError(f"{path}: outside the server's scenario roots or not a .scn file",
                                       "forbidden")

@@ -24,7 +24,7 @@ def run_text(text: str, tmp_path: Path, name: str = "bad.scn", until: float = 5.
     path = tmp_path / name
     path.write_text(text)
     sim = Simulation(seed=1, use_bluesky_navdata=False)
-    sim.search_path.insert(0, tmp_path)
+    sim.files.search_path.insert(0, tmp_path)
     sim.load_scenario(path)
     sim.run_until(until)
     return sim

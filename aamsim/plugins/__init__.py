@@ -31,7 +31,7 @@ from typing import TYPE_CHECKING, Any
 from aamsim.errors import CommandError
 
 if TYPE_CHECKING:
-    from aamsim.simulation import Simulation
+    from aamsim.stack.context import CommandContext
 
 BUILTIN_PLUGINS: dict[str, str] = {
     "EXAMPLE": "aamsim.plugins.example",
@@ -80,7 +80,7 @@ def plugin_module(name: str, modules: bool = True) -> ModuleType:
     return _import(name, modules)
 
 
-def load_plugin(sim: Simulation, name: str, *, modules: bool = True) -> Any:
+def load_plugin(sim: CommandContext, name: str, *, modules: bool = True) -> Any:
     """Load a plugin into a simulation (once); returns what ``init_plugin`` returned.
 
     ``name`` is a registered plugin name (built in or an entry point) or, when

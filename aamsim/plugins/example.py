@@ -17,7 +17,7 @@ class StepCounter:
 
     def on_sample(self, sim) -> None:
         self.samples += 1
-        self.aircraft_seen += sim.traffic.n
+        self.aircraft_seen += sim.view.n
 
 
 def init_plugin(sim) -> StepCounter:

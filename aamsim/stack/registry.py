@@ -6,7 +6,7 @@ its own registry; nothing registers at import time. A handler is a plain
 function marked with :func:`command`::
 
     @command("ALT", aliases=("ALTITUDE",))
-    def alt(sim: Simulation, acidx: AcIndex, alt: Altitude, vspd: VSpeed | None = None) -> None:
+    def alt(sim: CommandContext, acidx: AcIndex, alt: Altitude, vspd: VSpeed | None = None) -> None:
         '''ALT acid, alt, [vspd]: select an autopilot altitude.'''
 
 and is added with ``registry.add(alt)``.
@@ -131,11 +131,21 @@ class CommandSpec:
         return values
 
 
-def _spec_from_function(fn: Callable[..., Any], meta: CommandMeta) -> CommandSpec:
-    from aamsim.simulation import Simulation  # handlers annotate ``sim: Simulation`` under TYPE_CHECKING
+def _without_first_annotation(fn: Callable[..., Any]) -> Any:
+    """An object with ``fn``'s annotations less the first parameter's (the simulation)."""
+    names = list(inspect.signature(fn).parameters)
+    annotations = {k: v for k, v in getattr(fn, "__annotations__", {}).items() if not names or k != names[0]}
+    return type("Annotations", (), {"__annotations__": annotations, "__module__": fn.__module__,
+                                    "__globals__": getattr(fn, "__globals__", None)})
 
-    hints = typing.get_type_hints(fn, globalns=getattr(fn, "__globals__", None),
-                                  localns={"Simulation": Simulation}, include_extras=True)
+
+def _spec_from_function(fn: Callable[..., Any], meta: CommandMeta) -> CommandSpec:
+    # Handlers annotate ``sim: CommandContext`` (plugins may still write ``sim: Simulation``)
+    # under TYPE_CHECKING; only the argument types matter here, so the first is not resolved.
+    from aamsim.stack.context import CommandContext
+
+    hints = typing.get_type_hints(_without_first_annotation(fn), globalns=getattr(fn, "__globals__", None),
+                                  localns={"CommandContext": CommandContext}, include_extras=True)
     sig = inspect.signature(fn)
     params: list[Param] = []
     names = list(sig.parameters)

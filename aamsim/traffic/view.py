@@ -124,6 +124,14 @@ class TrafficView:
         """Callsign per slot."""
         return tuple(self._traffic.ids)
 
+    def callsign(self, slot: int) -> str:
+        """Callsign of one slot (without copying :attr:`ids`)."""
+        return self._traffic.ids[slot]
+
+    def actype(self, slot: int) -> str:
+        """Aircraft type of one slot."""
+        return self._traffic.types[slot]
+
     @property
     def types(self) -> tuple[str, ...]:
         """Aircraft type per slot."""

@@ -192,7 +192,7 @@ class Harness:
         crowded = self._sim is not None and self._sim.traffic.n > self.max_aircraft
         if self._sim is None or crowded or self.lines_run % self.fresh_every == 0:
             sim = Simulation(seed=1, use_bluesky_navdata=False)
-            sim.search_path.insert(0, self.folder)
+            sim.files.search_path.insert(0, self.folder)
             sim.load_text(SETUP, "setup.scn")
             sim.run_until(sim.simt)  # the setup line runs now
             self._sim = sim

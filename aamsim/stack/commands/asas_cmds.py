@@ -10,13 +10,13 @@ from aamsim.stack.registry import command, raw_arguments
 from aamsim.units import FT, NM
 
 if TYPE_CHECKING:
-    from aamsim.simulation import Simulation
+    from aamsim.stack.context import CommandContext
 
 CD_METHODS = {"ON": "STATEBASED", "OFF": "OFF", "STATEBASED": "STATEBASED", "CSTATEBASED": "STATEBASED"}
 
 
 @command("ASAS", aliases=("CDMETHOD",), group="conflicts")
-def asas(sim: Simulation, method: Text = "") -> str | None:
+def asas(sim: CommandContext, method: Text = "") -> str | None:
     """ASAS [ON/OFF/STATEBASED]: switch state-based conflict detection (CDMETHOD is the same command)."""
     if not method:
         return f"conflict detection: {sim.settings.cd_method}"
@@ -39,7 +39,7 @@ def _positive_up_to(value: float, limit: float, what: str, unit: str) -> float:
 
 
 @command("ZONER", aliases=("PZR", "RPZ", "PZRADIUS"), group="conflicts")
-def zoner(sim: Simulation, radius_nm: Number | None = None) -> str | None:
+def zoner(sim: CommandContext, radius_nm: Number | None = None) -> str | None:
     """ZONER [radius]: horizontal protected-zone radius [NM] (default 5; 450 m is 0.243)."""
     if radius_nm is None:
         return f"PZ radius {sim.settings.zoner_m / NM:g} NM ({sim.settings.zoner_m:.1f} m)"
@@ -48,7 +48,7 @@ def zoner(sim: Simulation, radius_nm: Number | None = None) -> str | None:
 
 
 @command("ZONEDH", aliases=("PZDH", "DHPZ", "PZHEIGHT"), group="conflicts")
-def zonedh(sim: Simulation, height_ft: Number | None = None) -> str | None:
+def zonedh(sim: CommandContext, height_ft: Number | None = None) -> str | None:
     """ZONEDH [height]: vertical protected-zone half-height [ft] (default 1000)."""
     if height_ft is None:
         return f"PZ half-height {sim.settings.zonedh_m / FT:g} ft"
@@ -57,7 +57,7 @@ def zonedh(sim: Simulation, height_ft: Number | None = None) -> str | None:
 
 
 @command("DTLOOK", group="conflicts")
-def dtlook(sim: Simulation, time_s: Seconds | None = None) -> str | None:
+def dtlook(sim: CommandContext, time_s: Seconds | None = None) -> str | None:
     """DTLOOK [time]: conflict-detection look-ahead time [s] (default 300)."""
     if time_s is None:
         return f"look-ahead {sim.settings.dtlook_s:g} s"
@@ -66,7 +66,7 @@ def dtlook(sim: Simulation, time_s: Seconds | None = None) -> str | None:
 
 
 @command("SEPVOLUME", aliases=("LOSVOLUME",), group="conflicts")
-def sepvolume(sim: Simulation, name: Text = "", radius_m: Number | None = None,
+def sepvolume(sim: CommandContext, name: Text = "", radius_m: Number | None = None,
               half_height_m: Number | None = None) -> str | None:
     """SEPVOLUME [NMAC/LOWC/name, radius, [half_height]]: a loss-of-separation volume [m].
 
@@ -74,12 +74,12 @@ def sepvolume(sim: Simulation, name: Text = "", radius_m: Number | None = None,
     LoWC 450 m); with a half-height: a cylinder, as detect-and-avoid standards
     define them. Without arguments, list the volumes.
     """
-    from aamsim.conflicts.service import PAPER_VOLUMES, SeparationVolume, conflicts_of
+    from aamsim.conflicts.service import PAPER_VOLUMES, SeparationVolume
 
     if not name:  # a listing does not start conflict detection
         volumes = sim.services.conflicts.volumes if sim.services is not None else PAPER_VOLUMES
         return "\n".join(v.describe() for v in volumes)
-    service = conflicts_of(sim)
+    service = sim.require_services().conflicts
     if radius_m is None or not 0 < radius_m <= MAX_SEPARATION_M or (
             half_height_m is not None and not 0 < half_height_m <= MAX_SEPARATION_M):
         raise CommandError(f"SEPVOLUME needs a radius [m] (and, for a cylinder, a half-height [m]) above 0 and at "
@@ -89,7 +89,7 @@ def sepvolume(sim: Simulation, name: Text = "", radius_m: Number | None = None,
 
 
 @command("RESO", group="conflicts")
-def reso(sim: Simulation, method: Text = "") -> str | None:
+def reso(sim: CommandContext, method: Text = "") -> str | None:
     """RESO [OFF/method]: conflict resolution method. It is stored; aamsim resolves no conflicts itself
     (an agent or a plugin does)."""
     if not method:
@@ -103,7 +103,7 @@ def reso(sim: Simulation, method: Text = "") -> str | None:
 def _accepted_setting(name: str):
     @command(name, group="conflicts")
     @raw_arguments
-    def handler(sim: Simulation, argtext: RestOfLine) -> None:
+    def handler(sim: CommandContext, argtext: RestOfLine) -> None:
         sim.note_once(name, f"{name} is accepted and ignored: aamsim has no built-in conflict resolution",
                       sim.current_source)
 

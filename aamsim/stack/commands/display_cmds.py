@@ -14,7 +14,7 @@ from aamsim.stack.argtypes import RestOfLine
 from aamsim.stack.registry import command, raw_arguments
 
 if TYPE_CHECKING:
-    from aamsim.simulation import Simulation
+    from aamsim.stack.context import CommandContext
 
 DISPLAY_COMMANDS = (
     "PAN", "ZOOM", "TRAIL", "TRAILS", "SWRAD", "DISP", "COLOUR", "COLOR", "COL", "SYMBOL", "LABEL",
@@ -27,7 +27,7 @@ DISPLAY_COMMANDS = (
 def _ignored(name: str) -> Callable[..., Any]:
     @command(name, group="display")
     @raw_arguments
-    def handler(sim: Simulation, argtext: RestOfLine) -> None:
+    def handler(sim: CommandContext, argtext: RestOfLine) -> None:
         sim.note_once(f"display:{name}", f"{name} ignored: aamsim is headless (display or real-time command)",
                       sim.current_source)
 

@@ -9,11 +9,11 @@ from aamsim.stack.argtypes import Text
 from aamsim.stack.registry import command
 
 if TYPE_CHECKING:
-    from aamsim.simulation import Simulation
+    from aamsim.stack.context import CommandContext
 
 
 @command("PLUGINS", aliases=("PLUGIN", "PLUG-IN", "PLUG-INS"), group="simulation")
-def plugins(sim: Simulation, action: Text = "LIST", name: Text = "") -> str | None:
+def plugins(sim: CommandContext, action: Text = "LIST", name: Text = "") -> str | None:
     """PLUGINS [LIST | LOAD name]: list the available plugins or load one."""
     from aamsim import plugins as loader
 

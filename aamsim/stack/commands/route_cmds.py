@@ -25,12 +25,11 @@ from aamsim.stack.argtypes import (
 from aamsim.stack.context import LiveContext
 from aamsim.stack.registry import command, raw_arguments, static_validator
 from aamsim.stack.tokens import next_arg
-from aamsim.traffic.autopilot import activate_waypoint
 from aamsim.traffic.route import Waypoint, WaypointKind
 from aamsim.units import FT, KTS, UnitParseError, parse_altitude, parse_speed
 
 if TYPE_CHECKING:
-    from aamsim.simulation import Simulation
+    from aamsim.stack.context import CommandContext
 
 _UNSUPPORTED_MODES = {
     "FLYTURN",
@@ -48,7 +47,7 @@ _UNSUPPORTED_MODES = {
 
 
 def add_waypoint(
-    sim: Simulation,
+    sim: CommandContext,
     i: int,
     name: str,
     kind: WaypointKind,
@@ -67,8 +66,8 @@ def add_waypoint(
     before the destination. The active waypoint is then re-activated, which
     also switches LNAV on. Returns the new waypoint's index.
     """
-    traffic = sim.traffic
-    route = traffic.routes[i]
+    view = sim.view
+    route = sim.edit_route(i)
     lat = (lat + 90.0) % 180.0 - 90.0 if abs(lat) > 90.0 else lat
     lon = (lon + 180.0) % 360.0 - 180.0
     if kind in (WaypointKind.ORIG, WaypointKind.DEST):
@@ -89,7 +88,7 @@ def add_waypoint(
         index = 0 if kind is WaypointKind.ORIG else len(route) - 1
     else:
         digits = 3 if kind is WaypointKind.LATLON else 2
-        wpname = route.unique_name(name, digits, {traffic.ids[i]})
+        wpname = route.unique_name(name, digits, {view.callsign(i)})
         wp = Waypoint(wpname, kind, lat, lon, alt, spd, spd_mach, route.flyby_mode)
         if after and route.find(after) >= 0:
             index = route.find(after) + 1
@@ -105,7 +104,7 @@ def add_waypoint(
     route.plan()
     route.iactwp = max(route.iactwp, 0)
     if 0 <= route.iactwp < len(route):
-        activate_waypoint(traffic, i, route.iactwp)
+        sim.activate_waypoint(i, route.iactwp)
     return index
 
 
@@ -141,7 +140,7 @@ def check_addwpt(argtext: str, ctx: Any) -> None:
 @command("ADDWPT", group="route")
 @raw_arguments
 @static_validator(check_addwpt)
-def addwpt(sim: Simulation, argtext: RestOfLine) -> None:
+def addwpt(sim: CommandContext, argtext: RestOfLine) -> None:
     """ADDWPT acid, (wpname/lat,lon), [alt, spd, afterwp, beforewp]: add a waypoint to a route.
 
     Alt (ft/FLnnn) and speed (kts/Mach) are constraints at the waypoint,
@@ -150,8 +149,8 @@ def addwpt(sim: Simulation, argtext: RestOfLine) -> None:
     """
     ctx = LiveContext(sim)
     i, rest = ACID.parse(argtext, ctx)
-    traffic = sim.traffic
-    route = traffic.routes[i]
+    view = sim.view
+    route = sim.edit_route(i)
     first, after_first = next_arg(rest)
     mode = first.upper().replace("-", "")
     if mode in ("FLYBY", "FLYOVER") and not after_first.strip():
@@ -187,29 +186,29 @@ def addwpt(sim: Simulation, argtext: RestOfLine) -> None:
     if rest.strip():
         raise ArgumentError(f'unexpected extra argument(s) "{rest.strip()}"')
     if pos.kind == "latlon":
-        name, kind = traffic.ids[i], WaypointKind.LATLON
+        name, kind = view.callsign(i), WaypointKind.LATLON
     else:
         name, kind = pos.name, WaypointKind.NAV
     add_waypoint(sim, i, name, kind, pos.lat, pos.lon, alt, spd, spd_mach, after, before)
     # The first real waypoint becomes the active one.
     real = [w for w in route.waypoints if w.kind not in (WaypointKind.ORIG, WaypointKind.DEST)]
     if len(real) == 1:
-        activate_waypoint(traffic, i, 1 if route.has_orig else 0)
+        sim.activate_waypoint(i, 1 if route.has_orig else 0)
 
 
 @command("DEST", group="route")
-def dest(sim: Simulation, acid: AcIndex, pos: PositionValue | None = None, spd: SpeedArg | None = None) -> str | None:
+def dest(sim: CommandContext, acid: AcIndex, pos: PositionValue | None = None, spd: SpeedArg | None = None) -> str | None:
     """DEST acid, [wpt/lat,lon, spd]: set the destination (the route's last waypoint, at altitude 0).
 
     When it is the only waypoint (besides an origin) it becomes active and
     LNAV and VNAV switch on.
     """
-    traffic = sim.traffic
-    record = traffic.flights[acid]
+    view = sim.view
+    record = sim.flight_record(acid)
     if pos is None:
-        return f"DEST {traffic.ids[acid]}: {record.destination or '-'}"
+        return f"DEST {view.callsign(acid)}: {record.destination or '-'}"
     name = pos.name or f"{pos.lat:.6f},{pos.lon:.6f}"
-    route = traffic.routes[acid]
+    route = sim.edit_route(acid)
     index = add_waypoint(
         sim, acid, name, WaypointKind.DEST, pos.lat, pos.lon, 0.0,
         spd.value if spd else math.nan, spd.is_mach if spd else False,
@@ -223,29 +222,28 @@ def dest(sim: Simulation, acid: AcIndex, pos: PositionValue | None = None, spd: 
 
 
 @command("ORIG", group="route")
-def orig(sim: Simulation, acid: AcIndex, pos: PositionValue | None = None) -> str | None:
+def orig(sim: CommandContext, acid: AcIndex, pos: PositionValue | None = None) -> str | None:
     """ORIG acid, [wpt/lat,lon]: set the origin (inserted first in the route, as in BlueSky)."""
-    traffic = sim.traffic
-    record = traffic.flights[acid]
+    view = sim.view
+    record = sim.flight_record(acid)
     if pos is None:
-        return f"ORIG {traffic.ids[acid]}: {record.origin or '-'}"
+        return f"ORIG {view.callsign(acid)}: {record.origin or '-'}"
     name = pos.name or f"{pos.lat:.6f},{pos.lon:.6f}"
-    add_waypoint(sim, acid, name, WaypointKind.ORIG, pos.lat, pos.lon, math.nan, float(traffic.cas[acid]))
+    add_waypoint(sim, acid, name, WaypointKind.ORIG, pos.lat, pos.lon, math.nan, float(view.cas[acid]))
     record.origin = name
     return None
 
 
 @command("DELWPT", aliases=("DELWP",), group="route")
-def delwpt(sim: Simulation, acid: AcIndex, wpname: RouteWaypoint) -> None:
+def delwpt(sim: CommandContext, acid: AcIndex, wpname: RouteWaypoint) -> None:
     """DELWPT acid, wpname: delete a waypoint from the route (``*``: the whole route)."""
     if wpname == "*":
         delrte(sim, acid)
         return
-    traffic = sim.traffic
-    route = traffic.routes[acid]
+    route = sim.edit_route(acid)
     index = route.find(wpname)
     if route.iactwp == index and index != len(route) - 1:
-        activate_waypoint(traffic, acid, index + 1)
+        sim.activate_waypoint(acid, index + 1)
     route.delete(index)
     route.plan()
     if not len(route):
@@ -253,10 +251,9 @@ def delwpt(sim: Simulation, acid: AcIndex, wpname: RouteWaypoint) -> None:
 
 
 @command("DELRTE", aliases=("DELROUTE",), group="route")
-def delrte(sim: Simulation, acid: AcIndex) -> None:
+def delrte(sim: CommandContext, acid: AcIndex) -> None:
     """DELRTE acid: delete the whole route; LNAV and VNAV off."""
-    traffic = sim.traffic
-    route = traffic.routes[acid]
+    route = sim.edit_route(acid)
     route.waypoints.clear()
     route.iactwp = -1
     route.flyby_mode = True
@@ -264,23 +261,23 @@ def delrte(sim: Simulation, acid: AcIndex) -> None:
 
 
 @command("DIRECT", aliases=("DIRECTTO", "DIRTO"), group="route")
-def direct(sim: Simulation, acid: AcIndex, wpname: RouteWaypoint) -> None:
+def direct(sim: CommandContext, acid: AcIndex, wpname: RouteWaypoint) -> None:
     """DIRECT acid, wpname: fly straight to a waypoint of the route (LNAV on)."""
-    route = sim.traffic.routes[acid]
+    route = sim.edit_route(acid)
     if wpname == "*":
         raise CommandError("DIRECT needs a waypoint name")
     sim.direct_to(acid, route.find(wpname))
 
 
 @command("LNAV", group="route")
-def lnav(sim: Simulation, acid: AcIndex, on: OnOff | None = None) -> str | None:
+def lnav(sim: CommandContext, acid: AcIndex, on: OnOff | None = None) -> str | None:
     """LNAV acid, [ON/OFF]: lateral navigation along the route."""
-    traffic = sim.traffic
-    callsign = traffic.ids[acid]
+    view = sim.view
+    callsign = view.callsign(acid)
     if on is None:
         return f"{callsign}: LNAV is {'ON' if sim.view.lnav[acid] else 'OFF'}"
     if on:
-        route = traffic.routes[acid]
+        route = sim.edit_route(acid)
         if not len(route):
             raise CommandError(f"LNAV {callsign}: no waypoints or destination specified")
         if not sim.view.lnav[acid]:
@@ -291,16 +288,16 @@ def lnav(sim: Simulation, acid: AcIndex, on: OnOff | None = None) -> str | None:
 
 
 @command("VNAV", group="route")
-def vnav(sim: Simulation, acid: AcIndex, on: OnOff | None = None) -> str | None:
+def vnav(sim: CommandContext, acid: AcIndex, on: OnOff | None = None) -> str | None:
     """VNAV acid, [ON/OFF]: vertical navigation (route altitude and speed constraints); needs LNAV."""
-    traffic = sim.traffic
-    callsign = traffic.ids[acid]
+    view = sim.view
+    callsign = view.callsign(acid)
     if on is None:
         return f"{callsign}: VNAV is {'ON' if sim.view.vnav[acid] else 'OFF'}"
     if on:
         if not sim.view.lnav[acid]:
             raise CommandError(f"{callsign}: VNAV ON requires LNAV to be ON")
-        route = traffic.routes[acid]
+        route = sim.edit_route(acid)
         if not len(route):
             raise CommandError(f"VNAV {callsign}: no waypoints or destination specified")
         sim.engage_vnav(acid)
@@ -310,19 +307,19 @@ def vnav(sim: Simulation, acid: AcIndex, on: OnOff | None = None) -> str | None:
 
 
 @command("SWTOC", group="route")
-def swtoc(sim: Simulation, acid: AcIndex, on: OnOff | None = None) -> str | None:
+def swtoc(sim: CommandContext, acid: AcIndex, on: OnOff | None = None) -> str | None:
     """SWTOC acid, [ON/OFF]: climb as early as possible (ON) or on a constant gradient (OFF)."""
     if on is None:
-        return f"{sim.traffic.ids[acid]}: SWTOC is {'ON' if sim.view.early_climb[acid] else 'OFF'}"
+        return f"{sim.view.callsign(acid)}: SWTOC is {'ON' if sim.view.early_climb[acid] else 'OFF'}"
     sim.set_climb_profile(acid, early_climb=on)
     return None
 
 
 @command("SWTOD", group="route")
-def swtod(sim: Simulation, acid: AcIndex, on: OnOff | None = None) -> str | None:
+def swtod(sim: CommandContext, acid: AcIndex, on: OnOff | None = None) -> str | None:
     """SWTOD acid, [ON/OFF]: descend as late as possible (ON) or on a constant gradient (OFF)."""
     if on is None:
-        return f"{sim.traffic.ids[acid]}: SWTOD is {'ON' if sim.view.late_descent[acid] else 'OFF'}"
+        return f"{sim.view.callsign(acid)}: SWTOD is {'ON' if sim.view.late_descent[acid] else 'OFF'}"
     sim.set_climb_profile(acid, late_descent=on)
     return None
 
@@ -383,7 +380,7 @@ def check_at(argtext: str, ctx: Any) -> None:
 @command("AT", group="route")
 @raw_arguments
 @static_validator(check_at)
-def at(sim: Simulation, argtext: RestOfLine) -> str | None:
+def at(sim: CommandContext, argtext: RestOfLine) -> str | None:
     """AT acid, wpname, [ALT alt | SPD spd | alt/spd | DO cmd | DEL ALT/SPD/BOTH/ALL]: waypoint constraints and commands.
 
     ``DO`` (or ``STACK``) stores a command run when the waypoint is passed;
@@ -392,9 +389,9 @@ def at(sim: Simulation, argtext: RestOfLine) -> str | None:
     ctx = LiveContext(sim)
     i, rest = ACID.parse(argtext, ctx)
     wpname, rest = WPINROUTE.parse(rest, ctx)
-    traffic = sim.traffic
-    route = traffic.routes[i]
-    acid = traffic.ids[i]
+    view = sim.view
+    route = sim.edit_route(i)
+    acid = view.callsign(i)
     wp = route.waypoints[route.find(wpname)]
     what, rest = next_arg(rest)
     what = what.upper()
@@ -421,7 +418,7 @@ def at(sim: Simulation, argtext: RestOfLine) -> str | None:
             speed = parse_speed(next_arg(rest)[0])
             wp.spd, wp.spd_mach = speed.value, speed.is_mach
         elif what in ("DO", "STACK"):
-            wp.stack.append(at_do_command(rest.strip(), acid, sim.commands, lambda n: n.upper() in traffic))
+            wp.stack.append(at_do_command(rest.strip(), acid, sim.commands, lambda n: n.upper() in view))
             wp.stack_sources.append(sim.current_source)
         elif what in ("DEL", "DELETE", "CLR", "CLEAR"):
             which = next_arg(rest)[0].upper()
@@ -438,27 +435,27 @@ def at(sim: Simulation, argtext: RestOfLine) -> str | None:
         raise ArgumentError(str(exc)) from None
     route.plan()
     if 0 <= route.iactwp < len(route):
-        activate_waypoint(traffic, i, route.iactwp)
+        sim.activate_waypoint(i, route.iactwp)
     return None
 
 
 @command("RTA", group="route")
-def rta(sim: Simulation, acid: AcIndex, wpname: RouteWaypoint, time_s: Seconds) -> None:
+def rta(sim: CommandContext, acid: AcIndex, wpname: RouteWaypoint, time_s: Seconds) -> None:
     """RTA acid, wpname, time: required time of arrival at a waypoint (book-keeping for delay metrics)."""
-    route = sim.traffic.routes[acid]
+    route = sim.edit_route(acid)
     index = route.find(wpname)
     if index < 0:  # "*" or a name that left the route: -1 once set the last waypoint's RTA, or crashed
-        raise CommandError(f"{sim.traffic.ids[acid]} has no waypoint {wpname} in its route")
+        raise CommandError(f"{sim.view.callsign(acid)} has no waypoint {wpname} in its route")
     route.waypoints[index].rta_s = time_s
     if index == len(route) - 1:
-        sim.traffic.flights[acid].scheduled_arrival_s = time_s
+        sim.flight_record(acid).scheduled_arrival_s = time_s
 
 
 @command("LISTRTE", group="route")
-def listrte(sim: Simulation, acid: AcIndex) -> str:
+def listrte(sim: CommandContext, acid: AcIndex) -> str:
     """LISTRTE acid: show the route (name, position, constraints; * marks the active waypoint)."""
-    route = sim.traffic.routes[acid]
-    lines = [f"Route of {sim.traffic.ids[acid]}:"]
+    route = sim.edit_route(acid)
+    lines = [f"Route of {sim.view.callsign(acid)}:"]
     for k, wp in enumerate(route.waypoints):
         alt = "-----" if math.isnan(wp.alt) else f"{wp.alt / FT:.0f}"
         spd = "---" if math.isnan(wp.spd) else (f"M{wp.spd:.3f}" if wp.spd_mach else f"{wp.spd / KTS:.0f}")

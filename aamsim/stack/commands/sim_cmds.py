@@ -29,14 +29,14 @@ from aamsim.traffic.kernel import COND_ALT, COND_DIST, COND_SPD
 from aamsim.units import NM
 
 if TYPE_CHECKING:
-    from aamsim.simulation import Simulation
+    from aamsim.stack.context import CommandContext
 
 
 @command("DT", group="simulation")
-def dt(sim: Simulation, first: Word = "", second: Word = "") -> str | None:
+def dt(sim: CommandContext, first: Word = "", second: Word = "") -> str | None:
     """DT [dt] or DT ASAS dt: show or set the time step [s] (default 0.05), or the conflict-detection interval."""
     if not first:
-        return f"time step {sim.settings.dt_s:g} s, conflict detection every {sim.settings.cd_interval_s:g} s"
+        return f"time step {sim.dt:g} s, conflict detection every {sim.settings.cd_interval_s:g} s"
     try:
         if second:
             if first.upper() != "ASAS":
@@ -53,39 +53,39 @@ def dt(sim: Simulation, first: Word = "", second: Word = "") -> str | None:
 
 
 @command("FF", aliases=("FWD",), group="simulation")
-def ff(sim: Simulation, duration: Seconds | None = None) -> None:
+def ff(sim: CommandContext, duration: Seconds | None = None) -> None:
     """FF [time]: fast-forward. aamsim always runs as fast as it can, so this changes nothing."""
     sim.note_once("FF", "FF has no effect: aamsim always runs as fast as possible", sim.current_source)
 
 
 @command("HOLD", aliases=("PAUSE",), group="simulation")
-def hold(sim: Simulation) -> None:
+def hold(sim: CommandContext) -> None:
     """HOLD: pause the simulation (a server or environment resumes it with OP)."""
     sim.state = sim.STATE_HOLD
 
 
 @command("OP", aliases=("RUN", "START", "CONTINUE"), group="simulation")
-def op(sim: Simulation) -> None:
+def op(sim: CommandContext) -> None:
     """OP: run (or resume after HOLD)."""
     sim.state = sim.STATE_OP
 
 
 @command("RESET", group="simulation")
-def reset(sim: Simulation) -> None:
+def reset(sim: CommandContext) -> None:
     """RESET: delete all traffic, clear pending commands and set the clock to 0."""
     sim.reset()
 
 
 @command("IC", aliases=("LOAD", "OPEN"), group="simulation")
-def ic(sim: Simulation, filename: RestOfLine) -> None:
+def ic(sim: CommandContext, filename: RestOfLine) -> None:
     """IC filename: reset, then load a scenario file (``IC IC`` reloads the current one)."""
     name = filename.strip()
     if not name:
         raise CommandError("IC needs a scenario file name")
     if name.upper() == "IC":
-        if sim.scenario_path is None:
+        if sim.files.path is None:
             raise CommandError("IC IC: no scenario was loaded before")
-        path = sim.scenario_path
+        path = sim.files.path
     else:
         found = sim.find_file(name)
         if found is None:
@@ -94,10 +94,10 @@ def ic(sim: Simulation, filename: RestOfLine) -> None:
     enter_file(sim, path, "IC")
     text = _read_scenario(path, "IC")
     sim.reset()
-    sim.scenario_name = path.stem
-    sim.scenario_path = path
-    sim.scenario_text = text
-    sim.load_scenario(path, text=sim.scenario_text)
+    sim.files.name = path.stem
+    sim.files.path = path
+    sim.files.text = text
+    sim.load_scenario(path, text=sim.files.text)
 
 
 MAX_CALL_DEPTH = 16  # files PCALL/IC may nest; deeper is refused as a runaway
@@ -110,7 +110,7 @@ def _file_key(name: str | Path) -> str:
         return str(name)
 
 
-def enter_file(sim: Simulation, target: Path, verb: str) -> None:
+def enter_file(sim: CommandContext, target: Path, verb: str) -> None:
     """Record that the file of the command being run loads ``target``; refuse a cycle or a runaway.
 
     A file that PCALLs itself (or files that PCALL or IC each other) would load
@@ -119,14 +119,14 @@ def enter_file(sim: Simulation, target: Path, verb: str) -> None:
     source = sim.current_source
     caller = _file_key(source.path) if source is not None and source.path and not source.path.startswith("<") \
         else None
-    chain = (*sim.call_chains.get(caller, ()), caller) if caller else ()
+    chain = (*sim.files.call_chains.get(caller, ()), caller) if caller else ()
     key = _file_key(target)
     shown = " -> ".join(Path(c).name for c in (*chain, key))
     if key in chain:
         raise CommandError(f"{verb} {target.name}: the files call each other in a cycle ({shown})")
     if len(chain) >= MAX_CALL_DEPTH:
         raise CommandError(f"{verb} {target.name}: files nested more than {MAX_CALL_DEPTH} deep ({shown})")
-    sim.call_chains[key] = chain
+    sim.files.call_chains[key] = chain
 
 
 def _read_scenario(path: Path, verb: str) -> str:
@@ -151,7 +151,7 @@ def check_pcall(argtext: str, ctx: Any) -> None:
 @command("PCALL", aliases=("CALL",), group="simulation")
 @raw_arguments
 @static_validator(check_pcall)
-def pcall(sim: Simulation, argtext: RestOfLine) -> None:
+def pcall(sim: CommandContext, argtext: RestOfLine) -> None:
     """PCALL filename, [REL/ABS], [args...]: merge another scenario file into this one.
 
     Times are relative to now (REL, the default) or absolute (ABS); ``%0``,
@@ -160,7 +160,7 @@ def pcall(sim: Simulation, argtext: RestOfLine) -> None:
     tokens = [t for t in split_args(argtext) if t != ""]
     if not tokens:
         raise CommandError("PCALL needs a scenario file name")
-    if len(tokens) > 1 and tokens[0].upper() in sim.traffic:
+    if len(tokens) > 1 and tokens[0].upper() in sim.view:
         # PCALL acid file args: the callsign becomes %0.
         tokens = [tokens[1], tokens[0].upper(), *tokens[2:]]
     name, args = tokens[0], tokens[1:]
@@ -182,7 +182,7 @@ def pcall(sim: Simulation, argtext: RestOfLine) -> None:
 
 
 @command("SCHEDULE", group="simulation", nested=True)
-def schedule(sim: Simulation, time_s: Seconds, text: RestOfLine) -> None:
+def schedule(sim: CommandContext, time_s: Seconds, text: RestOfLine) -> None:
     """SCHEDULE time, command: run a command at an absolute sim time ([[HH:]MM:]SS)."""
     if not text:
         raise CommandError("SCHEDULE needs a command")
@@ -190,7 +190,7 @@ def schedule(sim: Simulation, time_s: Seconds, text: RestOfLine) -> None:
 
 
 @command("DELAY", group="simulation", nested=True)
-def delay(sim: Simulation, time_s: Seconds, text: RestOfLine) -> None:
+def delay(sim: CommandContext, time_s: Seconds, text: RestOfLine) -> None:
     """DELAY time, command: run a command after a delay ([[HH:]MM:]SS)."""
     if not text:
         raise CommandError("DELAY needs a command")
@@ -198,13 +198,13 @@ def delay(sim: Simulation, time_s: Seconds, text: RestOfLine) -> None:
 
 
 @command("ECHO", aliases=("PRINT",), group="simulation")
-def echo(sim: Simulation, text: RestOfLine = "") -> str:
+def echo(sim: CommandContext, text: RestOfLine = "") -> str:
     """ECHO text: print a message."""
     return text or " "
 
 
 @command("SEED", group="simulation")
-def seed(sim: Simulation, value: Count) -> None:
+def seed(sim: CommandContext, value: Count) -> None:
     """SEED value: seed the random generator (MCRE and every seeded model)."""
     if value < 0:
         raise CommandError(f"SEED must be a whole number from 0, not {value}")
@@ -212,13 +212,13 @@ def seed(sim: Simulation, value: Count) -> None:
 
 
 @command("SCEN", aliases=("SCENARIO",), group="simulation")
-def scen(sim: Simulation, name: RestOfLine) -> None:
+def scen(sim: CommandContext, name: RestOfLine) -> None:
     """SCEN name: name the scenario."""
-    sim.scenario_name = name.strip() or sim.scenario_name
+    sim.files.name = name.strip() or sim.files.name
 
 
 @command("QUIT", aliases=("EXIT", "STOP", "CLOSE", "END"), group="simulation")
-def quit_(sim: Simulation) -> None:
+def quit_(sim: CommandContext) -> None:
     """QUIT: end the run now."""
     sim.queue.clear()
     sim.conditions.clear()
@@ -226,7 +226,7 @@ def quit_(sim: Simulation) -> None:
 
 
 @command("DEFWPT", group="route")
-def defwpt(sim: Simulation, name: Text, pos: PositionValue, wptype: Text = "") -> None:
+def defwpt(sim: CommandContext, name: Text, pos: PositionValue, wptype: Text = "") -> None:
     """DEFWPT name, lat, lon, [type]: define a named waypoint for this run (type DEL deletes it)."""
     if wptype in ("DEL", "DELETE"):
         if not sim.navdb.delete(name):
@@ -236,42 +236,42 @@ def defwpt(sim: Simulation, name: Text, pos: PositionValue, wptype: Text = "") -
 
 
 @command("ATALT", group="conditional", nested=True)
-def atalt(sim: Simulation, acid: AcIndex, altitude: Altitude, text: RestOfLine) -> None:
+def atalt(sim: CommandContext, acid: AcIndex, altitude: Altitude, text: RestOfLine) -> None:
     """ATALT acid, alt, command: run a command when the aircraft crosses an altitude."""
     if not text:
         raise CommandError("ATALT needs a command")
-    actual = float(sim.traffic.alt[acid])
-    sim.conditions.add(Condition(sim.traffic.ids[acid], COND_ALT, altitude, altitude - actual, text,
+    actual = float(sim.view.alt[acid])
+    sim.conditions.add(Condition(sim.view.callsign(acid), COND_ALT, altitude, altitude - actual, text,
                                  sim.current_source or SourceRef()))
 
 
 @command("ATSPD", group="conditional", nested=True)
-def atspd(sim: Simulation, acid: AcIndex, speed: SpeedArg, text: RestOfLine) -> None:
+def atspd(sim: CommandContext, acid: AcIndex, speed: SpeedArg, text: RestOfLine) -> None:
     """ATSPD acid, spd, command: run a command when the aircraft's CAS crosses a speed."""
     if not text:
         raise CommandError("ATSPD needs a command")
     if speed.is_mach:
         raise CommandError("ATSPD takes a CAS in kts, not a Mach number")
-    actual = float(sim.traffic.cas[acid])
-    sim.conditions.add(Condition(sim.traffic.ids[acid], COND_SPD, speed.value, speed.value - actual, text,
+    actual = float(sim.view.cas[acid])
+    sim.conditions.add(Condition(sim.view.callsign(acid), COND_SPD, speed.value, speed.value - actual, text,
                                  sim.current_source or SourceRef()))
 
 
 @command("ATDIST", group="conditional", nested=True)
-def atdist(sim: Simulation, acid: AcIndex, pos: PositionValue, dist_nm: Number, text: RestOfLine) -> None:
+def atdist(sim: CommandContext, acid: AcIndex, pos: PositionValue, dist_nm: Number, text: RestOfLine) -> None:
     """ATDIST acid, lat, lon, dist, command: run a command when the aircraft comes within dist [NM] of a position."""
     if not text:
         raise CommandError("ATDIST needs a command")
     if dist_nm < 0 or not math.isfinite(dist_nm):
         raise CommandError(f"ATDIST distance must be positive, not {dist_nm:g}")
     target = dist_nm * NM
-    _, actual = qdrdist(sim.traffic.lat[acid], sim.traffic.lon[acid], pos.lat, pos.lon)
-    sim.conditions.add(Condition(sim.traffic.ids[acid], COND_DIST, target, target - actual, text,
+    _, actual = qdrdist(sim.view.lat[acid], sim.view.lon[acid], pos.lat, pos.lon)
+    sim.conditions.add(Condition(sim.view.callsign(acid), COND_DIST, target, target - actual, text,
                                  sim.current_source or SourceRef(), pos.lat, pos.lon))
 
 
 @command("AUTODELETE", group="simulation")
-def autodelete(sim: Simulation, on: OnOff | None = None) -> str | None:
+def autodelete(sim: CommandContext, on: OnOff | None = None) -> str | None:
     """AUTODELETE [ON/OFF]: aircraft delete themselves on passing the last waypoint of their route (aamsim extension)."""
     if on is None:
         return f"AUTODELETE is {'ON' if sim.settings.delete_on_arrival else 'OFF'}"
@@ -280,7 +280,7 @@ def autodelete(sim: Simulation, on: OnOff | None = None) -> str | None:
 
 
 @command("ARRIVALRADIUS", group="simulation")
-def arrivalradius(sim: Simulation, radius_nm: Number | None = None) -> str | None:
+def arrivalradius(sim: CommandContext, radius_nm: Number | None = None) -> str | None:
     """ARRIVALRADIUS [nm]: a deleted flight counts as arrived within this distance of its destination (default 0.1)."""
     if radius_nm is None:
         return f"arrival radius {sim.settings.arrival_radius_m / NM:g} NM"
@@ -291,7 +291,7 @@ def arrivalradius(sim: Simulation, radius_nm: Number | None = None) -> str | Non
 
 
 @command("HELP", aliases=("?",), group="simulation")
-def help_(sim: Simulation, name: Text = "") -> str:
+def help_(sim: CommandContext, name: Text = "") -> str:
     """HELP [command]: list the commands, or show one command's usage and help."""
     if not name:
         return "Commands: " + ", ".join(spec.name for spec in sim.commands.specs())

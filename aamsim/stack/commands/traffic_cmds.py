@@ -23,12 +23,12 @@ from aamsim.stack.registry import command
 from aamsim.units import FPM, FT, KTS, Speed
 
 if TYPE_CHECKING:
-    from aamsim.simulation import Simulation
+    from aamsim.stack.context import CommandContext
 
 
 @command("CRE", aliases=("CREATE",), group="traffic")
 def cre(
-    sim: Simulation,
+    sim: CommandContext,
     acid: Text,
     actype: Text,
     pos: PositionValue,
@@ -46,7 +46,7 @@ def cre(
 
 @command("MCRE", group="traffic")
 def mcre(
-    sim: Simulation,
+    sim: CommandContext,
     count: Count,
     actype: Text = "",
     alt: Altitude | None = None,
@@ -69,7 +69,7 @@ def mcre(
     prefix = chr(int(rng.integers(65, 91))) + chr(int(rng.integers(65, 91)))
     number = 0
     for _ in range(count):
-        while f"{prefix}{number:05d}" in sim.traffic:
+        while f"{prefix}{number:05d}" in sim.view:
             number += 1
         acid = f"{prefix}{number:05d}"
         number += 1
@@ -85,18 +85,18 @@ def mcre(
 
 
 @command("DEL", aliases=("DELETE",), group="traffic")
-def delete(sim: Simulation, *targets: Word) -> None:
+def delete(sim: CommandContext, *targets: Word) -> None:
     """DEL acid, [acid, ...]: delete aircraft. ``DEL *`` deletes all of them."""
     if not targets:
         raise CommandError("DEL needs a callsign (or * for all aircraft)")
     names = [t.upper() for t in targets if t]
     if "*" in names:
-        for slot in range(sim.traffic.n - 1, -1, -1):
+        for slot in range(sim.view.n - 1, -1, -1):
             sim.delete_aircraft(slot)
         return
-    missing = [name for name in names if name not in sim.traffic]
+    missing = [name for name in names if name not in sim.view]
     for name in names:
-        i = sim.traffic.find(name)
+        i = sim.view.find(name)
         if i is not None:
             sim.delete_aircraft(i)
     if missing:
@@ -106,7 +106,7 @@ def delete(sim: Simulation, *targets: Word) -> None:
 
 @command("MOVE", group="traffic")
 def move(
-    sim: Simulation,
+    sim: CommandContext,
     acid: AcIndex,
     pos: PositionValue,
     alt: Altitude | None = None,
@@ -119,13 +119,13 @@ def move(
 
 
 @command("SPD", aliases=("SPEED",), group="autopilot")
-def spd(sim: Simulation, acid: AcIndex, speed: SpeedArg) -> None:
+def spd(sim: CommandContext, acid: AcIndex, speed: SpeedArg) -> None:
     """SPD acid, spd: select a speed (kts CAS, or Mach); VNAV speed control off."""
     sim.select_speed(acid, speed)
 
 
 @command("ALT", aliases=("ALTITUDE",), group="autopilot")
-def alt(sim: Simulation, acid: AcIndex, altitude: Altitude, vspd: VSpeed | None = None) -> None:
+def alt(sim: CommandContext, acid: AcIndex, altitude: Altitude, vspd: VSpeed | None = None) -> None:
     """ALT acid, alt, [vspd]: select an altitude (ft or FLnnn), optionally a vertical speed (fpm); VNAV off.
 
     Without a vertical speed, a previously selected one pointing the other way
@@ -135,22 +135,22 @@ def alt(sim: Simulation, acid: AcIndex, altitude: Altitude, vspd: VSpeed | None 
 
 
 @command("VS", aliases=("VSPD",), group="autopilot")
-def vs(sim: Simulation, acid: AcIndex, vspd: VSpeed) -> None:
+def vs(sim: CommandContext, acid: AcIndex, vspd: VSpeed) -> None:
     """VS acid, vspd: select a vertical speed (fpm), used while the selected altitude differs; VNAV off."""
     sim.select_vertical_speed(acid, vspd)
 
 
 @command("HDG", aliases=("HEADING", "TURN"), group="autopilot")
-def hdg(sim: Simulation, acid: AcIndex, heading: Heading) -> None:
+def hdg(sim: CommandContext, acid: AcIndex, heading: Heading) -> None:
     """HDG acid, hdg: fly a heading (degrees true); LNAV off."""
     sim.select_heading(acid, heading)
 
 
 @command("BANK", aliases=("BANKLIM",), group="autopilot")
-def bank(sim: Simulation, acid: AcIndex, bank_deg: Number | None = None) -> str | None:
+def bank(sim: CommandContext, acid: AcIndex, bank_deg: Number | None = None) -> str | None:
     """BANK acid, [bank]: set (or show) the bank angle used in turns [deg]."""
     if bank_deg is None:
-        return f"{sim.traffic.ids[acid]} bank angle {math.degrees(sim.view.bankdef[acid]):.1f} deg"
+        return f"{sim.view.callsign(acid)} bank angle {math.degrees(sim.view.bankdef[acid]):.1f} deg"
     if not 0.0 < bank_deg < 90.0:
         raise CommandError(f"bank angle must be between 0 and 90 deg, not {bank_deg:g}")
     sim.set_bank(acid, math.radians(bank_deg))
@@ -158,15 +158,15 @@ def bank(sim: Simulation, acid: AcIndex, bank_deg: Number | None = None) -> str 
 
 
 @command("POS", group="traffic")
-def pos(sim: Simulation, name: Text) -> str:
+def pos(sim: CommandContext, name: Text) -> str:
     """POS acid/waypoint: show an aircraft's state or a waypoint's position."""
-    i = sim.traffic.find(name)
+    i = sim.view.find(name)
     if i is not None:
         v = sim.view
-        route = sim.traffic.routes[i]
+        route = sim.view.route(i)
         active = route.waypoints[route.iactwp].name if 0 <= route.iactwp < len(route) else "-"
         return (
-            f"{name} {sim.traffic.types[i]} lat {v.lat[i]:.6f} lon {v.lon[i]:.6f} "
+            f"{name} {sim.view.actype(i)} lat {v.lat[i]:.6f} lon {v.lon[i]:.6f} "
             f"alt {v.alt[i] / FT:.0f} ft hdg {v.hdg[i]:.1f} CAS {v.cas[i] / KTS:.1f} kts "
             f"TAS {v.tas[i] / KTS:.1f} kts VS {v.vs[i] / FPM:.0f} fpm "
             f"LNAV {'ON' if v.lnav[i] else 'OFF'} VNAV {'ON' if v.vnav[i] else 'OFF'} "
@@ -179,7 +179,7 @@ def pos(sim: Simulation, name: Text) -> str:
 
 
 @command("CASMACHTHR", group="autopilot")
-def casmachthr(sim: Simulation, threshold: Number | None = None) -> str:
+def casmachthr(sim: CommandContext, threshold: Number | None = None) -> str:
     """CASMACHTHR [threshold]: accepted for BlueSky compatibility; it has no effect.
 
     aamsim keeps CAS and Mach apart (``M.78`` or 0.1 < value < 1 is Mach,
@@ -190,7 +190,7 @@ def casmachthr(sim: Simulation, threshold: Number | None = None) -> str:
 
 
 @command("NOISE", group="traffic")
-def noise(sim: Simulation, on: OnOff | None = None) -> str:
+def noise(sim: CommandContext, on: OnOff | None = None) -> str:
     """NOISE [ON/OFF]: turbulence and surveillance noise (aamsim has none; ON is refused)."""
     if on:
         raise CommandError("NOISE ON is not supported: aamsim models no turbulence or ADS-B noise")
