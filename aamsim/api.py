@@ -40,6 +40,7 @@ class SimulationAPI:
     """Views and intents of a simulation (mixed into :class:`aamsim.Simulation`)."""
 
     traffic: Traffic
+    _traffic_view: TrafficView
     flight_log: list[FlightRecord]
     # Built-in services (conflict detection, metrics), set by aamsim.services.build_services.
     services: Services | None = None
@@ -68,9 +69,13 @@ class SimulationAPI:
     @property
     def view(self) -> TrafficView:
         """Read-only named arrays of the live aircraft (``view.lat``, ``view.ids``, ...)."""
-        view: TrafficView | None = self.__dict__.get("_traffic_view")
-        if view is None or view._traffic is not self.traffic:
-            view = self.__dict__["_traffic_view"] = TrafficView(self.traffic)
+        try:
+            view: TrafficView = self._traffic_view
+            if view._traffic is self.traffic:
+                return view
+        except AttributeError:
+            pass
+        view = self._traffic_view = TrafficView(self.traffic)
         return view
 
     def slot(self, acid: str | int) -> int:

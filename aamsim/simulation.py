@@ -42,7 +42,7 @@ from aamsim.stack.registry import CommandRegistry
 from aamsim.traffic import intents
 from aamsim.traffic.autopilot import pass_waypoint
 from aamsim.traffic.conditions import Conditions
-from aamsim.traffic.kernel import STATUS_CONDITION, STATUS_REACHED, advance, advance_parallel
+from aamsim.traffic.kernel import STATUS_CONDITION, STATUS_NONFINITE, STATUS_REACHED, advance, advance_parallel
 from aamsim.traffic.performance import PerformanceTable
 from aamsim.traffic.traffic import FlightRecord, Traffic
 from aamsim.units import FT, KTS, MAX_ALTITUDE_FT, MIN_ALTITUDE_FT, Speed
@@ -336,8 +336,9 @@ class Simulation(SimulationAPI):
 
     def _run_due_commands(self) -> None:
         # Commands may queue more commands due now (SCHEDULE, PCALL, conditions).
+        queue, clock = self.scheduler.queue, self.clock
         while True:
-            due = self.scheduler.due_commands()
+            due = queue.pop_due(clock.simt_us)
             if not due:
                 return
             for cmd in due:
@@ -345,12 +346,14 @@ class Simulation(SimulationAPI):
 
     def _boundary(self) -> None:
         """Everything that happens at the start of a step, at time simt."""
-        scheduler = self.scheduler
-        scheduler.run_hooks("post_step", self)
+        # The scheduler's parts are called directly: this runs at every batch boundary
+        # (about 10,000 times per episode of the corridor use case).
+        scheduler, clock, hooks = self.scheduler, self.clock, self.hooks
+        hooks.post_step.call_due(clock.simt_us, clock.dt_us, self)
         self._run_due_commands()
-        if scheduler.performance_due(self.settings.perf_interval_s):
+        if clock.simt_us >= scheduler.next_perf_us and scheduler.performance_due(self.settings.perf_interval_s):
             intents.restore_type_acceleration(self.traffic)
-        scheduler.run_hooks("pre_step", self)
+        hooks.pre_step.call_due(clock.simt_us, clock.dt_us, self)
 
     def _advance_steps(self, nsteps: int) -> None:
         """Advance the traffic ``nsteps`` steps, handling events inside the batch."""
@@ -381,9 +384,9 @@ class Simulation(SimulationAPI):
                 *extra,
             )
             done += k
-            clock.advance(k)
+            clock.simt_us += k * clock.dt_us
             self.aircraft_steps += k * n
-            if k and not traffic.all_finite():
+            if status == STATUS_NONFINITE:
                 self._remove_non_finite()
                 return
             check_first = True

@@ -123,6 +123,9 @@ from aamsim.units import FPM, G0, NM
 STATUS_DONE = 0
 STATUS_REACHED = 1  # returned before a step: reached[] marks aircraft at their waypoint
 STATUS_CONDITION = 2  # returned after a step: fired[] marks conditions that triggered
+STATUS_NONFINITE = 3  # returned after a step: some aircraft's state is no longer finite (Python removes it)
+# Added to a block's count of reached waypoints when an aircraft of the block went non-finite.
+_NONFINITE_MARK = 1 << 40
 
 COND_ALT = 0
 COND_SPD = 1
@@ -435,14 +438,21 @@ def _step_range(
     so this equals testing at the start of the next step.
     """
     nreached = 0
+    finite = True
     for i in range(lo, hi):
         _step_aircraft(F, B, i, dt, scratch_qdr[i], scratch_dist[i], fresh[i], hold_speed, airborne_alt)
+        # The state rows lat..vs summed: a NaN or infinity in any of them shows. Checked here,
+        # while the aircraft is in cache, rather than by a pass over the matrix after each batch.
+        total = 0.0
+        for row in range(LAT, VS + 1):
+            total += F[row, i]
+        finite = finite and math.isfinite(total)
         if test_next:
             nreached += _check_waypoint(F, B, i, scratch_qdr, scratch_dist, fresh, reached)
         else:
             fresh[i] = False
             reached[i] = False
-    return nreached
+    return nreached if finite else nreached + _NONFINITE_MARK
 
 
 @_njit_without_refcounts
@@ -491,9 +501,12 @@ def _advance(
             counts[b] = _step_range(F, B, b * n // nblocks, (b + 1) * n // nblocks, dt, test_next, hold_speed,
                                     airborne_alt, scratch_qdr, scratch_dist, fresh, reached)
         k += 1
+        total = counts.sum()
+        if total >= _NONFINITE_MARK:
+            return k, STATUS_NONFINITE
         if cond[0].shape[0] and _conditions_fired(F, cond):
             return k, STATUS_CONDITION
-        if counts.sum():
+        if total:
             return k, STATUS_REACHED
     return k, STATUS_DONE
 

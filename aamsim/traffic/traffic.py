@@ -50,9 +50,9 @@ class FlightRecord:
     advisories: int = 0
 
 
-# State that must stay finite, checked after every kernel batch: the rows from lat to vs (position,
-# altitude, heading, track, speeds, vertical speed) are contiguous, so one sum over a view tells (a NaN
-# or an infinity makes it non-finite; the values are bounded, so a sum of finite ones cannot overflow).
+# State that must stay finite: the rows from lat to vs (position, altitude, heading, track, speeds,
+# vertical speed). The kernel sums them per aircraft after each step and stops with STATUS_NONFINITE
+# when a sum is not finite; these rows then name the aircraft and describe their state.
 _FINITE = slice(f.LAT, f.VS + 1)
 _FINITE_NAMES = f.FLOAT_FIELDS[f.LAT : f.VS + 1]
 
@@ -106,10 +106,6 @@ class Traffic:
         return iter(list(self.ids))
 
     # Named views of the fields users read most.
-    def all_finite(self) -> bool:
-        """Whether every aircraft's position, altitude, speeds, heading and vertical speed are finite."""
-        return math.isfinite(self.F[_FINITE, : self.n].sum())
-
     def non_finite_slots(self) -> list[int]:
         """Slots whose position, altitude, speeds, heading or vertical speed are not finite."""
         return np.flatnonzero(~np.isfinite(self.F[_FINITE, : self.n]).all(axis=0)).tolist()
