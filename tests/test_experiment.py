@@ -266,6 +266,37 @@ def test_checkpoint_is_plain_data_loadable_with_weights_only(tmp_path):
         save_checkpoint(tmp_path / "d.pt", a, TrainState(), {"bad": object()})
 
 
+@pytest.mark.bluesky
+def test_evaluate_on_bluesky_agrees_with_aamsim_and_the_report_shows_both(tmp_path, trained_run):
+    """``aamgym evaluate backend=bluesky``: BlueSky flies the aircraft; the report puts its columns beside aamsim's."""
+    pytest.importorskip("bluesky")
+    common = [f"run={trained_run}", "episodes=2", "workers=0", "env.time_limit_s=600"]
+    cli(["evaluate", *common, "hydra.run.dir=eval_local"], tmp_path)
+    cli(["evaluate", *common, "backend=bluesky", "hydra.run.dir=eval_bluesky"], tmp_path)
+    local = json.loads((tmp_path / "eval_local" / "evaluation.json").read_text())
+    blue = json.loads((tmp_path / "eval_bluesky" / "evaluation.json").read_text())
+    assert (local["backend"], blue["backend"]) == ("local", "bluesky")
+    assert set(blue["policies"]) == {"d2mava_a", "unequipped", "mvp_speed"}
+    for policy, p in local["policies"].items():
+        q = blue["policies"][policy]
+        # The same events, and rewards within 1e-6: the kinematics agree to millimetres, and the
+        # per-episode altitude noise is applied to BlueSky's aircraft too.
+        assert (q["nmac_events"], q["lowc_events"]) == (p["nmac_events"], p["lowc_events"]), policy
+        assert q["reward_per_aircraft"]["mean"] == pytest.approx(p["reward_per_aircraft"]["mean"], abs=1e-6), policy
+    cli(["report", "eval_local", "eval_bluesky", "-o", "report"], tmp_path)
+    with open(tmp_path / "report" / "risk_ratio.csv", newline="") as fh:
+        header = next(csv.reader(fh))
+    assert any(h.endswith("tiny_conflict") for h in header)
+    assert any(h.endswith("tiny_conflict (on BlueSky)") for h in header)
+
+
+def test_rollouts_refuse_a_backend_they_cannot_run_on():
+    from rlbridge.agents.rollout import EnvSpec
+
+    with pytest.raises(ValueError, match="'local', 'bluesky'"):
+        EnvSpec(TINY, backend="zmq")
+
+
 def test_evaluation_keeps_the_training_runs_time_limit_and_dt_unless_overridden():
     from rlbridge.agents.rollout import EnvSpec
     from rlbridge.experiment.evaluate import evaluation_env

@@ -128,6 +128,9 @@ def to_observations(arrays: dict[str, np.ndarray]) -> Observations:
     return Observations(parts=arrays)
 
 
+ROLLOUT_BACKENDS = ("local", "bluesky")
+
+
 @dataclass(frozen=True)
 class EnvSpec:
     """Everything a worker needs to build its episode engine (plain data: it crosses processes)."""
@@ -138,11 +141,23 @@ class EnvSpec:
     time_limit_s: float | None = None  # None: the engine's default (last command + 2 h)
     dt: float = 0.05  # simulation step [s]
     metrics: tuple[str, ...] = ("safety", "operational")  # metric groups of each episode
+    # Where the episodes run: "local" (aamsim) or "bluesky" (BlueSky flies the aircraft,
+    # rlbridge.backends.bluesky); the actors see an EpisodeCore either way.
+    backend: str = "local"
+
+    def __post_init__(self) -> None:
+        if self.backend not in ROLLOUT_BACKENDS:
+            raise ValueError(f"backend {self.backend!r}: rollouts run on {', '.join(map(repr, ROLLOUT_BACKENDS))} "
+                             "(the baselines and policies read the episode's simulation in process)")
 
     def make(self, obs_format: str | None = None) -> EpisodeCore:
         params = dict(self.params)
         if obs_format is not None:
             params["obs_format"] = obs_format
+        if self.backend == "bluesky":
+            from rlbridge.backends.bluesky import BlueSkyEpisode
+
+            return BlueSkyEpisode(self.scenario, self.usecase, params, time_limit_s=self.time_limit_s, dt=self.dt)
         return EpisodeCore(self.scenario, self.usecase, params, time_limit_s=self.time_limit_s, dt=self.dt)
 
 
@@ -173,6 +188,10 @@ class RolloutWorker:
     def _core_for(self, actor: Actor | None) -> EpisodeCore:
         fmt = None if actor is None else actor.obs_format
         if fmt not in self._cores:
+            if self.env.backend == "bluesky":  # BlueSky is process-global: one episode engine at a time
+                for core in self._cores.values():
+                    core.close()
+                self._cores.clear()
             self._cores[fmt] = self.env.make(fmt)
         return self._cores[fmt]
 

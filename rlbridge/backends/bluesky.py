@@ -15,7 +15,9 @@ intents, as on the other backends):
 * actions: after the use case applied its intents to the mirror, the selected
   speeds that changed are sent to BlueSky as ``SPD`` commands (the corridor
   use case's speed advisories; altitude and heading intents are not forwarded
-  yet).
+  yet);
+* altitude offsets given to aircraft as they are created (the corridor use
+  case's per-episode altitude noise) are applied to BlueSky's aircraft too.
 
 BlueSky keeps its whole state in process globals, so one process runs one
 BlueSky episode at a time (a second :class:`BlueSkyEpisode` in the same process
@@ -71,6 +73,7 @@ class BlueSkyEpisode(EpisodeCore):
         _BLUESKY["owner"] = weakref.ref(self)
         self.bs = _bluesky()
         self._pending: dict[str, float] | None = None
+        self._alt_offsets: dict[str, float] = {}  # callsign -> altitude offset given at creation [m]
 
     # ------------------------------------------------------------- simulation
     def _new_simulation(self, seed: int | None) -> Simulation:
@@ -84,6 +87,23 @@ class BlueSkyEpisode(EpisodeCore):
         # Before the conflict check (priority 10) at each of its instants.
         sim.hooks.post_step.add(self._sync, interval_s=lambda: sim.settings.cd_interval_s, name="bluesky.sync",
                                 priority=0)
+        # Altitude changes made to the mirror while an aircraft is created (the corridor use case's
+        # per-episode altitude noise) are measured around the other creation hooks and applied to
+        # BlueSky's aircraft when it creates them, so both fly the same altitudes.
+        created_alt: dict[str, float] = {}
+        self._alt_offsets: dict[str, float] = {}
+
+        def before(sim: Simulation, i: int) -> None:
+            created_alt[sim.view.callsign(i)] = float(sim.view.alt[i])
+
+        def after(sim: Simulation, i: int) -> None:
+            acid = sim.view.callsign(i)
+            dz = float(sim.view.alt[i]) - created_alt.pop(acid, float(sim.view.alt[i]))
+            if dz:
+                self._alt_offsets[acid] = dz
+
+        sim.hooks.created.add(before, name="bluesky.created_alt", priority=-1000)
+        sim.hooks.created.add(after, name="bluesky.alt_offset", priority=1000)
         return sim
 
     def _sync(self, sim: Simulation) -> None:
@@ -96,6 +116,10 @@ class BlueSkyEpisode(EpisodeCore):
         # same order: they come before the move), so its aircraft exist when actions are sent at t.
         bs.stack.process()
         index = {acid: k for k, acid in enumerate(bs.traf.id)}
+        for acid in [a for a in self._alt_offsets if a in index]:
+            k, dz = index[acid], self._alt_offsets.pop(acid)
+            bs.traf.alt[k] += dz  # the aircraft and its selected altitude, as aamsim's offset_altitude
+            bs.traf.selalt[k] += dz
         view = sim.view
         pairs = [(s, index[a]) for s, a in enumerate(view.ids) if a in index]
         if not pairs:

@@ -58,15 +58,17 @@ def group_means(stats: list[EpisodeStats], group: str) -> dict[str, dict[str, fl
 def evaluation_env(cfg: DictConfig, trained_env: EnvSpec) -> EnvSpec:
     """The episode settings of an evaluation: the training run's, overridden by ``cfg``.
 
-    ``scenario``, ``env.time_limit_s`` and ``env.dt`` left null keep the training run's
-    values (a training run's own null time limit stays null: the engine's default, last
+    ``backend`` chooses where the episodes run (``bluesky``: BlueSky flies the aircraft, so a
+    policy trained on aamsim is checked on BlueSky itself). ``scenario``, ``env.time_limit_s``
+    and ``env.dt`` left null keep the training run's values (a training run's own null time limit stays null: the engine's default, last
     command of the evaluated scenario + 2 h); the altitude noise and metrics are the
     evaluation's.
     """
     scenario = resolve_scenario_path(str(cfg.scenario)) if cfg.scenario else trained_env.scenario
     params = dict(trained_env.params, alt_noise_ft=float(cfg.alt_noise_ft),
                   alt_noise_lanes_ft=[float(x) for x in cfg.alt_noise_lanes_ft])
-    return replace(trained_env, scenario=scenario, params=params, metrics=tuple(cfg.metrics),
+    backend = str(cfg.get("backend") or "local")
+    return replace(trained_env, scenario=scenario, params=params, metrics=tuple(cfg.metrics), backend=backend,
                    time_limit_s=trained_env.time_limit_s if cfg.env.time_limit_s is None
                    else float(cfg.env.time_limit_s),
                    dt=trained_env.dt if cfg.env.dt is None else float(cfg.env.dt))
@@ -98,8 +100,8 @@ def run_evaluation(cfg: DictConfig, out_dir: str | Path) -> dict[str, Any]:
     labels = {name: label, **{b: BASELINE_LABELS.get(b, b) for b in actors if b != name}}
     seeds = list(range(int(cfg.seed), int(cfg.seed) + int(cfg.episodes)))
     weights = numpy_weights(ckpt["learner"]["model"])
-    log.info("evaluating %s (%s, iteration %s) on %s: %d episodes each for %s", label, ckpt_path,
-             ckpt["state"].get("best_iteration"), Path(scenario).name, len(seeds), ", ".join(actors))
+    log.info("evaluating %s (%s, iteration %s) on %s (%s backend): %d episodes each for %s", label, ckpt_path,
+             ckpt["state"].get("best_iteration"), Path(scenario).name, env.backend, len(seeds), ", ".join(actors))
     from tqdm import tqdm
 
     results: dict[str, list[EpisodeStats]] = {}
@@ -148,7 +150,8 @@ def run_evaluation(cfg: DictConfig, out_dir: str | Path) -> dict[str, Any]:
             "aircraft_states": int(sum(s.transitions for s in got)), "wall_s": float(sum(s.wall_s for s in got)),
             "safety": group_means(got, "safety"), "operational": group_means(got, "operational")}
     first = next(iter(results.values()))[0]
-    evaluation = {"scenario": first.scenario, "scenario_sha256": first.scenario_sha256, "episodes": len(seeds),
+    evaluation = {"scenario": first.scenario, "scenario_sha256": first.scenario_sha256, "backend": env.backend,
+                  "episodes": len(seeds),
                   "seeds": seeds, "alt_noise_ft": float(cfg.alt_noise_ft),
                   "alt_noise_lanes_ft": [float(x) for x in cfg.alt_noise_lanes_ft], "greedy": greedy,
                   "checkpoint": str(ckpt_path), "train_run": ckpt.get("run_dir"), "algorithm": name,

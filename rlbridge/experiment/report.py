@@ -38,6 +38,7 @@ from typing import Any
 import numpy as np
 
 Z95 = 1.959964  # two-sided 95 % normal quantile
+BACKEND_LABELS = {"bluesky": "on BlueSky"}
 OPERATIONAL_COLUMNS = (
     ("nmac_events", "NMAC / episode"), ("lowc_events", "LoWC / episode"),
     ("safety.nmac_per_flight", "NMAC / flight"), ("operational.flights_completed", "flights completed"),
@@ -78,7 +79,9 @@ def load_evaluations(dirs: list[Path]) -> tuple[dict[str, dict[str, Cell]], list
     learned: list[str] = []
     for d in dirs:
         ev = json.loads((d / "evaluation.json").read_text())
-        scen = ev["scenario"]
+        # Evaluations on BlueSky (`aamgym evaluate backend=bluesky`) get their own columns, beside aamsim's.
+        scen = ev["scenario"] + (f" ({BACKEND_LABELS.get(ev['backend'], ev['backend'])})"
+                                 if ev.get("backend", "local") != "local" else "")
         if scen not in scenarios:
             scenarios.append(scen)
         episodes = _episode_rows(d)
