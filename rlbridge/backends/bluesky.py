@@ -91,7 +91,7 @@ class BlueSkyEpisode(EpisodeCore):
         # per-episode altitude noise) are measured around the other creation hooks and applied to
         # BlueSky's aircraft when it creates them, so both fly the same altitudes.
         created_alt: dict[str, float] = {}
-        self._alt_offsets: dict[str, float] = {}
+        self._alt_offsets = {}
 
         def before(sim: Simulation, i: int) -> None:
             created_alt[sim.view.callsign(i)] = float(sim.view.alt[i])
