@@ -123,3 +123,21 @@ def test_a_non_finite_state_is_reported_with_the_aircraft_and_its_last_command()
 
 def test_nm_constant_sanity() -> None:
     assert 1852.0 == pytest.approx(NM)
+
+
+@pytest.mark.parametrize("row", ["lat", "lon", "alt", "hdg", "trk", "tas", "cas", "mach", "gs",
+                                 "gsnorth", "gseast", "vs"])
+@pytest.mark.parametrize("bad", [np.nan, np.inf, -np.inf])
+def test_a_non_finite_value_in_any_state_row_never_stays(row: str, bad: float) -> None:
+    # The kernel sums only position, altitude and TAS. A bad value elsewhere either reaches them
+    # within the step (the aircraft is removed with an error) or is recomputed from good state
+    # (TAS from CAS, ground speed from TAS and track); either way no state row stays non-finite.
+    sim = make()
+    sim.stack("CRE A EC35 40.7 -74 45 1000 60; CRE B EC35 40.8 -74 0 1000 60; VS A 500; ALT A 3000")
+    sim.run_until(2.0)
+    sim.traffic.F[f.FLOAT_FIELDS.index(row), sim.traffic.index("A")] = bad
+    sim.run_until(4.0)
+    assert "B" in sim.traffic
+    assert np.isfinite(sim.traffic.F[f.LAT : f.VS + 1, : sim.traffic.n]).all()
+    if "A" not in sim.traffic:
+        assert any("A: state not finite" in e for e in errors_of(sim))

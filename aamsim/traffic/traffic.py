@@ -51,8 +51,9 @@ class FlightRecord:
 
 
 # State that must stay finite: the rows from lat to vs (position, altitude, heading, track, speeds,
-# vertical speed). The kernel sums them per aircraft after each step and stops with STATUS_NONFINITE
-# when a sum is not finite; these rows then name the aircraft and describe their state.
+# vertical speed). The kernel sums position, altitude and TAS after each step (every other row feeds
+# them within the step) and stops with STATUS_NONFINITE when the sum is not finite; these rows then
+# name the aircraft and describe their state.
 _FINITE = slice(f.LAT, f.VS + 1)
 _FINITE_NAMES = f.FLOAT_FIELDS[f.LAT : f.VS + 1]
 
