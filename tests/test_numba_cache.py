@@ -43,3 +43,25 @@ def test_cache_directory_follows_the_source_and_respects_the_user(tmp_path):
     env["NUMBA_CACHE_DIR"] = str(tmp_path / "mine")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, check=True).stdout
     assert out.strip() == f"{tmp_path / 'mine'}|{tmp_path / 'mine'}"
+
+
+def test_checkouts_sharing_the_cache_keep_each_others_directories(tmp_path, monkeypatch) -> None:
+    # Ten checkouts of different sources used in turn: none may lose its compiled code to another's
+    # pruning (with three kept, every run of every checkout compiled everything again).
+    import os
+    import time
+
+    from aamsim import numba_cache
+
+    base = tmp_path / "numba"
+    base.mkdir()
+    dirs = [base / f"src{k}" for k in range(10)]
+    for d in dirs:
+        d.mkdir()
+        numba_cache._prune(base, d)
+    assert all(d.is_dir() for d in dirs)
+    stale = dirs[0]
+    old = time.time() - (numba_cache._KEEP_DAYS + 1) * 86400
+    os.utime(stale, (old, old))
+    numba_cache._prune(base, dirs[1])
+    assert not stale.exists() and all(d.is_dir() for d in dirs[1:])
