@@ -29,6 +29,7 @@ if TYPE_CHECKING:
     from aamsim.traffic.route import Route
     from aamsim.traffic.traffic import FlightRecord
     from aamsim.traffic.view import TrafficView
+    from aamsim.traffic.wind import WindField
     from aamsim.units import Speed
 
 
@@ -121,6 +122,7 @@ class CommandContext(Protocol):
     plugins: dict[str, Any]
     extensions: dict[str, Any]
     services: Services | None
+    wind: WindField  # the wind field (WIND, GETWIND, DEL WIND)
 
     def require_services(self) -> Services: ...
 

@@ -10,7 +10,8 @@ order within a step:
    constraints, selected speed -> TAS;
 3. performance limits on the commanded speed, vertical speed and altitude;
 4. kinematics: speed ramps at ``axmax``, heading turns at g*tan(bank)/V,
-   vertical speed ramps at 300 fpm/s, then the flat-earth Euler position step;
+   vertical speed ramps at 300 fpm/s, ground speed is the TAS vector plus the
+   wind (:mod:`aamsim.traffic.wind`), then the flat-earth Euler position step;
 5. conditional commands (ATALT/ATSPD/ATDIST): if one fires, the call returns
    after the step so that Python runs its command before the next one.
 
@@ -118,6 +119,7 @@ from aamsim.traffic.fields import (
     WP_VS,
 )
 from aamsim.traffic.navmath import guidance, position_step, wrap180, wrap360
+from aamsim.traffic.wind import APPLY_ABOVE_M, wind_at
 from aamsim.units import FPM, G0, NM
 
 STATUS_DONE = 0
@@ -205,12 +207,19 @@ def _step_aircraft(
     have_qdr: bool,
     hold_speed: float,
     airborne_alt: float,
+    wind: tuple[np.ndarray, ...],
 ) -> None:
     alt = F[ALT, i]
     tas = F[TAS, i]
     swlnav = B[B_SWLNAV, i]
     swvnav = B[B_SWVNAV, i]
     rho, p, a = _atmosphere(F, i, alt)
+    # Wind at the aircraft, where it is at the start of the step (BlueSky reads its field
+    # there for the autopilot's wind correction and for the ground speed alike).
+    windy = wind[4][0] > 0
+    wind_n = wind_e = 0.0
+    if windy:
+        wind_n, wind_e = wind_at(wind, F[LAT, i], F[LON, i], alt)
 
     # ---------------------------------------------------------------- autopilot
     if swlnav or swvnav:
@@ -271,8 +280,16 @@ def _step_aircraft(
     F[AP_ALT, i] = ap_alt
     F[AP_VS, i] = ap_vs
 
+    # The heading that makes good the desired track (BlueSky's APorASAS wind correction).
+    des_trk = F[AP_TRK, i]
+    if windy:
+        wind_speed = math.sqrt(wind_n * wind_n + wind_e * wind_e)
+        drift = math.radians(des_trk) - math.atan2(wind_e, wind_n)
+        steer = math.asin(min(1.0, max(-1.0, wind_speed * math.sin(drift) / max(0.001, tas))))
+        des_trk = des_trk + math.degrees(steer)
+
     # ------------------------------------------------------ performance limits
-    des_hdg = wrap360(F[AP_TRK, i])
+    des_hdg = wrap360(des_trk)
     des_vs = abs(ap_vs)
     des_alt = min(ap_alt, F[HMAX, i])
     axmax = F[AXMAX, i]
@@ -343,7 +360,6 @@ def _step_aircraft(
         vs = 0.0
     F[VS, i] = vs
 
-    # Ground speed equals TAS: aamsim has no wind.
     if F[C_HDG, i] != hdg:
         hrad = math.radians(hdg)
         F[C_SINHDG, i] = math.sin(hrad)
@@ -351,10 +367,18 @@ def _step_aircraft(
         F[C_HDG, i] = hdg
     gsn = tas * F[C_COSHDG, i]
     gse = tas * F[C_SINHDG, i]
+    if windy and alt > APPLY_ABOVE_M:
+        # Ground speed = TAS vector + wind, for aircraft off the ground (BlueSky: above 50 ft).
+        gsn += wind_n
+        gse += wind_e
+        gs = math.sqrt(gsn * gsn + gse * gse)
+        F[TRK, i] = wrap360(math.degrees(math.atan2(gse, gsn)))
+    else:
+        gs = tas
+        F[TRK, i] = hdg
     F[GSNORTH, i] = gsn
     F[GSEAST, i] = gse
-    F[GS, i] = tas
-    F[TRK, i] = hdg
+    F[GS, i] = gs
 
     if altsel:
         alt = round(alt + vs * dt, 6)
@@ -362,7 +386,7 @@ def _step_aircraft(
         alt = des_alt
     F[ALT, i] = alt
     position_step(F, i, dt, gsn, gse)
-    F[DISTFLOWN, i] += tas * dt
+    F[DISTFLOWN, i] += gs * dt
     # Airborne holding: slow after having flown (the initial spin-up after a
     # creation at 0 kt is not holding).
     if abs(tas) >= hold_speed:
@@ -429,6 +453,7 @@ def _step_range(
     scratch_dist: np.ndarray,
     fresh: np.ndarray,
     reached: np.ndarray,
+    wind: tuple[np.ndarray, ...],
 ) -> int:
     """One step of aircraft ``lo..hi-1``; returns how many reached their waypoint.
 
@@ -440,7 +465,7 @@ def _step_range(
     nreached = 0
     finite = True
     for i in range(lo, hi):
-        _step_aircraft(F, B, i, dt, scratch_qdr[i], scratch_dist[i], fresh[i], hold_speed, airborne_alt)
+        _step_aircraft(F, B, i, dt, scratch_qdr[i], scratch_dist[i], fresh[i], hold_speed, airborne_alt, wind)
         # The state rows lat..vs summed: a NaN or infinity in any of them shows. Checked here,
         # while the aircraft is in cache, rather than by a pass over the matrix after each batch.
         total = 0.0
@@ -479,6 +504,7 @@ def _advance(
     airborne_alt: float,
     scratch: tuple[np.ndarray, ...],
     cond: tuple[np.ndarray, ...],
+    wind: tuple[np.ndarray, ...],
     nblocks: int,
 ) -> tuple[int, int]:
     scratch_qdr, scratch_dist, fresh, reached = scratch
@@ -499,7 +525,7 @@ def _advance(
         test_next = k + 1 < nsteps
         for b in prange(nblocks):
             counts[b] = _step_range(F, B, b * n // nblocks, (b + 1) * n // nblocks, dt, test_next, hold_speed,
-                                    airborne_alt, scratch_qdr, scratch_dist, fresh, reached)
+                                    airborne_alt, scratch_qdr, scratch_dist, fresh, reached, wind)
         k += 1
         total = counts.sum()
         if total >= _NONFINITE_MARK:
@@ -515,6 +541,7 @@ def _advance(
 def advance(
     F: np.ndarray, B: np.ndarray, n: int, dt: float, nsteps: int, check_first: bool, hold_speed: float,
     airborne_alt: float, scratch: tuple[np.ndarray, ...], cond: tuple[np.ndarray, ...],
+    wind: tuple[np.ndarray, ...],
 ) -> tuple[int, int]:
     """Advance all ``n`` aircraft by up to ``nsteps`` steps of ``dt`` seconds.
 
@@ -525,17 +552,19 @@ def advance(
             whose leg it changed before resuming), ``reached[i]`` that the
             aircraft is at its waypoint.
         cond: the conditional commands' arrays (:meth:`Conditions.arrays`).
+        wind: the wind field's arrays (:meth:`aamsim.traffic.wind.WindField.arrays`).
 
     Returns:
         ``(steps_done, status)``, status one of ``STATUS_*``.
     """
-    return _advance(F, B, n, dt, nsteps, check_first, hold_speed, airborne_alt, scratch, cond, 1)
+    return _advance(F, B, n, dt, nsteps, check_first, hold_speed, airborne_alt, scratch, cond, wind, 1)
 
 
 @njit(cache=True, parallel=True)
 def advance_parallel(
     F: np.ndarray, B: np.ndarray, n: int, dt: float, nsteps: int, check_first: bool, hold_speed: float,
-    airborne_alt: float, scratch: tuple[np.ndarray, ...], cond: tuple[np.ndarray, ...], nblocks: int,
+    airborne_alt: float, scratch: tuple[np.ndarray, ...], cond: tuple[np.ndarray, ...],
+    wind: tuple[np.ndarray, ...], nblocks: int,
 ) -> tuple[int, int]:
     """:func:`advance` with the aircraft in ``nblocks`` blocks over Numba's threads (same results, bit for bit)."""
-    return _advance(F, B, n, dt, nsteps, check_first, hold_speed, airborne_alt, scratch, cond, nblocks)
+    return _advance(F, B, n, dt, nsteps, check_first, hold_speed, airborne_alt, scratch, cond, wind, nblocks)
