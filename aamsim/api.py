@@ -125,6 +125,10 @@ class SimulationAPI:
         """Fly a heading [deg true]; LNAV off (BlueSky's HDG)."""
         intents.select_heading(self.traffic, self.slot(target), heading_deg, self.wind)
 
+    def set_cruise_speed(self, target: str | int, cas_mps: float) -> None:
+        """CAS [m/s] selected when a fly-turn ends and the new leg has no speed constraint (CRUISESPD)."""
+        intents.set_cruise_speed(self.traffic, self.slot(target), cas_mps)
+
     def set_bank(self, target: str | int, bank_rad: float) -> None:
         """Bank angle used in turns [rad], in (0, pi/2)."""
         if not 0.0 < bank_rad < np.pi / 2:

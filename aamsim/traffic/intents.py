@@ -82,6 +82,12 @@ def apply_wind_at_creation(traffic: Traffic, slot: int, wind: WindField) -> None
     F[f.AP_TRK, slot] = F[f.TRK, slot]
 
 
+def set_cruise_speed(traffic: Traffic, slot: int, cas_mps: float) -> None:
+    """CAS [m/s] selected when a fly-turn ends (BlueSky's CRUISESPD), within the type's speed range."""
+    F = traffic.F
+    traffic.F[f.CRUISESPD, slot] = min(F[f.VMAX, slot], max(cas_mps, F[f.VMIN, slot]))
+
+
 def set_bank(traffic: Traffic, slot: int, bank_rad: float) -> None:
     """Bank angle used in turns [rad]."""
     traffic.F[f.BANKDEF, slot] = bank_rad

@@ -58,6 +58,8 @@ from aamsim.traffic.fields import (
     AXMAX,
     B_C_SPD_MACH,
     B_HAS_MOVED,
+    B_HAS_NEXTTURN,
+    B_INTURN,
     B_ROTOR,
     B_SELSPD_MACH,
     B_SWALTSEL,
@@ -67,6 +69,7 @@ from aamsim.traffic.fields import (
     B_SWVNAV,
     B_SWVNAVSPD,
     B_SWVNAVVS,
+    B_TURNTONEXTWP,
     B_WP_FLYBY,
     BANKDEF,
     C_A,
@@ -83,6 +86,7 @@ from aamsim.traffic.fields import (
     C_TANBANK,
     C_TAS_IN,
     CAS,
+    CRUISESPD,
     DIST2VS,
     DIST2WP,
     DISTFLOWN,
@@ -113,6 +117,11 @@ from aamsim.traffic.fields import (
     WP_CURLEGDIR,
     WP_NEXTALTCO,
     WP_NEXTSPD,
+    WP_NEXTTURNLAT,
+    WP_NEXTTURNLON,
+    WP_NEXTTURNRAD,
+    WP_NEXTTURNSPD,
+    WP_OLDTURNSPD,
     WP_SPD,
     WP_SPDCON,
     WP_TURNDIST,
@@ -196,6 +205,51 @@ def _reached(F: np.ndarray, B: np.ndarray, i: int, qdr: float, dist: float) -> b
     return away_or_passed or dist < turndist
 
 
+@njit(cache=True)
+def _turn_speed(F: np.ndarray, B: np.ndarray, i: int, tas: float, rho: float, p: float, use_next: bool) -> None:
+    """Speed selection of an aircraft with fly-turn waypoints (BlueSky's FMS speed guidance).
+
+    With VNAV speed control on, the aircraft slows to the turn speed of the
+    next fly-turn waypoint when it is within the distance needed to decelerate
+    (plus 10 % and the turn radius) and keeps it through the turn, until its
+    track is within 2 deg of the new leg. A cruise speed (CRUISESPD) is then
+    selected if the new leg has no speed constraint. Otherwise the speed
+    constraints select the speed as without turns.
+    """
+    nav = B[B_SWVNAVSPD, i] and B[B_SWVNAV, i] and B[B_SWLNAV, i]
+    use_turn = False
+    if B[B_HAS_NEXTTURN, i]:
+        turntas = _cas2tas(F[WP_NEXTTURNSPD, i], rho, p)
+        dx_turn = 0.5 * abs(tas * tas - turntas * turntas) / max(0.001, abs(F[AXMAX, i]))
+        dist2turn = qdrdist_scalar(F[LAT, i], F[LON, i], F[WP_NEXTTURNLAT, i], F[WP_NEXTTURNLON, i])[1]
+        near = dist2turn < dx_turn * 1.1 + max(F[WP_TURNDIST, i], F[WP_NEXTTURNRAD, i])
+        use_turn = (B[B_TURNTONEXTWP, i] or near) and nav
+    B[B_TURNTONEXTWP, i] = B[B_SWLNAV, i] and (B[B_TURNTONEXTWP, i] or use_turn)
+    old = F[WP_OLDTURNSPD, i]
+    on_leg = abs(wrap180(F[TRK, i] - F[QDR2WP, i])) < 2.0
+    in_old_turn = old > 0.0 and not on_leg
+    if on_leg and old > 0.0:
+        F[WP_OLDTURNSPD, i] = math.nan
+    if use_turn:
+        F[SELSPD, i] = F[WP_NEXTTURNSPD, i]
+        B[B_SELSPD_MACH, i] = False
+    elif in_old_turn and nav:
+        F[SELSPD, i] = old
+        B[B_SELSPD_MACH, i] = False
+    elif use_next:
+        F[SELSPD, i] = F[WP_NEXTSPD, i]
+        B[B_SELSPD_MACH, i] = False
+    elif B[B_SWVNAVSPD, i] and F[WP_SPDCON, i] == F[WP_SPDCON, i]:
+        F[SELSPD, i] = F[WP_SPD, i]
+        B[B_SELSPD_MACH, i] = False
+    was_in_turn = B[B_INTURN, i]
+    B[B_INTURN, i] = use_turn or in_old_turn
+    if was_in_turn and not B[B_INTURN, i] and F[CRUISESPD, i] > 0.0 and not use_next \
+            and not F[WP_SPD, i] == F[WP_SPD, i]:
+        F[SELSPD, i] = F[CRUISESPD, i]
+        B[B_SELSPD_MACH, i] = False
+
+
 @njit(cache=True, inline="always")
 def _step_aircraft(
     F: np.ndarray,
@@ -261,7 +315,9 @@ def _step_aircraft(
         nexttas = _cas2tas(nextspd, rho, p)
         dx_accel = 0.5 * abs(nexttas * nexttas - tas * tas) / max(0.001, abs(F[AXMAX, i]))
         use_next = dist2wp < dx_accel
-    if use_next:
+    if B[B_HAS_NEXTTURN, i] or F[WP_OLDTURNSPD, i] > 0.0 or B[B_INTURN, i]:
+        _turn_speed(F, B, i, tas, rho, p, use_next)
+    elif use_next:
         F[SELSPD, i] = nextspd
         B[B_SELSPD_MACH, i] = False
     elif B[B_SWVNAVSPD, i] and F[WP_SPDCON, i] == F[WP_SPDCON, i]:
