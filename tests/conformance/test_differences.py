@@ -134,8 +134,8 @@ def _closest_approach(sim: Simulation, lat: float, lon: float, until: float) -> 
 
 def test_flyturn_radius_is_flown_at_the_bank_it_needs():
     """4.10: BlueSky's calcturn takes arctan's radians for degrees. With TURNRAD alone
-    it banks at 0.41 deg instead of 23.5 deg (100 kts, 0.2 nm) and overshoots the
-    corner by kilometres. aamsim banks at atan(V^2 / (g R)) and flies the radius:
+    it banks at 0.65 deg instead of 37 deg (100 kts at 1500 ft, 0.2 nm) and overshoots
+    the corner by 9 km. aamsim banks at atan(V^2 / (g R)) and flies the radius:
     a right-angle corner is passed at R (sqrt(2) - 1)."""
     sim = Simulation(seed=0, use_bluesky_navdata=False)
     for line in ("CRE A EC35 40.70 -74.00 90 1500 100", "ADDWPT A 40.70 -73.99", "ADDWPT A TURNRAD 0.2",
@@ -212,3 +212,12 @@ def test_flat_earth_position_update_error_against_wgs84():
     assert 0.0011 * length < err_n < 0.0014 * length
     assert 0.0024 * length < err_e < 0.0027 * length
     assert sim.traffic.lat[1] == lat0  # due east stays on the parallel, as with BlueSky
+
+
+def test_wind_profile_flight_levels_are_flight_levels():
+    """4.11: BlueSky multiplies a profile altitude given as FLnnn by 0.3048 a second
+    time (FL70 is taken as 650 m). aamsim: FL70 is 7000 ft."""
+    sim = Simulation(seed=0, use_bluesky_navdata=False)
+    assert sim.stack("WIND 52,4,0,270,10,FL70,270,30")
+    assert sim.wind.get(52.0, 4.0, 7000 * 0.3048)[1] == pytest.approx(30 * KTS)
+    assert sim.wind.get(52.0, 4.0, 3500 * 0.3048)[1] == pytest.approx(20 * KTS)
