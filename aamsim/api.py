@@ -30,6 +30,7 @@ if TYPE_CHECKING:
     from aamsim.services import Services
     from aamsim.traffic.route import Route
     from aamsim.traffic.traffic import FlightRecord, Traffic
+    from aamsim.traffic.wind import WindField
 
 Target = str | int | Sequence[str] | np.ndarray
 
@@ -40,6 +41,7 @@ class SimulationAPI:
     """Views and intents of a simulation (mixed into :class:`aamsim.Simulation`)."""
 
     traffic: Traffic
+    wind: WindField
     _traffic_view: TrafficView
     flight_log: list[FlightRecord]
     # Built-in services (conflict detection, metrics), set by aamsim.services.build_services.
@@ -121,7 +123,11 @@ class SimulationAPI:
 
     def select_heading(self, target: str | int, heading_deg: float) -> None:
         """Fly a heading [deg true]; LNAV off (BlueSky's HDG)."""
-        intents.select_heading(self.traffic, self.slot(target), heading_deg)
+        intents.select_heading(self.traffic, self.slot(target), heading_deg, self.wind)
+
+    def set_cruise_speed(self, target: str | int, cas_mps: float) -> None:
+        """CAS [m/s] selected when a fly-turn ends and the new leg has no speed constraint (CRUISESPD)."""
+        intents.set_cruise_speed(self.traffic, self.slot(target), cas_mps)
 
     def set_bank(self, target: str | int, bank_rad: float) -> None:
         """Bank angle used in turns [rad], in (0, pi/2)."""

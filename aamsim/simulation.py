@@ -45,6 +45,7 @@ from aamsim.traffic.conditions import Conditions
 from aamsim.traffic.kernel import STATUS_CONDITION, STATUS_NONFINITE, STATUS_REACHED, advance, advance_parallel
 from aamsim.traffic.performance import PerformanceTable
 from aamsim.traffic.traffic import FlightRecord, Traffic
+from aamsim.traffic.wind import WindField
 from aamsim.units import FT, KTS, MAX_ALTITUDE_FT, MIN_ALTITUDE_FT, Speed
 
 # Fewest aircraft for which the parallel kernel is used. Measured on a shared
@@ -90,6 +91,7 @@ class Simulation(SimulationAPI):
         self._rng = np.random.default_rng(seed)
         self.state = self.STATE_INIT
         self.traffic = Traffic()
+        self.wind = WindField()
         self.hooks = Hooks()
         self.scheduler = Scheduler(self.clock, self.hooks)
         self.commands = CommandRegistry()
@@ -263,6 +265,8 @@ class Simulation(SimulationAPI):
         spd = self._checked_creation(acid, lat, lon, alt, spd or Speed(0.0), envelope)
         self.executor.last_command[acid] = (self.executor.command_text or "create", self.executor.source)
         i = self.traffic.create(acid, actype, envelope, lat, lon, hdg, alt, spd or Speed(0.0), self.simt)
+        if self.wind.active:
+            intents.apply_wind_at_creation(self.traffic, i, self.wind)
         if self.state == self.STATE_INIT:
             self.state = self.STATE_OP
         self.scheduler.perf_pending = True
@@ -381,6 +385,7 @@ class Simulation(SimulationAPI):
                 self.settings.airborne_alt_m,
                 self._scratch,
                 cond,
+                self.wind.arrays(),
                 *extra,
             )
             done += k
@@ -523,6 +528,7 @@ class Simulation(SimulationAPI):
         self.scheduler.reset()  # time 0, nothing pending; the step is kept
         self.conditions.clear()
         self.navdb.clear()
+        self.wind.clear()
         self.state = self.STATE_INIT
         self.settings = SimSettings()
         self.hooks.reset.call(self)

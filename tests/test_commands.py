@@ -77,8 +77,31 @@ def test_addwpt_flyover_mode_and_unsupported_modes(sim):
     sim.stack("ADDWPT A FLYOVER")
     sim.stack("ADDWPT A 0.1 0")
     assert not sim.traffic.routes[0].waypoints[0].flyby
-    assert not sim.stack("ADDWPT A FLYTURN")
+    assert not sim.stack("ADDWPT A TAKEOFF")
     assert "not supported" in errors_of(sim)[-1]
+
+
+def test_addwpt_turn_modes_and_values(sim):
+    sim.stack("CRE A EC35 0 0 0 1000 100")
+    route = sim.traffic.routes[0]
+    for line in ("ADDWPT A FLYTURN", "ADDWPT A 0.1 0", "ADDWPT A TURNSPD 30", "A ADDWPT TURNRAD 0.5",
+                 "ADDWPT A 0.2 0", "ADDWPT A TURNBANK 120", "ADDWPT A 0.3 0", "ADDWPT A TURNRAD OFF",
+                 "ADDWPT A 0.4 0", "ADDWPT A FLY-BY", "ADDWPT A 0.5 0"):
+        assert sim.stack(line), (line, errors_of(sim))
+    turns = [w.turn for w in route.waypoints]
+    assert turns[0] is not None and turns[0].given() == ()  # FLYTURN with nothing given
+    assert turns[1].speed_cas == pytest.approx(30 * KTS) and turns[1].radius_m == pytest.approx(0.5 * NM)
+    # A third value drops the oldest (the speed); the bank is limited to 90 deg.
+    assert turns[2].given() == ("bank", "radius") and turns[2].bank_deg == 90.0
+    assert turns[3].given() == ("bank",)
+    assert turns[4] is None and route.waypoints[4].flyby
+    for bad in ("ADDWPT A TURNSPD", "ADDWPT A TURNRAD x", "ADDWPT A TURNBANK 10 20"):
+        assert not sim.stack(bad), bad
+    assert sim.stack("ADDWPTMODE A") and sim.reporter.messages[-1].text == "Current ADDWPT mode is FLYBY."
+    assert sim.stack("ADDWPTMODE A TURNSPD 20") and route.mode == "FLYTURN"
+    assert not sim.stack("ADDWPTMODE A SIDEWAYS")
+    sim.stack("DELRTE A")
+    assert route.mode == "FLYBY" and route.turn_values.given() == ()
 
 
 def test_direct_delwpt_delrte_lnav_vnav(sim):

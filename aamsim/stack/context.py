@@ -29,6 +29,7 @@ if TYPE_CHECKING:
     from aamsim.traffic.route import Route
     from aamsim.traffic.traffic import FlightRecord
     from aamsim.traffic.view import TrafficView
+    from aamsim.traffic.wind import WindField
     from aamsim.units import Speed
 
 
@@ -121,6 +122,7 @@ class CommandContext(Protocol):
     plugins: dict[str, Any]
     extensions: dict[str, Any]
     services: Services | None
+    wind: WindField  # the wind field (WIND, GETWIND, DEL WIND)
 
     def require_services(self) -> Services: ...
 
@@ -163,6 +165,7 @@ class CommandContext(Protocol):
     def select_vertical_speed(self, target: str | int, vs_mps: float) -> None: ...
     def select_heading(self, target: str | int, heading_deg: float) -> None: ...
     def set_bank(self, target: str | int, bank_rad: float) -> None: ...
+    def set_cruise_speed(self, target: str | int, cas_mps: float) -> None: ...
     def move(self, target: str | int, lat: float, lon: float, alt_m: float | None = None,
              hdg_deg: float | None = None, speed: Speed | None = None, vs_mps: float | None = None) -> None: ...
     def direct_to(self, target: str | int, waypoint: str | int) -> None: ...

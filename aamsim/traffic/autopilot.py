@@ -14,12 +14,13 @@ descents at 3000 ft per 10 NM ending at the constraint.
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 from typing import Any
 
 from aamsim import aero
 from aamsim.geo import degto180, kwik_qdrdist, qdrdist
 from aamsim.traffic import fields as f
-from aamsim.traffic.route import Route
+from aamsim.traffic.route import Route, TurnSpec, Waypoint
 from aamsim.traffic.traffic import Traffic
 from aamsim.units import FT, G0, NM
 
@@ -34,10 +35,77 @@ def turn_distance(tas: float, bank_rad: float, qdr_in: float, qdr_out: float, fl
     The turn radius follows from the speed and bank angle, R = V^2 / (g tan phi);
     the turn starts R*tan(dpsi/2) before the waypoint.
     """
-    if not flyby:
-        return 0.0
-    radius = tas * tas / (G0 * math.tan(bank_rad))
-    return abs(radius * math.tan(math.radians(0.5 * abs(degto180(qdr_in % 360.0 - qdr_out % 360.0)))))
+    return plan_turn(tas, 0.0, bank_rad, qdr_in, qdr_out, flyby, None).distance_m
+
+
+FLYTURN_DEFAULT_BANK_DEG = 25.0  # BlueSky's bank for a turn given by its speed alone
+
+
+@dataclass(frozen=True)
+class Turn:
+    """The turn at a waypoint, as BlueSky's ``calcturn`` plans it (SI units).
+
+    Attributes:
+        distance_m: how far before the waypoint the turn starts (0: fly over it).
+        radius_m: turn radius.
+        bank_rad: bank angle flown while this waypoint is active.
+        speed_cas: CAS [m/s] to fly a fly-turn at (NaN for fly-by and fly-over).
+    """
+
+    distance_m: float
+    radius_m: float
+    bank_rad: float
+    speed_cas: float
+
+
+def plan_turn(tas: float, alt: float, bankdef_rad: float, qdr_in: float, qdr_out: float, flyby: bool,
+              spec: TurnSpec | None) -> Turn:
+    """Plan the turn at a waypoint from the speed now and what was given for it.
+
+    Fly-by and fly-over turns (``spec`` None), and fly-turns with nothing given,
+    bank at the default angle at the current speed. A fly-turn given one value
+    keeps the current speed (the speed alone: 25 deg bank); two given values
+    fix the third. Radius, bank and rate are related by R = V^2 / (g tan phi)
+    and V = R * omega. As in BlueSky, a given turn speed (a CAS) enters these
+    relations as it is; a speed that follows from the others is a TAS,
+    converted to CAS at ``alt``. (BlueSky's ``calcturn`` also takes arctan's
+    radians for degrees and a rate in deg/s for rad/s: docs/bluesky-differences.md.)
+    """
+    given = spec.given() if spec is not None else ()
+    bank = bankdef_rad
+    speed = tas
+    radius = math.nan
+    if spec is not None and given:
+        g = set(given)
+        bank = math.radians(spec.bank_deg) if "bank" in g else math.nan
+        radius = spec.radius_m if "radius" in g else math.nan
+        speed = spec.speed_cas if "speed" in g else (tas if len(g) == 1 else math.nan)
+        rate = math.radians(spec.rate_dps) if "rate" in g else math.nan
+        if g == {"speed"}:
+            bank = math.radians(FLYTURN_DEFAULT_BANK_DEG)
+        elif "rate" in g and "radius" in g:
+            speed = rate * radius
+        elif "rate" in g and "bank" in g:
+            speed = G0 * math.tan(bank) / rate
+        elif "radius" in g and "bank" in g:
+            speed = math.sqrt(G0 * radius * math.tan(bank))
+        if "rate" in g and math.isnan(radius):
+            radius = speed / rate
+        if math.isnan(bank):
+            bank = math.atan(rate * speed / G0) if "rate" in g else math.atan(speed * speed / (radius * G0))
+    if math.isnan(radius):
+        radius = speed * speed / (G0 * math.tan(bank))
+    if spec is None and not flyby or spec is not None and not given:
+        distance = 0.0
+    else:
+        distance = abs(radius * math.tan(math.radians(0.5 * abs(degto180(qdr_in % 360.0 - qdr_out % 360.0)))))
+    if spec is None:
+        speed_cas = math.nan
+    elif "speed" in given:
+        speed_cas = spec.speed_cas
+    else:
+        speed_cas = float(aero.tas2cas(speed, alt))
+    return Turn(distance, radius, bank, speed_cas)
 
 
 def waypoint_speed_cas(spd: float, is_mach: bool, alt: float) -> float:
@@ -107,6 +175,34 @@ def compute_vnav(traffic: Traffic, i: int, toalt: float, xtoalt: float) -> None:
         F[f.DIST2VS, i] = -math.inf
 
 
+def _plan_active_turn(traffic: Traffic, i: int, wp: Waypoint, qdr: float) -> None:
+    """The turn at the active waypoint ``wp``, reached along bearing ``qdr``: anticipation, bank, turn speed."""
+    F, B = traffic.F, traffic.B
+    next_qdr = F[f.WP_NEXTQDR, i]
+    turn = plan_turn(F[f.TAS, i], F[f.ALT, i], F[f.BANKDEF, i], qdr, qdr if math.isnan(next_qdr) else next_qdr,
+                     wp.flyby, wp.turn)
+    F[f.WP_TURNDIST, i] = turn.distance_m
+    F[f.TURNPHI, i] = turn.bank_rad
+    F[f.WP_TURNSPD, i] = turn.speed_cas
+    B[f.B_WP_FLYBY, i] = wp.flyby or wp.turn is not None  # the turn is anticipated by WP_TURNDIST
+
+
+def _find_next_turn(traffic: Traffic, i: int) -> None:
+    """The first fly-turn waypoint from the active one on, whose turn speed VNAV slows down for."""
+    F, B = traffic.F, traffic.B
+    route = traffic.routes[i]
+    k = route.next_turn_index()
+    B[f.B_HAS_NEXTTURN, i] = k >= 0
+    if k < 0:
+        return
+    wp = route.waypoints[k]
+    turn = plan_turn(F[f.TAS, i], F[f.ALT, i], F[f.BANKDEF, i], 0.0, 0.0, False, wp.turn)
+    F[f.WP_NEXTTURNLAT, i] = wp.lat
+    F[f.WP_NEXTTURNLON, i] = wp.lon
+    F[f.WP_NEXTTURNSPD, i] = turn.speed_cas
+    F[f.WP_NEXTTURNRAD, i] = turn.radius_m
+
+
 def activate_waypoint(traffic: Traffic, i: int, index: int) -> None:
     """Make waypoint ``index`` of aircraft ``i``'s route the active one (DIRECT).
 
@@ -119,9 +215,9 @@ def activate_waypoint(traffic: Traffic, i: int, index: int) -> None:
     wp = route.waypoints[index]
     F[f.WP_LAT, i] = wp.lat
     F[f.WP_LON, i] = wp.lon
-    B[f.B_WP_FLYBY, i] = wp.flyby
     B[f.B_WP_LASTWP, i] = index == len(route) - 1
     F[f.WP_NEXTQDR, i] = route.next_leg_qdr()
+    _find_next_turn(traffic, i)
     route.plan()
     F[f.WP_XTOALT, i] = wp.xtoalt
     F[f.WP_NEXTALTCO, i] = wp.toalt
@@ -131,11 +227,7 @@ def activate_waypoint(traffic: Traffic, i: int, index: int) -> None:
     qdr, dist = qdrdist(F[f.LAT, i], F[f.LON, i], wp.lat, wp.lon)
     F[f.WP_CURLEGDIR, i] = qdr
     F[f.WP_CURLEGLEN, i] = dist
-    next_qdr = F[f.WP_NEXTQDR, i]
-    F[f.WP_TURNDIST, i] = turn_distance(
-        F[f.TAS, i], F[f.BANKDEF, i], qdr, qdr if math.isnan(next_qdr) else next_qdr, wp.flyby
-    )
-    F[f.TURNPHI, i] = F[f.BANKDEF, i]
+    _plan_active_turn(traffic, i, wp, qdr)
     B[f.B_SWLNAV, i] = True
 
 
@@ -169,6 +261,7 @@ def pass_waypoint(traffic: Traffic, i: int) -> tuple[list[tuple[str, Any]], bool
     wp = route.waypoints[route.iactwp]
     B[f.B_WP_LASTWP, i] = route.iactwp == len(route) - 1
     F[f.WP_NEXTQDR, i] = route.next_leg_qdr()
+    _find_next_turn(traffic, i)
     next_spd = waypoint_speed_cas(wp.spd, wp.spd_mach, F[f.ALT, i])
     if not lnav_on and B[f.B_SWLNAV, i]:
         B[f.B_SWLNAV, i] = False
@@ -179,7 +272,6 @@ def pass_waypoint(traffic: Traffic, i: int) -> tuple[list[tuple[str, Any]], bool
     F[f.WP_NEXTSPD, i] = next_spd
     F[f.WP_LAT, i] = wp.lat
     F[f.WP_LON, i] = wp.lon
-    B[f.B_WP_FLYBY, i] = wp.flyby
     qdr, dist = qdrdist(F[f.LAT, i], F[f.LON, i], wp.lat, wp.lon)
     F[f.DIST2WP, i] = dist
     F[f.WP_CURLEGDIR, i] = qdr
@@ -193,11 +285,10 @@ def pass_waypoint(traffic: Traffic, i: int) -> tuple[list[tuple[str, Any]], bool
     if B[f.B_SWVNAVSPD, i] and not math.isnan(F[f.WP_SPD, i]):
         F[f.SELSPD, i] = F[f.WP_SPD, i]
         B[f.B_SELSPD_MACH, i] = False
-    next_qdr = F[f.WP_NEXTQDR, i]
-    F[f.WP_TURNDIST, i] = turn_distance(
-        F[f.TAS, i], F[f.BANKDEF, i], qdr, qdr if math.isnan(next_qdr) else next_qdr, wp.flyby
-    )
-    F[f.TURNPHI, i] = F[f.BANKDEF, i]
+    # The turn speed of the waypoint passed holds until the aircraft is on the new leg.
+    F[f.WP_OLDTURNSPD, i] = F[f.WP_TURNSPD, i]
+    _plan_active_turn(traffic, i, wp, qdr)
+    B[f.B_TURNTONEXTWP, i] = False
     compute_vnav(traffic, i, wp.toalt, F[f.WP_XTOALT, i])
     return commands, False
 

@@ -68,6 +68,14 @@ FLOAT_FIELDS = (
     "wp_nextqdr",  # deg, direction of the next leg (NaN: none)
     "wp_curlegdir",  # deg, direction of this leg when it was activated
     "wp_curleglen",  # m
+    # --- fly-turn waypoints (BlueSky's FLYTURN: turn speed, radius, bank) ----------
+    "wp_turnspd",  # CAS m/s to fly the turn at the active waypoint (NaN: no turn speed)
+    "wp_oldturnspd",  # CAS m/s of the turn at the waypoint just passed, held until on the new leg (NaN: none)
+    "wp_nextturnlat",  # deg, next fly-turn waypoint from the active one on (see has_nextturn)
+    "wp_nextturnlon",
+    "wp_nextturnspd",  # CAS m/s, its turn speed
+    "wp_nextturnrad",  # m, its turn radius
+    "cruisespd",  # CAS m/s selected when a turn ends (CRUISESPD; NaN: none)
     # --- caches (recomputed only when their inputs change) ------------------------
     "c_alt",  # altitude the atmosphere cache belongs to
     "c_rho",
@@ -110,6 +118,9 @@ BOOL_FIELDS = (
     "wp_lastwp",
     "c_spd_mach",  # Mach flag of the selected speed the TAS cache belongs to
     "has_moved",  # has flown at or above the holding-speed threshold (so slow time counts as holding)
+    "has_nextturn",  # a fly-turn waypoint lies ahead on the route (wp_nextturn* are valid)
+    "turntonextwp",  # slowing for, or flying, the turn at the next fly-turn waypoint
+    "inturn",  # flying at a turn speed (for CRUISESPD when it ends)
 )
 
 N_FLOAT = len(FLOAT_FIELDS)
@@ -180,6 +191,13 @@ WP_TURNDIST = _row("wp_turndist")
 WP_NEXTQDR = _row("wp_nextqdr")
 WP_CURLEGDIR = _row("wp_curlegdir")
 WP_CURLEGLEN = _row("wp_curleglen")
+WP_TURNSPD = _row("wp_turnspd")
+WP_OLDTURNSPD = _row("wp_oldturnspd")
+WP_NEXTTURNLAT = _row("wp_nextturnlat")
+WP_NEXTTURNLON = _row("wp_nextturnlon")
+WP_NEXTTURNSPD = _row("wp_nextturnspd")
+WP_NEXTTURNRAD = _row("wp_nextturnrad")
+CRUISESPD = _row("cruisespd")
 C_ALT = _row("c_alt")
 C_RHO = _row("c_rho")
 C_P = _row("c_p")
@@ -219,6 +237,9 @@ B_WP_FLYBY = _flag("wp_flyby")
 B_WP_LASTWP = _flag("wp_lastwp")
 B_C_SPD_MACH = _flag("c_spd_mach")
 B_HAS_MOVED = _flag("has_moved")
+B_HAS_NEXTTURN = _flag("has_nextturn")
+B_TURNTONEXTWP = _flag("turntonextwp")
+B_INTURN = _flag("inturn")
 
 
 def _check_rows() -> None:

@@ -17,6 +17,7 @@ from aamsim import aero
 from aamsim.traffic import fields as f
 from aamsim.traffic.autopilot import activate_waypoint, compute_vnav, nearest_active_index
 from aamsim.traffic.traffic import Traffic
+from aamsim.traffic.wind import APPLY_ABOVE_M, WindField
 
 Slots = int | np.ndarray
 
@@ -51,10 +52,40 @@ def select_vertical_speed(traffic: Traffic, slot: int, vs_mps: float) -> None:
     traffic.B[f.B_SWVNAV, slot] = False
 
 
-def select_heading(traffic: Traffic, slot: int, heading_deg: float) -> None:
-    """Fly a heading [deg true]; LNAV off (BlueSky's HDG)."""
-    traffic.F[f.AP_TRK, slot] = heading_deg
+def select_heading(traffic: Traffic, slot: int, heading_deg: float, wind: WindField | None = None) -> None:
+    """Fly a heading [deg true]; LNAV off (BlueSky's HDG).
+
+    In wind, as in BlueSky, the autopilot then holds the track that this
+    heading gives at the aircraft's position and speed now.
+    """
+    F = traffic.F
+    track = heading_deg
+    if wind is not None and wind.active and F[f.ALT, slot] > APPLY_ABOVE_M:
+        vn, ve = wind.get(F[f.LAT, slot], F[f.LON, slot], F[f.ALT, slot])
+        hrad = math.radians(heading_deg)
+        tas = F[f.TAS, slot]
+        track = math.degrees(math.atan2(tas * math.sin(hrad) + ve, tas * math.cos(hrad) + vn)) % 360.0
+    F[f.AP_TRK, slot] = track
     traffic.B[f.B_SWLNAV, slot] = False
+
+
+def apply_wind_at_creation(traffic: Traffic, slot: int, wind: WindField) -> None:
+    """Ground speed and track of a new aircraft in the wind; its autopilot holds that track (as BlueSky)."""
+    F = traffic.F
+    vn, ve = wind.get(F[f.LAT, slot], F[f.LON, slot], F[f.ALT, slot])
+    if F[f.ALT, slot] > APPLY_ABOVE_M:
+        F[f.GSNORTH, slot] += vn
+        F[f.GSEAST, slot] += ve
+        # Not wrapped to 0..360 (BlueSky's creation does not); the first step wraps it.
+        F[f.TRK, slot] = math.degrees(math.atan2(F[f.GSEAST, slot], F[f.GSNORTH, slot]))
+    F[f.GS, slot] = math.sqrt(F[f.GSNORTH, slot] ** 2 + F[f.GSEAST, slot] ** 2)
+    F[f.AP_TRK, slot] = F[f.TRK, slot]
+
+
+def set_cruise_speed(traffic: Traffic, slot: int, cas_mps: float) -> None:
+    """CAS [m/s] selected when a fly-turn ends (BlueSky's CRUISESPD), within the type's speed range."""
+    F = traffic.F
+    traffic.F[f.CRUISESPD, slot] = min(F[f.VMAX, slot], max(cas_mps, F[f.VMIN, slot]))
 
 
 def set_bank(traffic: Traffic, slot: int, bank_rad: float) -> None:

@@ -10,7 +10,8 @@ order within a step:
    constraints, selected speed -> TAS;
 3. performance limits on the commanded speed, vertical speed and altitude;
 4. kinematics: speed ramps at ``axmax``, heading turns at g*tan(bank)/V,
-   vertical speed ramps at 300 fpm/s, then the flat-earth Euler position step;
+   vertical speed ramps at 300 fpm/s, ground speed is the TAS vector plus the
+   wind (:mod:`aamsim.traffic.wind`), then the flat-earth Euler position step;
 5. conditional commands (ATALT/ATSPD/ATDIST): if one fires, the call returns
    after the step so that Python runs its command before the next one.
 
@@ -57,6 +58,8 @@ from aamsim.traffic.fields import (
     AXMAX,
     B_C_SPD_MACH,
     B_HAS_MOVED,
+    B_HAS_NEXTTURN,
+    B_INTURN,
     B_ROTOR,
     B_SELSPD_MACH,
     B_SWALTSEL,
@@ -66,6 +69,7 @@ from aamsim.traffic.fields import (
     B_SWVNAV,
     B_SWVNAVSPD,
     B_SWVNAVVS,
+    B_TURNTONEXTWP,
     B_WP_FLYBY,
     BANKDEF,
     C_A,
@@ -82,6 +86,7 @@ from aamsim.traffic.fields import (
     C_TANBANK,
     C_TAS_IN,
     CAS,
+    CRUISESPD,
     DIST2VS,
     DIST2WP,
     DISTFLOWN,
@@ -112,12 +117,18 @@ from aamsim.traffic.fields import (
     WP_CURLEGDIR,
     WP_NEXTALTCO,
     WP_NEXTSPD,
+    WP_NEXTTURNLAT,
+    WP_NEXTTURNLON,
+    WP_NEXTTURNRAD,
+    WP_NEXTTURNSPD,
+    WP_OLDTURNSPD,
     WP_SPD,
     WP_SPDCON,
     WP_TURNDIST,
     WP_VS,
 )
 from aamsim.traffic.navmath import guidance, position_step, wrap180, wrap360
+from aamsim.traffic.wind import APPLY_ABOVE_M, wind_at
 from aamsim.units import FPM, G0, NM
 
 STATUS_DONE = 0
@@ -197,6 +208,51 @@ def _reached(F: np.ndarray, B: np.ndarray, i: int, qdr: float, dist: float) -> b
     return away_or_passed or dist < turndist
 
 
+@njit(cache=True, error_model="numpy")
+def _turn_speed(F: np.ndarray, B: np.ndarray, i: int, tas: float, rho: float, p: float, use_next: bool) -> None:
+    """Speed selection of an aircraft with fly-turn waypoints (BlueSky's FMS speed guidance).
+
+    With VNAV speed control on, the aircraft slows to the turn speed of the
+    next fly-turn waypoint when it is within the distance needed to decelerate
+    (plus 10 % and the turn radius) and keeps it through the turn, until its
+    track is within 2 deg of the new leg. A cruise speed (CRUISESPD) is then
+    selected if the new leg has no speed constraint. Otherwise the speed
+    constraints select the speed as without turns.
+    """
+    nav = B[B_SWVNAVSPD, i] and B[B_SWVNAV, i] and B[B_SWLNAV, i]
+    use_turn = False
+    if B[B_HAS_NEXTTURN, i]:
+        turntas = _cas2tas(F[WP_NEXTTURNSPD, i], rho, p)
+        dx_turn = 0.5 * abs(tas * tas - turntas * turntas) / max(0.001, abs(F[AXMAX, i]))
+        dist2turn = qdrdist_scalar(F[LAT, i], F[LON, i], F[WP_NEXTTURNLAT, i], F[WP_NEXTTURNLON, i])[1]
+        near = dist2turn < dx_turn * 1.1 + max(F[WP_TURNDIST, i], F[WP_NEXTTURNRAD, i])
+        use_turn = (B[B_TURNTONEXTWP, i] or near) and nav
+    B[B_TURNTONEXTWP, i] = B[B_SWLNAV, i] and (B[B_TURNTONEXTWP, i] or use_turn)
+    old = F[WP_OLDTURNSPD, i]
+    on_leg = abs(wrap180(F[TRK, i] - F[QDR2WP, i])) < 2.0
+    in_old_turn = old > 0.0 and not on_leg
+    if on_leg and old > 0.0:
+        F[WP_OLDTURNSPD, i] = math.nan
+    if use_turn:
+        F[SELSPD, i] = F[WP_NEXTTURNSPD, i]
+        B[B_SELSPD_MACH, i] = False
+    elif in_old_turn and nav:
+        F[SELSPD, i] = old
+        B[B_SELSPD_MACH, i] = False
+    elif use_next:
+        F[SELSPD, i] = F[WP_NEXTSPD, i]
+        B[B_SELSPD_MACH, i] = False
+    elif B[B_SWVNAVSPD, i] and F[WP_SPDCON, i] == F[WP_SPDCON, i]:
+        F[SELSPD, i] = F[WP_SPD, i]
+        B[B_SELSPD_MACH, i] = False
+    was_in_turn = B[B_INTURN, i]
+    B[B_INTURN, i] = use_turn or in_old_turn
+    if was_in_turn and not B[B_INTURN, i] and F[CRUISESPD, i] > 0.0 and not use_next \
+            and not F[WP_SPD, i] == F[WP_SPD, i]:
+        F[SELSPD, i] = F[CRUISESPD, i]
+        B[B_SELSPD_MACH, i] = False
+
+
 @njit(cache=True, inline="always", error_model="numpy")
 def _step_aircraft(
     F: np.ndarray,
@@ -208,12 +264,19 @@ def _step_aircraft(
     have_qdr: bool,
     hold_speed: float,
     airborne_alt: float,
+    wind: tuple[np.ndarray, ...],
 ) -> None:
     alt = F[ALT, i]
     tas = F[TAS, i]
     swlnav = B[B_SWLNAV, i]
     swvnav = B[B_SWVNAV, i]
     rho, p, a = _atmosphere(F, i, alt)
+    # Wind at the aircraft, where it is at the start of the step (BlueSky reads its field
+    # there for the autopilot's wind correction and for the ground speed alike).
+    windy = wind[4][0] > 0
+    wind_n = wind_e = 0.0
+    if windy:
+        wind_n, wind_e = wind_at(wind, F[LAT, i], F[LON, i], alt)
 
     # ---------------------------------------------------------------- autopilot
     if swlnav or swvnav:
@@ -255,7 +318,9 @@ def _step_aircraft(
         nexttas = _cas2tas(nextspd, rho, p)
         dx_accel = 0.5 * abs(nexttas * nexttas - tas * tas) / max(0.001, abs(F[AXMAX, i]))
         use_next = dist2wp < dx_accel
-    if use_next:
+    if B[B_HAS_NEXTTURN, i] or F[WP_OLDTURNSPD, i] > 0.0 or B[B_INTURN, i]:
+        _turn_speed(F, B, i, tas, rho, p, use_next)
+    elif use_next:
         F[SELSPD, i] = nextspd
         B[B_SELSPD_MACH, i] = False
     elif B[B_SWVNAVSPD, i] and F[WP_SPDCON, i] == F[WP_SPDCON, i]:
@@ -274,8 +339,16 @@ def _step_aircraft(
     F[AP_ALT, i] = ap_alt
     F[AP_VS, i] = ap_vs
 
+    # The heading that makes good the desired track (BlueSky's APorASAS wind correction).
+    des_trk = F[AP_TRK, i]
+    if windy:
+        wind_speed = math.sqrt(wind_n * wind_n + wind_e * wind_e)
+        drift = math.radians(des_trk) - math.atan2(wind_e, wind_n)
+        steer = math.asin(min(1.0, max(-1.0, wind_speed * math.sin(drift) / max(0.001, tas))))
+        des_trk = des_trk + math.degrees(steer)
+
     # ------------------------------------------------------ performance limits
-    des_hdg = wrap360(F[AP_TRK, i])
+    des_hdg = wrap360(des_trk)
     des_vs = abs(ap_vs)
     des_alt = min(ap_alt, F[HMAX, i])
     axmax = F[AXMAX, i]
@@ -346,7 +419,6 @@ def _step_aircraft(
         vs = 0.0
     F[VS, i] = vs
 
-    # Ground speed equals TAS: aamsim has no wind.
     if F[C_HDG, i] != hdg:
         hrad = math.radians(hdg)
         F[C_SINHDG, i] = math.sin(hrad)
@@ -354,10 +426,18 @@ def _step_aircraft(
         F[C_HDG, i] = hdg
     gsn = tas * F[C_COSHDG, i]
     gse = tas * F[C_SINHDG, i]
+    if windy and alt > APPLY_ABOVE_M:
+        # Ground speed = TAS vector + wind, for aircraft off the ground (BlueSky: above 50 ft).
+        gsn += wind_n
+        gse += wind_e
+        gs = math.sqrt(gsn * gsn + gse * gse)
+        F[TRK, i] = wrap360(math.degrees(math.atan2(gse, gsn)))
+    else:
+        gs = tas
+        F[TRK, i] = hdg
     F[GSNORTH, i] = gsn
     F[GSEAST, i] = gse
-    F[GS, i] = tas
-    F[TRK, i] = hdg
+    F[GS, i] = gs
 
     if altsel:
         alt = round(alt + vs * dt, 6)
@@ -365,7 +445,7 @@ def _step_aircraft(
         alt = des_alt
     F[ALT, i] = alt
     position_step(F, i, dt, gsn, gse)
-    F[DISTFLOWN, i] += tas * dt
+    F[DISTFLOWN, i] += gs * dt
     # Airborne holding: slow after having flown (the initial spin-up after a
     # creation at 0 kt is not holding).
     if abs(tas) >= hold_speed:
@@ -432,6 +512,7 @@ def _step_range(
     scratch_dist: np.ndarray,
     fresh: np.ndarray,
     reached: np.ndarray,
+    wind: tuple[np.ndarray, ...],
 ) -> int:
     """One step of aircraft ``lo..hi-1``; returns how many reached their waypoint.
 
@@ -448,7 +529,7 @@ def _step_range(
     # twelve state rows cost the kernel 10 %).
     state_sum = 0.0
     for i in range(lo, hi):
-        _step_aircraft(F, B, i, dt, scratch_qdr[i], scratch_dist[i], fresh[i], hold_speed, airborne_alt)
+        _step_aircraft(F, B, i, dt, scratch_qdr[i], scratch_dist[i], fresh[i], hold_speed, airborne_alt, wind)
         state_sum += (F[LAT, i] + F[LON, i]) + (F[ALT, i] + F[TAS, i])
         if test_next:
             nreached += _check_waypoint(F, B, i, scratch_qdr, scratch_dist, fresh, reached)
@@ -482,6 +563,7 @@ def _advance(
     airborne_alt: float,
     scratch: tuple[np.ndarray, ...],
     cond: tuple[np.ndarray, ...],
+    wind: tuple[np.ndarray, ...],
     nblocks: int,
 ) -> tuple[int, int]:
     scratch_qdr, scratch_dist, fresh, reached = scratch
@@ -502,7 +584,7 @@ def _advance(
         test_next = k + 1 < nsteps
         for b in prange(nblocks):
             counts[b] = _step_range(F, B, b * n // nblocks, (b + 1) * n // nblocks, dt, test_next, hold_speed,
-                                    airborne_alt, scratch_qdr, scratch_dist, fresh, reached)
+                                    airborne_alt, scratch_qdr, scratch_dist, fresh, reached, wind)
         k += 1
         total = counts.sum()
         if total >= _NONFINITE_MARK:
@@ -518,6 +600,7 @@ def _advance(
 def advance(
     F: np.ndarray, B: np.ndarray, n: int, dt: float, nsteps: int, check_first: bool, hold_speed: float,
     airborne_alt: float, scratch: tuple[np.ndarray, ...], cond: tuple[np.ndarray, ...],
+    wind: tuple[np.ndarray, ...],
 ) -> tuple[int, int]:
     """Advance all ``n`` aircraft by up to ``nsteps`` steps of ``dt`` seconds.
 
@@ -528,17 +611,19 @@ def advance(
             whose leg it changed before resuming), ``reached[i]`` that the
             aircraft is at its waypoint.
         cond: the conditional commands' arrays (:meth:`Conditions.arrays`).
+        wind: the wind field's arrays (:meth:`aamsim.traffic.wind.WindField.arrays`).
 
     Returns:
         ``(steps_done, status)``, status one of ``STATUS_*``.
     """
-    return _advance(F, B, n, dt, nsteps, check_first, hold_speed, airborne_alt, scratch, cond, 1)
+    return _advance(F, B, n, dt, nsteps, check_first, hold_speed, airborne_alt, scratch, cond, wind, 1)
 
 
 @njit(cache=True, parallel=True, error_model="numpy")
 def advance_parallel(
     F: np.ndarray, B: np.ndarray, n: int, dt: float, nsteps: int, check_first: bool, hold_speed: float,
-    airborne_alt: float, scratch: tuple[np.ndarray, ...], cond: tuple[np.ndarray, ...], nblocks: int,
+    airborne_alt: float, scratch: tuple[np.ndarray, ...], cond: tuple[np.ndarray, ...],
+    wind: tuple[np.ndarray, ...], nblocks: int,
 ) -> tuple[int, int]:
     """:func:`advance` with the aircraft in ``nblocks`` blocks over Numba's threads (same results, bit for bit)."""
-    return _advance(F, B, n, dt, nsteps, check_first, hold_speed, airborne_alt, scratch, cond, nblocks)
+    return _advance(F, B, n, dt, nsteps, check_first, hold_speed, airborne_alt, scratch, cond, wind, nblocks)

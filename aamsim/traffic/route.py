@@ -11,11 +11,37 @@ waypoint, the next altitude constraint along the route and the distance to it
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from enum import Enum
 from typing import Any
 
 from aamsim.geo import qdrdist
+
+
+TURN_VALUES = ("bank", "radius", "speed", "rate")
+
+
+@dataclass(frozen=True)
+class TurnSpec:
+    """What was given for a fly-turn waypoint's turn (BlueSky's TURNBANK/TURNRAD/TURNSPD/TURNHDG; NaN: not given).
+
+    At most two are given at a time: setting a third drops the oldest
+    (:meth:`Route.set_turn_value`); the others follow from them.
+    """
+
+    bank_deg: float = math.nan
+    radius_m: float = math.nan
+    speed_cas: float = math.nan  # m/s
+    rate_dps: float = math.nan  # deg/s
+
+    def given(self) -> tuple[str, ...]:
+        """Names (of :data:`TURN_VALUES`) of the values given."""
+        values = (self.bank_deg, self.radius_m, self.speed_cas, self.rate_dps)
+        return tuple(name for name, v in zip(TURN_VALUES, values) if v > 0.0)
+
+    def with_value(self, name: str, value: float) -> TurnSpec:
+        field_name = {"bank": "bank_deg", "radius": "radius_m", "speed": "speed_cas", "rate": "rate_dps"}[name]
+        return replace(self, **{field_name: value})
 
 
 class WaypointKind(Enum):
@@ -37,6 +63,7 @@ class Waypoint:
     spd: float = math.nan  # CAS m/s, or Mach when spd_mach
     spd_mach: bool = False
     flyby: bool = True
+    turn: TurnSpec | None = None  # a fly-turn waypoint's turn (None: fly-by or fly-over)
     rta_s: float = math.nan  # required time of arrival [s], book-keeping
     stack: list[str] = field(default_factory=list)
     stack_sources: list[Any] = field(default_factory=list)  # SourceRef of the AT line of each stack entry
@@ -54,9 +81,52 @@ class Route:
     waypoints: list[Waypoint] = field(default_factory=list)
     iactwp: int = -1
     flyby_mode: bool = True  # FLYBY/FLYOVER mode for waypoints added from now on
+    flyturn_mode: bool = False  # FLYTURN mode (then flyby_mode is False)
+    turn_values: TurnSpec = field(default_factory=TurnSpec)  # for fly-turn waypoints added from now on
+    _turn_order: list[str] = field(default_factory=list, repr=False)  # the last two turn values set
 
     def __len__(self) -> int:
         return len(self.waypoints)
+
+    def set_mode(self, mode: str) -> None:
+        """``FLYBY``, ``FLYOVER`` or ``FLYTURN`` for the waypoints added from now on."""
+        self.flyby_mode = mode == "FLYBY"
+        self.flyturn_mode = mode == "FLYTURN"
+
+    def set_turn_value(self, name: str, value: float) -> None:
+        """Set (``value`` > 0) or clear (NaN) one turn value; FLYTURN mode goes on.
+
+        Only the last two values set are kept, as in BlueSky: setting a third
+        clears the one set longest ago.
+        """
+        values = self.turn_values.with_value(name, value)
+        order = [n for n in self._turn_order if n != name]
+        if value > 0.0:
+            order.append(name)
+            if len(order) > 2:
+                values = values.with_value(order.pop(0), math.nan)
+        self.turn_values, self._turn_order = values, order
+        self.set_mode("FLYTURN")
+
+    def reset_modes(self) -> None:
+        """Back to fly-by with no turn values (a deleted route, as BlueSky's DELRTE)."""
+        self.set_mode("FLYBY")
+        self.turn_values, self._turn_order = TurnSpec(), []
+
+    @property
+    def mode(self) -> str:
+        return "FLYTURN" if self.flyturn_mode else "FLYBY" if self.flyby_mode else "FLYOVER"
+
+    def new_waypoint_turn(self) -> tuple[bool, TurnSpec | None]:
+        """``(flyby, turn)`` of a waypoint added now."""
+        return self.flyby_mode, (self.turn_values if self.flyturn_mode else None)
+
+    def next_turn_index(self) -> int:
+        """Index of the first fly-turn waypoint from the active one on (-1: none)."""
+        for k in range(max(self.iactwp, 0), len(self.waypoints)):
+            if self.waypoints[k].turn is not None:
+                return k
+        return -1
 
     @property
     def names(self) -> list[str]:

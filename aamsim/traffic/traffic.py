@@ -202,7 +202,8 @@ class Traffic:
         F[f.MMO, i] = envelope.mmo
         B[f.B_ROTOR, i] = envelope.rotor
         # No active leg yet.
-        for row in (f.WP_NEXTALTCO, f.WP_NEXTSPD, f.WP_SPD, f.WP_SPDCON, f.WP_NEXTQDR, f.WP_CURLEGDIR):
+        for row in (f.WP_NEXTALTCO, f.WP_NEXTSPD, f.WP_SPD, f.WP_SPDCON, f.WP_NEXTQDR, f.WP_CURLEGDIR,
+                    f.WP_TURNSPD, f.WP_OLDTURNSPD, f.WP_NEXTTURNSPD, f.WP_NEXTTURNRAD, f.CRUISESPD):
             F[row, i] = math.nan
         F[f.WP_TURNDIST, i] = 1.0
         B[f.B_WP_FLYBY, i] = True

@@ -117,11 +117,78 @@ def test_short_lines_and_unknown_commands_are_not_dropped_silently(sim):
 
 
 def test_unsupported_features_are_refused_not_ignored(sim):
-    """No wind or turbulence, no FLYTURN-family waypoints: an error, never a silent approximation."""
+    """No turbulence, no TAKEOFF waypoints: an error, never a silent approximation."""
     sim.stack("CRE A EC35 40.70 -74.00 0 1500 100")
-    for text in ("NOISE ON", "ADDWPT A FLYTURN", "ADDWPT A TURNRAD 0.5", "ADDWPT A TURNSPD 30", "ADDWPT A TAKEOFF"):
+    for text in ("NOISE ON", "ADDWPT A TAKEOFF"):
         assert not sim.stack(text), text
-    assert len(errors(sim)) == 5
+    assert len(errors(sim)) == 2
+
+
+def _closest_approach(sim: Simulation, lat: float, lon: float, until: float) -> float:
+    best = math.inf
+    while sim.simt < until:
+        sim.run_until(sim.simt + 0.5)
+        best = min(best, qdrdist(sim.traffic.lat[0], sim.traffic.lon[0], lat, lon)[1])
+    return best
+
+
+def test_flyturn_radius_is_flown_at_the_bank_it_needs():
+    """4.10: BlueSky's calcturn takes arctan's radians for degrees. With TURNRAD alone
+    it banks at 0.65 deg instead of 37 deg (100 kts at 1500 ft, 0.2 nm) and overshoots
+    the corner by 9 km. aamsim banks at atan(V^2 / (g R)) and flies the radius:
+    a right-angle corner is passed at R (sqrt(2) - 1)."""
+    sim = Simulation(seed=0, use_bluesky_navdata=False)
+    for line in ("CRE A EC35 40.70 -74.00 90 1500 100", "ADDWPT A 40.70 -73.99", "ADDWPT A TURNRAD 0.2",
+                 "ADDWPT A 40.70 -73.96", "ADDWPT A 40.74 -73.96"):
+        assert sim.stack(line)
+    radius = 0.2 * 1852.0
+    sim.run_until(60)  # on the leg to the fly-turn waypoint
+    tas = sim.traffic.tas[0]
+    assert sim.traffic.F[f.TURNPHI, 0] == pytest.approx(math.atan(tas * tas / (radius * 9.80665)), rel=1e-9)
+    assert _closest_approach(sim, 40.70, -73.96, 200) == pytest.approx(radius * (math.sqrt(2) - 1), rel=0.05)
+
+
+def test_flyturn_rate_in_degrees_per_second():
+    """4.10: TURNHDG is in deg/s; BlueSky's calcturn uses it as rad/s (a 3 deg/s turn
+    becomes a 172 deg/s one). aamsim: R = V / omega, bank = atan(omega V / g)."""
+    sim = Simulation(seed=0, use_bluesky_navdata=False)
+    for line in ("CRE A EC35 40.70 -74.00 90 1500 100", "ADDWPT A 40.70 -73.99", "ADDWPT A TURNHDG 3",
+                 "ADDWPT A 40.70 -73.96", "ADDWPT A 40.74 -73.96"):
+        assert sim.stack(line)
+    sim.run_until(20)  # on the leg to the fly-turn waypoint
+    tas = sim.traffic.tas[0]
+    omega = math.radians(3.0)
+    assert sim.traffic.F[f.TURNPHI, 0] == pytest.approx(math.atan(omega * tas / 9.80665), rel=1e-9)
+    assert sim.traffic.F[f.WP_TURNDIST, 0] == pytest.approx(tas / omega, rel=1e-3)  # R tan(45 deg), a right angle
+
+
+def test_addwptmode_values_have_addwpt_units():
+    """4.10: BlueSky's ADDWPTMODE passes its value where ADDWPT passes an altitude
+    already converted to metres, and divides it by 0.3048 all the same: TURNSPD 35
+    becomes 115 kts, TURNBANK 25 becomes 82 deg. aamsim: the units of ADDWPT."""
+    a, b = (Simulation(seed=0, use_bluesky_navdata=False) for _ in range(2))
+    for sim, mode in ((a, "ADDWPTMODE A TURNSPD 35"), (b, "ADDWPT A TURNSPD 35")):
+        for line in ("CRE A EC35 40.70 -74.00 90 1500 100", "ADDWPT A 40.70 -73.97", mode, "ADDWPT A 40.70 -73.93",
+                     "ADDWPT A 40.74 -73.93", "VNAV A ON"):
+            assert sim.stack(line)
+        sim.run_until(300)
+    assert a.traffic.routes[0].waypoints[1].turn.speed_cas == pytest.approx(35 * KTS)
+    assert a.traffic.lat[0] == b.traffic.lat[0] and a.traffic.cas[0] == pytest.approx(35 * KTS)
+
+
+def test_flyturn_speed_that_follows_from_the_turn_is_a_cas():
+    """4.10: a fly-turn given its bank alone keeps the current speed. BlueSky's
+    calcturn returns that speed as a TAS and VNAV selects it as a CAS: at 1500 ft
+    the aircraft speeds up 2.2 % into the turn and stays there. aamsim selects the
+    CAS it was flying."""
+    sim = Simulation(seed=0, use_bluesky_navdata=False)
+    for line in ("CRE A EC35 40.70 -74.00 90 1500 100", "ADDWPT A 40.70 -73.97", "ADDWPT A TURNBANK 20",
+                 "ADDWPT A 40.70 -73.93", "ADDWPT A 40.74 -73.93", "VNAV A ON"):
+        assert sim.stack(line)
+    for t in range(10, 400, 10):
+        sim.run_until(t)
+        assert sim.traffic.cas[0] == pytest.approx(100 * KTS, abs=1e-6)
+    assert sim.traffic.trk[0] == pytest.approx(0.0, abs=0.5)  # the turn was flown
 
 
 def test_flat_earth_position_update_error_against_wgs84():
@@ -145,3 +212,12 @@ def test_flat_earth_position_update_error_against_wgs84():
     assert 0.0011 * length < err_n < 0.0014 * length
     assert 0.0024 * length < err_e < 0.0027 * length
     assert sim.traffic.lat[1] == lat0  # due east stays on the parallel, as with BlueSky
+
+
+def test_wind_profile_flight_levels_are_flight_levels():
+    """4.11: BlueSky multiplies a profile altitude given as FLnnn by 0.3048 a second
+    time (FL70 is taken as 650 m). aamsim: FL70 is 7000 ft."""
+    sim = Simulation(seed=0, use_bluesky_navdata=False)
+    assert sim.stack("WIND 52,4,0,270,10,FL70,270,30")
+    assert sim.wind.get(52.0, 4.0, 7000 * 0.3048)[1] == pytest.approx(30 * KTS)
+    assert sim.wind.get(52.0, 4.0, 3500 * 0.3048)[1] == pytest.approx(20 * KTS)

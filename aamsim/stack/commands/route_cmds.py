@@ -10,6 +10,7 @@ from aamsim.errors import ArgumentError, CommandError
 from aamsim.stack.argtypes import (
     ACID,
     ALT,
+    FLOAT,
     LATLON,
     SPD,
     WPINROUTE,
@@ -25,25 +26,61 @@ from aamsim.stack.argtypes import (
 from aamsim.stack.context import LiveContext
 from aamsim.stack.registry import command, raw_arguments, static_validator
 from aamsim.stack.tokens import next_arg
-from aamsim.traffic.route import Waypoint, WaypointKind
-from aamsim.units import FT, KTS, UnitParseError, parse_altitude, parse_speed
+from aamsim.stack.tokens import split_args
+from aamsim.traffic.route import Route, Waypoint, WaypointKind
+from aamsim.units import FT, KTS, NM, UnitParseError, parse_altitude, parse_speed
 
 if TYPE_CHECKING:
     from aamsim.stack.context import CommandContext
 
-_UNSUPPORTED_MODES = {
-    "FLYTURN",
-    "TURNRAD",
-    "TURNRADIUS",
-    "TURNSPD",
-    "TURNSPEED",
-    "TURNBANK",
-    "TURNPHI",
-    "TURNHDG",
-    "TURNHDGR",
-    "TURNHDGRATE",
-    "TAKEOFF",
+_UNSUPPORTED_MODES = {"TAKEOFF"}
+_WAYPOINT_MODES = ("FLYBY", "FLYOVER", "FLYTURN")
+# ADDWPT's turn value words, the value's unit, and the TurnSpec value they set.
+_TURN_WORDS = {
+    "TURNRAD": ("radius", NM), "TURNRADIUS": ("radius", NM),
+    "TURNSPD": ("speed", KTS), "TURNSPEED": ("speed", KTS),
+    "TURNBANK": ("bank", 1.0), "TURNPHI": ("bank", 1.0),
+    "TURNHDG": ("rate", 1.0), "TURNHDGR": ("rate", 1.0), "TURNHDGRATE": ("rate", 1.0),
 }
+
+
+def parse_turn_value(word: str, token: str) -> tuple[str, float]:
+    """``(name, value)`` of ``TURNRAD nm`` / ``TURNSPD kts`` / ``TURNBANK deg`` / ``TURNHDG deg/s`` (``OFF``: NaN).
+
+    A bank angle is limited to 0..90 deg, as in BlueSky.
+    """
+    name, unit = _TURN_WORDS[word]
+    if token.upper() == "OFF":
+        return name, math.nan
+    try:
+        value: float = FLOAT.convert(token, None)
+    except ArgumentError as exc:
+        raise ArgumentError(f"{word} needs a number or OFF: {exc.message}") from None
+    if name == "bank":
+        value = max(0.0, min(value, 90.0))
+    return name, value * unit
+
+
+def waypoint_mode(argtext: str) -> tuple[str, str] | None:
+    """``(word, value)`` when ADDWPT's arguments after the callsign set a mode instead of adding a waypoint."""
+    first, rest = next_arg(argtext)
+    word = first.upper().replace("-", "")
+    tokens = [t for t in split_args(rest)]
+    if word in _WAYPOINT_MODES and not any(tokens):
+        return word, ""
+    if word in _TURN_WORDS:
+        if len([t for t in tokens if t]) != 1 or not tokens[0]:
+            raise ArgumentError(f"{word} needs one value, e.g. ADDWPT acid {word} 0.5")
+        return word, tokens[0]
+    return None
+
+
+def apply_waypoint_mode(route: Route, word: str, value: str) -> None:
+    """FLYBY / FLYOVER / FLYTURN, or a turn value (which switches FLYTURN on), for the waypoints added next."""
+    if word in _WAYPOINT_MODES:
+        route.set_mode(word)
+    else:
+        route.set_turn_value(*parse_turn_value(word, value))
 
 
 def add_waypoint(
@@ -73,7 +110,8 @@ def add_waypoint(
     if kind in (WaypointKind.ORIG, WaypointKind.DEST):
         if kind is WaypointKind.DEST and math.isnan(alt):
             alt = 0.0
-        wp = Waypoint(name, kind, lat, lon, alt, spd, spd_mach, route.flyby_mode)
+        flyby, turn = route.new_waypoint_turn()
+        wp = Waypoint(name, kind, lat, lon, alt, spd, spd_mach, flyby, turn)
         slot = 0 if kind is WaypointKind.ORIG else len(route) - 1
         if len(route) and route.waypoints[slot].kind is kind:
             route.waypoints[slot] = wp
@@ -89,7 +127,8 @@ def add_waypoint(
     else:
         digits = 3 if kind is WaypointKind.LATLON else 2
         wpname = route.unique_name(name, digits, {view.callsign(i)})
-        wp = Waypoint(wpname, kind, lat, lon, alt, spd, spd_mach, route.flyby_mode)
+        flyby, turn = route.new_waypoint_turn()
+        wp = Waypoint(wpname, kind, lat, lon, alt, spd, spd_mach, flyby, turn)
         if after and route.find(after) >= 0:
             index = route.find(after) + 1
             route.insert(index, wp)
@@ -115,10 +154,12 @@ def _position_name(pos: Position, text: str) -> str:
 def check_addwpt(argtext: str, ctx: Any) -> None:
     """Static check of ADDWPT arguments (``--strict``)."""
     _, rest = ACID.parse(argtext, ctx)
-    first, after_first = next_arg(rest)
-    mode = first.upper().replace("-", "")
-    if mode in ("FLYBY", "FLYOVER") and not after_first.strip():
+    mode_value = waypoint_mode(rest)
+    if mode_value is not None:
+        if mode_value[0] in _TURN_WORDS:
+            parse_turn_value(*mode_value)
         return
+    mode = next_arg(rest)[0].upper().replace("-", "")
     if mode in _UNSUPPORTED_MODES:
         raise CommandError(f"{mode} is not supported by aamsim (see docs/bluesky-differences.md)")
     try:
@@ -144,18 +185,22 @@ def addwpt(sim: CommandContext, argtext: RestOfLine) -> None:
     """ADDWPT acid, (wpname/lat,lon), [alt, spd, afterwp, beforewp]: add a waypoint to a route.
 
     Alt (ft/FLnnn) and speed (kts/Mach) are constraints at the waypoint,
-    obeyed with VNAV on. ``ADDWPT acid FLYBY`` / ``FLYOVER`` sets how the
-    waypoints added next are flown. The first waypoint switches LNAV on.
+    obeyed with VNAV on. ``ADDWPT acid FLYBY`` / ``FLYOVER`` / ``FLYTURN`` sets
+    how the waypoints added next are flown; ``ADDWPT acid TURNSPD kts`` /
+    ``TURNRAD nm`` / ``TURNBANK deg`` / ``TURNHDG deg/s`` (or ``OFF``) gives
+    their turn (the last two given hold) and switches FLYTURN on. With VNAV
+    on, the aircraft slows to a fly-turn's speed before it. The first
+    waypoint switches LNAV on.
     """
     ctx = LiveContext(sim)
     i, rest = ACID.parse(argtext, ctx)
     view = sim.view
     route = sim.edit_route(i)
-    first, after_first = next_arg(rest)
-    mode = first.upper().replace("-", "")
-    if mode in ("FLYBY", "FLYOVER") and not after_first.strip():
-        route.flyby_mode = mode == "FLYBY"
+    mode_value = waypoint_mode(rest)
+    if mode_value is not None:
+        apply_waypoint_mode(route, *mode_value)
         return
+    mode = next_arg(rest)[0].upper().replace("-", "")
     if mode in _UNSUPPORTED_MODES:
         raise CommandError(f"{mode} is not supported by aamsim (see docs/bluesky-differences.md)")
     # Named waypoints are looked up nearest the route's last point (or the aircraft).
@@ -256,7 +301,7 @@ def delrte(sim: CommandContext, acid: AcIndex) -> None:
     route = sim.edit_route(acid)
     route.waypoints.clear()
     route.iactwp = -1
-    route.flyby_mode = True
+    route.reset_modes()
     sim.set_navigation(acid, lnav=False, vnav=False, vnav_speed=False)
 
 
@@ -464,4 +509,43 @@ def listrte(sim: CommandContext, acid: AcIndex) -> str:
     return "\n".join(lines)
 
 
-COMMANDS = (addwpt, dest, orig, delwpt, delrte, direct, lnav, vnav, swtoc, swtod, at, rta, listrte)
+def _check_addwptmode(argtext: str, ctx: Any) -> None:
+    _, rest = ACID.parse(argtext, ctx)
+    if rest.strip() and waypoint_mode(rest) is None:
+        raise ArgumentError(f'ADDWPTMODE: unknown mode "{next_arg(rest)[0]}"')
+    mode_value = waypoint_mode(rest) if rest.strip() else None
+    if mode_value is not None and mode_value[0] in _TURN_WORDS:
+        parse_turn_value(*mode_value)
+
+
+@command("ADDWPTMODE", group="route")
+@raw_arguments
+@static_validator(_check_addwptmode)
+def addwptmode(sim: CommandContext, argtext: RestOfLine) -> str | None:
+    """ADDWPTMODE acid, [FLYBY/FLYOVER/FLYTURN/TURNSPD/TURNRAD/TURNBANK/TURNHDG, value]: ADDWPT's mode words.
+
+    Without a mode, tells the current one. Values have ADDWPT's units (kts,
+    nm, deg, deg/s).
+    """
+    ctx = LiveContext(sim)
+    i, rest = ACID.parse(argtext, ctx)
+    route = sim.edit_route(i)
+    if not rest.strip():
+        return f"Current ADDWPT mode is {route.mode}."
+    mode_value = waypoint_mode(rest)
+    if mode_value is None:
+        raise ArgumentError(f'ADDWPTMODE: unknown mode "{next_arg(rest)[0]}"')
+    apply_waypoint_mode(route, *mode_value)
+    return None
+
+
+@command("CRUISESPD", group="route")
+def cruisespd(sim: CommandContext, acid: AcIndex, spd: SpeedArg) -> None:
+    """CRUISESPD acid, spd: the speed (kts CAS) selected when a fly-turn ends, if its new leg has no speed constraint."""
+    if spd.is_mach:
+        raise ArgumentError("CRUISESPD takes a CAS in knots")
+    sim.set_cruise_speed(acid, spd.value)
+
+
+COMMANDS = (addwpt, addwptmode, cruisespd, dest, orig, delwpt, delrte, direct, lnav, vnav, swtoc, swtod, at, rta,
+            listrte)

@@ -86,10 +86,13 @@ def mcre(
 
 @command("DEL", aliases=("DELETE",), group="traffic")
 def delete(sim: CommandContext, *targets: Word) -> None:
-    """DEL acid, [acid, ...]: delete aircraft. ``DEL *`` deletes all of them."""
+    """DEL acid, [acid, ...]: delete aircraft. ``DEL *`` deletes all of them, ``DEL WIND`` the wind field."""
     if not targets:
         raise CommandError("DEL needs a callsign (or * for all aircraft)")
     names = [t.upper() for t in targets if t]
+    if names[:1] == ["WIND"] and "WIND" not in sim.view:  # an aircraft called WIND goes first, as in BlueSky
+        sim.wind.clear()
+        return
     if "*" in names:
         for slot in range(sim.view.n - 1, -1, -1):
             sim.delete_aircraft(slot)
