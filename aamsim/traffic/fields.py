@@ -110,6 +110,7 @@ BOOL_FIELDS = (
     "wp_lastwp",
     "c_spd_mach",  # Mach flag of the selected speed the TAS cache belongs to
     "has_moved",  # has flown at or above the holding-speed threshold (so slow time counts as holding)
+    "noncoop",  # real traffic replayed from a recording: flown straight at its set velocity, no autopilot
 )
 
 N_FLOAT = len(FLOAT_FIELDS)
@@ -219,6 +220,7 @@ B_WP_FLYBY = _flag("wp_flyby")
 B_WP_LASTWP = _flag("wp_lastwp")
 B_C_SPD_MACH = _flag("c_spd_mach")
 B_HAS_MOVED = _flag("has_moved")
+B_NONCOOP = _flag("noncoop")
 
 
 def _check_rows() -> None:
