@@ -16,6 +16,7 @@ see them, use cases observe them as intruders and never make them agents, and ev
 
 from __future__ import annotations
 
+import csv
 import math
 from dataclasses import dataclass
 from datetime import datetime, timezone
@@ -172,7 +173,10 @@ class Replay:
                                priority=5, start_us=0)
         sim.hooks.deleted.add(self._on_deleted, name=f"replay:{self.prefix}.deleted")
         sim.pending_work.append(lambda: self.pending(sim.simt))
-        sim.extensions.setdefault("replays", []).append(self)
+        replays = sim.extensions.setdefault("replays", [])
+        if not replays and "run_outputs" in sim.extensions:  # aamsim run: its run directory gets the list
+            sim.extensions["run_outputs"].append(write_run_outputs)
+        replays.append(self)
         sim.report("note", self.describe(), sim.current_source)
 
     def describe(self) -> str:
@@ -319,6 +323,27 @@ class Replay:
         return out
 
 
+REAL_TRAFFIC_COLUMNS = ["id", "icao24", "callsign", "source", "created_s", "deleted_s", "removed_by_user"]
+
+
+def write_run_outputs(sim: CommandContext, out_dir: Path, summary: dict[str, object]) -> None:
+    """``real_traffic.csv`` (one row per replayed track) and the replays' part of summary.json."""
+    replays = replays_of(sim)
+    summary["real_traffic"] = [r.summary() for r in replays]
+    for replay in replays:
+        skipped: SkipLog | None = getattr(replay.feed, "skipped", None)
+        if skipped is not None and skipped.total > replay._skips_reported:
+            sim.report("warning", f"REPLAY {replay.name}: {skipped.total} rows skipped in all:\n{skipped.summary()}")
+    with open(out_dir / "real_traffic.csv", "w", newline="", encoding="utf-8") as fh:
+        writer = csv.writer(fh)
+        writer.writerow(REAL_TRAFFIC_COLUMNS)
+        for replay in replays:
+            for f in replay.flights:
+                deleted = "" if math.isnan(f.deleted_s) else f"{f.deleted_s:.2f}"
+                writer.writerow([f.callsign, f.icao24, f.recorded_callsign, replay.name, f"{f.created_s:.2f}",
+                                 deleted, "true" if f.removed_by_user else "false"])
+
+
 def _utc(t: float) -> str:
     if not math.isfinite(t):
         return ""
@@ -338,7 +363,8 @@ def next_prefix(sim: CommandContext) -> str:
 
 
 def start_recording(sim: CommandContext, path_text: str, offset: str = "", area: BBox | None = None,
-                    *, max_gap_s: float = 60.0, interval_s: float = UPDATE_INTERVAL_S) -> Replay:
+                    *, max_gap_s: float = 60.0, interval_s: float = UPDATE_INTERVAL_S,
+                    name: str | None = None) -> Replay:
     """Overlay a recording file from now on (what ``REPLAY`` and ``--overlay FILE`` do)."""
     path = sim.find_file(path_text)
     if path is None:
@@ -347,7 +373,7 @@ def start_recording(sim: CommandContext, path_text: str, offset: str = "", area:
         feed = RecordingFeed(path, area=area, max_gap_s=max_gap_s)
     except RecordingError as err:
         raise CommandError(str(err)) from None
-    replay = Replay(feed, name=str(path_text), prefix=next_prefix(sim), alignment=Alignment.parse(offset),
+    replay = Replay(feed, name=name or path_text, prefix=next_prefix(sim), alignment=Alignment.parse(offset),
                     interval_s=interval_s)
     replay.attach(sim)
     return replay
