@@ -57,11 +57,17 @@ class SimulationAPI:
             return build_services(self)  # type: ignore[arg-type]
         return self.services
 
-    def flights(self) -> Iterator[FlightRecord]:
-        """Closed flights followed by the open ones (their distance and times brought up to date)."""
-        yield from self.flight_log
+    def flights(self, real_traffic: bool = False) -> Iterator[FlightRecord]:
+        """Closed flights followed by the open ones (their distance and times brought up to date).
+
+        The AAM flights; with ``real_traffic`` the replayed real aircraft instead (their records
+        say ``real_traffic``), so that flight metrics and ``flights.csv`` count AAM flights only.
+        """
+        yield from (rec for rec in self.flight_log if rec.real_traffic == real_traffic)
         view = self.view
         for i, rec in enumerate(self.traffic.flights):
+            if rec.real_traffic != real_traffic:
+                continue
             rec.distance_m = float(view.distflown[i])
             rec.airborne_s = float(view.airborne_s[i])
             rec.slow_s = float(view.slow_s[i])
@@ -96,13 +102,30 @@ class SimulationAPI:
             return np.array([self.slot(targets)], dtype=np.int64)
         return np.fromiter((self.slot(a) for a in targets), dtype=np.int64, count=len(targets))
 
+    def _advisable(self, slots: np.ndarray) -> np.ndarray:
+        """``slots`` unless one is real traffic replayed from a recording, which takes no intents."""
+        refused = slots[self.view.noncooperative[slots]] if len(slots) else slots
+        if len(refused):
+            names = ", ".join(self.traffic.ids[int(s)] for s in refused[:5]) + (" ..." if len(refused) > 5 else "")
+            raise CommandError(f"{names}: real traffic replayed from a recording (non-cooperative): it takes no "
+                               "advisories or intents; only DEL removes it")
+        return slots
+
+    def _intent_slot(self, target: str | int) -> int:
+        slot = self.slot(target)
+        self._advisable(np.array([slot], dtype=np.int64))
+        return slot
+
+    def _intent_slots(self, targets: Target) -> np.ndarray:
+        return self._advisable(self.slots(targets))
+
     # ------------------------------------------------------------------ intents
     def select_speed(self, targets: Target, speed: Speed | float | np.ndarray) -> None:
         """Select a speed: a :class:`~aamsim.units.Speed` (CAS m/s or Mach) or CAS [m/s] per target.
 
         VNAV speed control goes off, as with BlueSky's SPD.
         """
-        slots = self.slots(targets)
+        slots = self._intent_slots(targets)
         if isinstance(speed, Speed):
             intents.select_speed(self.traffic, slots, speed.value, speed.is_mach)
         else:
@@ -110,44 +133,44 @@ class SimulationAPI:
 
     def hold_speed(self, targets: Target) -> None:
         """Select each target's current CAS (a "maintain speed" advisory)."""
-        slots = self.slots(targets)
+        slots = self._intent_slots(targets)
         intents.select_speed(self.traffic, slots, self.view.cas[slots])
 
     def select_altitude(self, target: str | int, altitude_m: float, vs_mps: float | None = None) -> None:
         """Select an altitude [m], optionally a vertical speed [m/s]; VNAV off (BlueSky's ALT)."""
-        intents.select_altitude(self.traffic, self.slot(target), altitude_m, vs_mps)
+        intents.select_altitude(self.traffic, self._intent_slot(target), altitude_m, vs_mps)
 
     def select_vertical_speed(self, target: str | int, vs_mps: float) -> None:
         """Select a vertical speed [m/s]; VNAV off (BlueSky's VS)."""
-        intents.select_vertical_speed(self.traffic, self.slot(target), vs_mps)
+        intents.select_vertical_speed(self.traffic, self._intent_slot(target), vs_mps)
 
     def select_heading(self, target: str | int, heading_deg: float) -> None:
         """Fly a heading [deg true]; LNAV off (BlueSky's HDG)."""
-        intents.select_heading(self.traffic, self.slot(target), heading_deg, self.wind)
+        intents.select_heading(self.traffic, self._intent_slot(target), heading_deg, self.wind)
 
     def set_cruise_speed(self, target: str | int, cas_mps: float) -> None:
         """CAS [m/s] selected when a fly-turn ends and the new leg has no speed constraint (CRUISESPD)."""
-        intents.set_cruise_speed(self.traffic, self.slot(target), cas_mps)
+        intents.set_cruise_speed(self.traffic, self._intent_slot(target), cas_mps)
 
     def set_bank(self, target: str | int, bank_rad: float) -> None:
         """Bank angle used in turns [rad], in (0, pi/2)."""
         if not 0.0 < bank_rad < np.pi / 2:
             raise ValueError(f"bank angle must be between 0 and 90 deg, not {np.degrees(bank_rad):g}")
-        intents.set_bank(self.traffic, self.slot(target), bank_rad)
+        intents.set_bank(self.traffic, self._intent_slot(target), bank_rad)
 
     def move(self, target: str | int, lat: float, lon: float, alt_m: float | None = None,
              hdg_deg: float | None = None, speed: Speed | None = None, vs_mps: float | None = None) -> None:
         """Put an aircraft somewhere else (BlueSky's MOVE)."""
-        intents.move(self.traffic, self.slot(target), lat, lon, alt_m, hdg_deg,
+        intents.move(self.traffic, self._intent_slot(target), lat, lon, alt_m, hdg_deg,
                      None if speed is None else speed.value, bool(speed and speed.is_mach), vs_mps)
 
     def offset_altitude(self, targets: Target, dz_m: float | np.ndarray) -> None:
         """Shift aircraft and their selected altitude by ``dz_m`` [m]."""
-        intents.offset_altitude(self.traffic, self.slots(targets), dz_m)
+        intents.offset_altitude(self.traffic, self._intent_slots(targets), dz_m)
 
     def direct_to(self, target: str | int, waypoint: str | int) -> None:
         """Fly straight to a waypoint of the route (by name or index); LNAV on."""
-        slot = self.slot(target)
+        slot = self._intent_slot(target)
         route = self.traffic.routes[slot]
         index = route.find(waypoint) if isinstance(waypoint, str) else int(waypoint)
         if not 0 <= index < len(route):
@@ -156,33 +179,45 @@ class SimulationAPI:
 
     def edit_route(self, slot: int) -> Route:
         """The aircraft's route, to be changed in place (ADDWPT, DELWPT, ...); see :meth:`activate_waypoint`."""
-        return self.traffic.routes[self.slot(slot)]
+        return self.traffic.routes[self._intent_slot(slot)]
 
     def activate_waypoint(self, slot: int, index: int) -> None:
         """Make waypoint ``index`` of the route the active one (guidance follows it from the next step)."""
-        intents.activate_waypoint(self.traffic, self.slot(slot), index)
+        intents.activate_waypoint(self.traffic, self._intent_slot(slot), index)
 
     def flight_record(self, slot: int) -> FlightRecord:
         """The aircraft's flight record, to be annotated (DEST, ORIG, RTA)."""
-        return self.traffic.flights[self.slot(slot)]
+        return self.traffic.flights[self._intent_slot(slot)]
 
     def set_navigation(self, target: str | int, lnav: bool | None = None, vnav: bool | None = None,
                        vnav_speed: bool | None = None) -> None:
         """Switch LNAV / VNAV / VNAV speed control (None: unchanged); no route checks (see LNAV, VNAV)."""
-        intents.set_navigation(self.traffic, self.slot(target), lnav, vnav, vnav_speed)
+        intents.set_navigation(self.traffic, self._intent_slot(target), lnav, vnav, vnav_speed)
 
     def resume_route(self, target: str | int) -> None:
         """LNAV on towards the nearest waypoint of the route (BlueSky's LNAV ON)."""
-        intents.resume_route(self.traffic, self.slot(target))
+        intents.resume_route(self.traffic, self._intent_slot(target))
 
     def engage_vnav(self, target: str | int) -> None:
         """VNAV on along the route's altitude and speed constraints (BlueSky's VNAV ON)."""
-        intents.engage_vnav(self.traffic, self.slot(target))
+        intents.engage_vnav(self.traffic, self._intent_slot(target))
 
     def set_climb_profile(self, target: str | int, early_climb: bool | None = None,
                           late_descent: bool | None = None) -> None:
         """BlueSky's SWTOC / SWTOD switches (None: unchanged)."""
-        intents.set_climb_profile(self.traffic, self.slot(target), early_climb, late_descent)
+        intents.set_climb_profile(self.traffic, self._intent_slot(target), early_climb, late_descent)
+
+    def set_replay_state(self, targets: Target, lat: np.ndarray, lon: np.ndarray, alt_m: np.ndarray,
+                         gsnorth_mps: np.ndarray, gseast_mps: np.ndarray, vs_mps: np.ndarray) -> None:
+        """Put replayed real aircraft at a recorded state (SI; velocity north/east/up [m/s]).
+
+        Only for non-cooperative aircraft (created with ``noncooperative=True``): the kernel flies
+        them straight at this velocity until the next call.
+        """
+        slots = self.slots(targets)
+        if len(slots) and not self.view.noncooperative[slots].all():
+            raise CommandError("set_replay_state: only replayed (non-cooperative) aircraft follow a recording")
+        intents.set_replay_state(self.traffic, slots, lat, lon, alt_m, gsnorth_mps, gseast_mps, vs_mps)
 
     def create(self, acid: str, actype: str, lat: float, lon: float, hdg_deg: float = 0.0, alt_m: float = 0.0,
                speed: Speed | float = 0.0) -> int:

@@ -97,16 +97,25 @@ def main() -> None:
               help="LoWC volume [m]: RADIUS (sphere, 3-D) or RADIUS,HALF_HEIGHT (cylinder).")
 @click.option("--threads", type=int, default=1, show_default=True,
               help="Numba threads stepping the traffic (same results; helps from a few hundred aircraft).")
+@click.option("--overlay", "overlays", multiple=True, metavar="FILE|opensky:LAT0,LON0,LAT1,LON1",
+              help="Real traffic as non-cooperative intruders: a recording (OpenSky, traffic library; "
+                   "docs/real-traffic.md) or live OpenSky state vectors in a box (paced to real time). Repeatable.")
+@click.option("--overlay-offset", default="", metavar="[-][[HH:]MM:]SS|@UTC",
+              help="Scenario time of the recordings' first report (default 0), or @UTC-TIME: the recording's "
+                   "moment played at time 0.")
+@click.option("--overlay-area", default="", metavar="LAT0,LON0,LAT1,LON1",
+              help="Replay only the recordings' reports inside this box [deg].")
 def run(scenario: str, until: str | None, out_dir: Path | None, dt: float, seed: int | None, strict: bool,
         quiet: bool, log_period: float, plugins: tuple[str, ...], delete_on_arrival: bool, metrics: str,
-        nmac: str, lowc: str, threads: int) -> None:
+        nmac: str, lowc: str, threads: int, overlays: tuple[str, ...], overlay_offset: str,
+        overlay_area: str) -> None:
     """Simulate SCENARIO headless, as fast as possible, and write a run directory.
 
     SCENARIO is a path, or the name of a scenario shipped with aamsim
     (e.g. scn/nyc_day.scn).
     """
     from aamsim.clock import TimeStepError, validate_dt
-    from aamsim.runner import RunConfig, ScenarioNotFound, StrictValidationFailed, run_scenario
+    from aamsim.runner import OverlayError, RunConfig, ScenarioNotFound, StrictValidationFailed, run_scenario
     from aamsim.scenarios import resolve_scenario
 
     try:
@@ -133,8 +142,16 @@ def run(scenario: str, until: str | None, out_dir: Path | None, dt: float, seed:
         raise click.BadParameter(f"unknown metric group(s) {', '.join(unknown)}; known: "
                                  f"{', '.join(sorted(known.groups))}", param_hint="--metrics")
     volumes = (_volume("nmac", nmac), _volume("lowc", lowc))
+    try:
+        area = tuple(float(x) for x in overlay_area.split(",") if x.strip())
+    except ValueError:
+        raise click.BadParameter(f'"{overlay_area}": expected LAT0,LON0,LAT1,LON1 in degrees',
+                                 param_hint="--overlay-area") from None
+    if area and len(area) != 4:
+        raise click.BadParameter(f'"{overlay_area}": expected 4 numbers LAT0,LON0,LAT1,LON1',
+                                 param_hint="--overlay-area")
     cfg = RunConfig(scenario, out_dir, until_s, dt, seed, strict, log_period, plugins, delete_on_arrival, groups,
-                    volumes, threads)
+                    volumes, threads, overlays=overlays, overlay_offset=overlay_offset, overlay_area=area)
 
     def listener(msg: Any) -> None:
         if msg.kind in ("error", "warning") or not quiet and msg.kind in ("echo", "note"):
@@ -145,7 +162,7 @@ def run(scenario: str, until: str | None, out_dir: Path | None, dt: float, seed:
     progress = _Progress(total, quiet)
     try:
         result = run_scenario(cfg, progress=progress, listener=listener)
-    except ScenarioNotFound as exc:
+    except (ScenarioNotFound, OverlayError) as exc:
         progress.close()
         click.echo(f"error: {exc}", err=True)
         sys.exit(2)
@@ -181,6 +198,12 @@ def run(scenario: str, until: str | None, out_dir: Path | None, dt: float, seed:
             sep = sf["min_separation_m"]
             click.echo(f"safety: {sf['nmac_events']} NMAC, {sf['lowc_events']} LoWC events, "
                        f"min separation {'-' if sep is None else f'{sep:.1f}'} m")
+            if s.get("real_traffic"):
+                replayed = sum(int(r["aircraft_replayed"]) for r in s["real_traffic"])
+                click.echo(f"real traffic: {replayed} aircraft replayed; AAM vs AAM: "
+                           f"{sf['nmac_events_aam_vs_aam']} NMAC, {sf['lowc_events_aam_vs_aam']} LoWC; "
+                           f"AAM vs real traffic: {sf['nmac_events_aam_vs_real_traffic']} NMAC, "
+                           f"{sf['lowc_events_aam_vs_real_traffic']} LoWC")
 
 
 @main.command()

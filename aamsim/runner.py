@@ -62,6 +62,10 @@ class RunConfig:
     text: str | None = None  # the scenario's text when it is not the whole file (a SCEN block of a batch)
     name: str | None = None  # the scenario's name (default: the file's stem)
     commands: tuple[str, ...] = ()  # stack commands run at time 0 before the scenario's own
+    # Real traffic overlaid (docs/real-traffic.md): recording files or opensky:LAT0,LON0,LAT1,LON1 (live).
+    overlays: tuple[str, ...] = ()
+    overlay_offset: str = ""  # REPLAY's offset for the recordings: [-][[HH:]MM:]SS or @UTC-TIME
+    overlay_area: tuple[float, ...] = ()  # LAT0, LON0, LAT1, LON1: only the recordings' reports in it
 
 
 @dataclass
@@ -132,6 +136,7 @@ def run_scenario(
         recorder.attach(sim)
     for line in cfg.commands:
         sim.stack(line)
+    start_overlays(sim, cfg)
     sim.load_scenario(path, text=text)
     wall0 = time.perf_counter()
     with StopOnSignal(sim) as stop:
@@ -158,6 +163,33 @@ def run_scenario(
         with open(out_dir / "messages.log", "w", encoding="utf-8") as fh:
             fh.writelines(f"{msg.simt:10.2f} {msg}\n" for msg in sim.reporter.messages)
     return RunResult(sim, out_dir, summary, wall)
+
+
+class OverlayError(Exception):
+    """An overlay that cannot start (recording not found or unreadable, bad offset or area)."""
+
+
+def start_overlays(sim: Simulation, cfg: RunConfig) -> None:
+    """Start the run's real-traffic overlays at time 0; raises :class:`OverlayError` naming the overlay."""
+    from aamsim.errors import CommandError
+    from aamsim.realtraffic.replay import parse_area, start_recording
+
+    try:
+        area = parse_area(list(cfg.overlay_area))
+        for spec in cfg.overlays:
+            if spec.lower().startswith("opensky:"):
+                from aamsim.realtraffic.live import start_live
+
+                box = parse_area([float(x) for x in spec.split(":", 1)[1].split(",") if x.strip()])
+                if box is None:
+                    raise CommandError("opensky: needs an area, opensky:LAT0,LON0,LAT1,LON1")
+                start_live(sim, box)
+            else:
+                path = Path(spec)
+                start_recording(sim, str(path.resolve()) if path.is_file() else spec, cfg.overlay_offset, area,
+                                name=spec)
+    except (CommandError, ValueError) as err:
+        raise OverlayError(f"--overlay: {err}") from None
 
 
 class StopOnSignal:

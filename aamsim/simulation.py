@@ -105,6 +105,8 @@ class Simulation(SimulationAPI):
         self.plugins: dict[str, Any] = {}
         self.extensions: dict[str, Any] = {}  # per-simulation state of services and plugins
         self.aircraft_steps = 0
+        # Services with work still to come (a replay with tracks ahead) keep a run going: see is_quiescent.
+        self.pending_work: list[Callable[[], bool]] = []
         self.quit_requested = False
         self._conditions_idle_s = 0.0
         self._noted: set[str] = set()
@@ -248,15 +250,21 @@ class Simulation(SimulationAPI):
         hdg: float = 0.0,
         alt: float = 0.0,
         spd: Speed | None = None,
+        noncooperative: bool = False,
     ) -> int:
-        """Create an aircraft (SI units); returns its slot."""
+        """Create an aircraft (SI units); returns its slot.
+
+        ``noncooperative``: real traffic replayed from a recording (:mod:`aamsim.realtraffic.replay`):
+        the kernel flies it straight at the velocity the replay sets, without autopilot or
+        envelope, and intents refuse it. The creation hooks see the flag already set.
+        """
         acid = acid.upper()
         if acid in self.traffic:
             raise CommandError(f"aircraft {acid} already exists")
         if not acid or any(c in acid for c in " ,;#>'\""):
             raise CommandError(f'"{acid}" is not a valid callsign')
         envelope, known = self.performance.lookup(actype)
-        if not known:
+        if not known and not noncooperative:
             self.note_once(
                 f"type:{actype.upper()}",
                 f"unknown aircraft type {actype.upper()}: using the {envelope.type_code} envelope",
@@ -264,8 +272,9 @@ class Simulation(SimulationAPI):
             )
         spd = self._checked_creation(acid, lat, lon, alt, spd or Speed(0.0), envelope)
         self.executor.last_command[acid] = (self.executor.command_text or "create", self.executor.source)
-        i = self.traffic.create(acid, actype, envelope, lat, lon, hdg, alt, spd or Speed(0.0), self.simt)
-        if self.wind.active:
+        i = self.traffic.create(acid, actype, envelope, lat, lon, hdg, alt, spd or Speed(0.0), self.simt,
+                                noncooperative)
+        if self.wind.active and not noncooperative:
             intents.apply_wind_at_creation(self.traffic, i, self.wind)
         if self.state == self.STATE_INIT:
             self.state = self.STATE_OP
@@ -513,7 +522,7 @@ class Simulation(SimulationAPI):
 
     def is_quiescent(self) -> bool:
         """True when the scenario can produce no further change worth simulating."""
-        if len(self.queue) or len(self.conditions):
+        if len(self.queue) or len(self.conditions) or any(pending() for pending in self.pending_work):
             return False
         if self.traffic.n == 0:
             return True

@@ -38,6 +38,11 @@ class MetricContext:
     hold_speed_mps: float
     min_separation_m: float = math.inf
     conflict_pairs: int = 0
+    real_traffic: frozenset[str] = frozenset()  # callsigns of replayed real aircraft (aamsim.realtraffic)
+
+    def pair_kind(self, event: SeparationEvent) -> str:
+        """``AAM vs AAM``, ``AAM vs real traffic`` or ``real vs real traffic`` (:func:`pair_kind`)."""
+        return pair_kind(event.ac1, event.ac2, self.real_traffic)
 
     @property
     def flight_hours(self) -> float:
@@ -48,6 +53,15 @@ class MetricContext:
 
     def events_of(self, volume: str) -> list[SeparationEvent]:
         return [e for e in self.events if e.volume == volume]
+
+
+AAM_VS_AAM, AAM_VS_REAL, REAL_VS_REAL = "AAM vs AAM", "AAM vs real traffic", "real vs real traffic"
+
+
+def pair_kind(ac1: str, ac2: str, real_traffic: frozenset[str] | set[str]) -> str:
+    """Which traffic an encounter is between: AAM aircraft, replayed real aircraft, or one of each."""
+    real = (ac1 in real_traffic) + (ac2 in real_traffic)
+    return (AAM_VS_AAM, AAM_VS_REAL, REAL_VS_REAL)[real]
 
 
 @dataclass

@@ -10,7 +10,7 @@ from typing import TYPE_CHECKING, Any
 
 from aamsim.conflicts.events import track_speed
 from aamsim.conflicts.service import conflicts_of
-from aamsim.metrics.registry import MetricContext, MetricRegistry
+from aamsim.metrics.registry import MetricContext, MetricRegistry, pair_kind
 from aamsim.metrics.standard import register_standard_metrics
 
 if TYPE_CHECKING:
@@ -19,7 +19,7 @@ if TYPE_CHECKING:
 DEFAULT_GROUPS = ("safety", "operational")
 CONFLICT_COLUMNS = ["volume", "ac1", "ac2", "start_s", "end_s", "min_dist_m", "t_min_s",
                     "lat1", "lon1", "alt1_m", "lat2", "lon2", "alt2_m",
-                    "trk1_deg", "gs1_mps", "vs1_mps", "trk2_deg", "gs2_mps", "vs2_mps", "encounter"]
+                    "trk1_deg", "gs1_mps", "vs1_mps", "trk2_deg", "gs2_mps", "vs2_mps", "encounter", "pair"]
 
 
 def _standard_registry() -> MetricRegistry:
@@ -34,11 +34,15 @@ class MetricsService:
     registry: MetricRegistry = field(default_factory=_standard_registry)
 
     def context(self, sim: Simulation) -> MetricContext:
+        """The run's AAM flights and the events with at least one AAM aircraft in them (two replayed
+        real aircraft meeting are not an AAM event; conflicts.csv lists them, marked)."""
         service = conflicts_of(sim)
+        real = real_traffic_callsigns(sim)
         return MetricContext(
             sim=sim,
             flights=list(sim.flights()),
-            events=list(service.events),
+            events=[e for e in service.events if not (e.ac1 in real and e.ac2 in real)],
+            real_traffic=real,
             duration_s=sim.simt,
             hold_speed_mps=sim.settings.hold_speed_mps,
             min_separation_m=service.min_separation_m,
@@ -63,8 +67,15 @@ def record_advisory(sim: Simulation, acid: str, action: str) -> None:
         sim.traffic.flights[i].advisories += 1
 
 
+def real_traffic_callsigns(sim: Simulation) -> frozenset[str]:
+    """Callsigns of every replayed real aircraft of the run (flying or gone)."""
+    return frozenset(rec.acid for rec in sim.flights(real_traffic=True))
+
+
 def write_conflicts_csv(path: Path, sim: Simulation) -> int:
+    """Every event of every volume; ``pair`` says AAM vs AAM, AAM vs real traffic or real vs real traffic."""
     events = conflicts_of(sim).events
+    real = real_traffic_callsigns(sim)
 
     def num(x: float, d: int) -> str:
         return "" if x is None or (isinstance(x, float) and not math.isfinite(x)) else f"{x:.{d}f}"
@@ -76,5 +87,6 @@ def write_conflicts_csv(path: Path, sim: Simulation) -> int:
             motion = [num(x, d) for vel in (e.vel1, e.vel2) for x, d in zip(track_speed(vel), (1, 2, 2))]
             writer.writerow([e.volume, e.ac1, e.ac2, num(e.start_s, 2), num(e.end_s, 2), num(e.min_dist_m, 2),
                              num(e.t_min_s, 2), num(e.pos1[0], 7), num(e.pos1[1], 7), num(e.pos1[2], 2),
-                             num(e.pos2[0], 7), num(e.pos2[1], 7), num(e.pos2[2], 2), *motion, e.encounter])
+                             num(e.pos2[0], 7), num(e.pos2[1], 7), num(e.pos2[2], 2), *motion, e.encounter,
+                             pair_kind(e.ac1, e.ac2, real)])
     return len(events)

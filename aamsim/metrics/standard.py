@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import math
 
-from aamsim.metrics.registry import MetricContext, MetricFn, MetricRegistry, MetricValue
+from aamsim.metrics.registry import AAM_VS_AAM, AAM_VS_REAL, MetricContext, MetricFn, MetricRegistry, MetricValue
 
 
 def _per_flight(count: int, ctx: MetricContext) -> float | None:
@@ -44,12 +44,19 @@ def _events_by_encounter(volume: str, kind: str) -> MetricFn:
     return lambda ctx: sum(1 for e in ctx.events_of(volume) if e.encounter == kind)
 
 
+def _events_between(volume: str, kind: str) -> MetricFn:
+    return lambda ctx: sum(1 for e in ctx.events_of(volume) if ctx.pair_kind(e) == kind)
+
+
 def register_standard_metrics(reg: MetricRegistry) -> None:
     # ------------------------------------------------------------------ safety
     for vol in ("nmac", "lowc"):
         reg.add("safety", f"{vol}_events", _events(vol))
         reg.add("safety", f"{vol}_per_flight", _events(vol, per="flight"))
         reg.add("safety", f"{vol}_per_flight_hour", _events(vol, per="hour"))
+    for vol in ("nmac", "lowc"):  # the AAM events split by what the other aircraft is (real traffic overlays)
+        reg.add("safety", f"{vol}_events_aam_vs_aam", _events_between(vol, AAM_VS_AAM))
+        reg.add("safety", f"{vol}_events_aam_vs_real_traffic", _events_between(vol, AAM_VS_REAL))
     for kind in ENCOUNTERS:  # NMAC events by geometry at the closest point (docs/metrics.md)
         reg.add("safety", f"nmac_{kind.replace('-', '_')}", _events_by_encounter("nmac", kind))
     reg.add("safety", "min_separation_m", lambda c: c.min_separation_m if math.isfinite(c.min_separation_m) else None)

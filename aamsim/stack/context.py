@@ -7,6 +7,7 @@ defined by DEFWPT lines), for ``--strict`` validation before simulating.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Protocol, runtime_checkable
@@ -121,6 +122,7 @@ class CommandContext(Protocol):
     hooks: Hooks
     plugins: dict[str, Any]
     extensions: dict[str, Any]
+    pending_work: list[Callable[[], bool]]
     services: Services | None
     wind: WindField  # the wind field (WIND, GETWIND, DEL WIND)
 
@@ -158,7 +160,9 @@ class CommandContext(Protocol):
     def activate_waypoint(self, slot: int, index: int) -> None: ...
     def flight_record(self, slot: int) -> FlightRecord: ...
     def create_aircraft(self, acid: str, actype: str, lat: float, lon: float, hdg: float = 0.0,
-                        alt: float = 0.0, spd: Speed | None = None) -> int: ...
+                        alt: float = 0.0, spd: Speed | None = None, noncooperative: bool = False) -> int: ...
+    def set_replay_state(self, targets: Any, lat: np.ndarray, lon: np.ndarray, alt_m: np.ndarray,
+                         gsnorth_mps: np.ndarray, gseast_mps: np.ndarray, vs_mps: np.ndarray) -> None: ...
     def delete_aircraft(self, i: int, arrived: bool | None = None) -> FlightRecord: ...
     def select_speed(self, targets: Any, speed: Speed | float | np.ndarray) -> None: ...
     def select_altitude(self, target: str | int, altitude_m: float, vs_mps: float | None = None) -> None: ...

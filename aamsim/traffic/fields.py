@@ -121,6 +121,7 @@ BOOL_FIELDS = (
     "has_nextturn",  # a fly-turn waypoint lies ahead on the route (wp_nextturn* are valid)
     "turntonextwp",  # slowing for, or flying, the turn at the next fly-turn waypoint
     "inturn",  # flying at a turn speed (for CRUISESPD when it ends)
+    "noncoop",  # real traffic replayed from a recording: flown straight at its set velocity, no autopilot
 )
 
 N_FLOAT = len(FLOAT_FIELDS)
@@ -240,6 +241,7 @@ B_HAS_MOVED = _flag("has_moved")
 B_HAS_NEXTTURN = _flag("has_nextturn")
 B_TURNTONEXTWP = _flag("turntonextwp")
 B_INTURN = _flag("inturn")
+B_NONCOOP = _flag("noncoop")
 
 
 def _check_rows() -> None:

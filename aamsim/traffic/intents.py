@@ -184,3 +184,26 @@ def set_kinematic_state(traffic: Traffic, slots: np.ndarray, values: dict[str, n
     F[f.MACH, slots] = aero.tas2mach(values["tas"], values["alt"])
     for row in (f.C_ALT, f.C_HDG, f.C_TAS_IN, f.C_SPD_IN, f.C_LAT, f.C_LA0, f.C_Q0, f.C_Q0COS, f.C_Q0SIN):
         F[row, slots] = math.nan
+
+
+def set_replay_state(traffic: Traffic, slots: np.ndarray, lat: np.ndarray, lon: np.ndarray, alt_m: np.ndarray,
+                     gsnorth_mps: np.ndarray, gseast_mps: np.ndarray, vs_mps: np.ndarray) -> None:
+    """Put replayed (non-cooperative) aircraft at a recorded state; velocities east/north/up [m/s].
+
+    Heading and track follow the ground velocity and TAS equals ground speed (aamsim has no
+    wind); the kernel then flies them straight at that velocity until the next update.
+    """
+    F = traffic.F
+    gs = np.hypot(gsnorth_mps, gseast_mps)
+    trk = np.mod(np.degrees(np.arctan2(gseast_mps, gsnorth_mps)), 360.0)
+    trk = np.where(trk >= 360.0, 0.0, trk)
+    for row, values in ((f.LAT, lat), (f.LON, lon), (f.ALT, alt_m), (f.GSNORTH, gsnorth_mps),
+                        (f.GSEAST, gseast_mps), (f.VS, vs_mps), (f.GS, gs), (f.TAS, gs), (f.HDG, trk),
+                        (f.TRK, trk), (f.SELALT, alt_m), (f.SELSPD, gs)):
+        F[row, slots] = values
+    F[f.CAS, slots] = aero.tas2cas(gs, alt_m)
+    F[f.MACH, slots] = aero.tas2mach(gs, alt_m)
+    F[f.AX, slots] = 0.0
+    F[f.COSLAT, slots] = np.cos(np.radians(lat))
+    for row in (f.C_ALT, f.C_HDG, f.C_TAS_IN, f.C_SPD_IN, f.C_LAT, f.C_LA0, f.C_Q0, f.C_Q0COS, f.C_Q0SIN):
+        F[row, slots] = math.nan

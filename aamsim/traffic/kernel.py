@@ -60,6 +60,7 @@ from aamsim.traffic.fields import (
     B_HAS_MOVED,
     B_HAS_NEXTTURN,
     B_INTURN,
+    B_NONCOOP,
     B_ROTOR,
     B_SELSPD_MACH,
     B_SWALTSEL,
@@ -254,6 +255,21 @@ def _turn_speed(F: np.ndarray, B: np.ndarray, i: int, tas: float, rho: float, p:
 
 
 @njit(cache=True, inline="always", error_model="numpy")
+def _step_noncooperative(F: np.ndarray, i: int, dt: float, airborne_alt: float) -> None:
+    """A replayed real aircraft: straight on at the velocity its replay set (no autopilot, no envelope).
+
+    The replay (:mod:`aamsim.realtraffic.replay`) sets position and velocity at each of its
+    updates so that this Euler step carries the aircraft along its interpolated track.
+    """
+    alt = F[ALT, i] + F[VS, i] * dt
+    F[ALT, i] = alt
+    position_step(F, i, dt, F[GSNORTH, i], F[GSEAST, i])
+    F[DISTFLOWN, i] += F[GS, i] * dt
+    if alt > airborne_alt:
+        F[AIRBORNE_S, i] += dt
+
+
+@njit(cache=True, inline="always", error_model="numpy")
 def _step_aircraft(
     F: np.ndarray,
     B: np.ndarray,
@@ -266,6 +282,9 @@ def _step_aircraft(
     airborne_alt: float,
     wind: tuple[np.ndarray, ...],
 ) -> None:
+    if B[B_NONCOOP, i]:
+        _step_noncooperative(F, i, dt, airborne_alt)
+        return
     alt = F[ALT, i]
     tas = F[TAS, i]
     swlnav = B[B_SWLNAV, i]

@@ -48,6 +48,7 @@ class FlightRecord:
     airborne_s: float = 0.0
     slow_s: float = 0.0
     advisories: int = 0
+    real_traffic: bool = False  # a replayed real aircraft (aamsim.realtraffic.replay), not an AAM flight
 
 
 # State that must stay finite: the rows from lat to vs (position, altitude, heading, track, speeds,
@@ -149,8 +150,13 @@ class Traffic:
         alt: float,
         spd: Speed,
         simt: float,
+        noncooperative: bool = False,
     ) -> int:
-        """Add one aircraft; returns its slot. The caller checks the callsign is free."""
+        """Add one aircraft; returns its slot. The caller checks the callsign is free.
+
+        ``noncooperative``: real traffic replayed from a recording (the kernel flies it straight
+        at the velocity the replay sets; intents refuse it).
+        """
         acid = acid.upper()
         if self.n == self.capacity:
             self._grow()
@@ -209,13 +215,14 @@ class Traffic:
         B[f.B_WP_FLYBY, i] = True
         B[f.B_SWTOC, i] = True
         B[f.B_SWTOD, i] = True
+        B[f.B_NONCOOP, i] = noncooperative
         # Caches start invalid.
         for row in (f.C_ALT, f.C_HDG, f.C_TAS_IN, f.C_SPD_IN, f.C_WPLAT, f.C_BANK, f.C_LAT, f.C_LA0, f.C_Q0):
             F[row, i] = math.nan
         self.ids.append(acid)
         self.types.append(actype.upper())
         self.routes.append(Route(acid))
-        self.flights.append(FlightRecord(acid, actype.upper(), simt))
+        self.flights.append(FlightRecord(acid, actype.upper(), simt, real_traffic=noncooperative))
         self._index[acid] = i
         return i
 

@@ -57,9 +57,11 @@ PUBLIC_FLAGS: dict[str, str] = {
     "early_climb": "SWTOC: climb as early as possible",
     "late_descent": "SWTOD: descend as late as possible",
     "rotor": "rotorcraft (hovers; speeds in TAS)",
+    "noncooperative": "real traffic replayed from a recording (an intruder, never an agent; refuses intents)",
 }
 _FLAG_ROWS = {"lnav": f.B_SWLNAV, "vnav": f.B_SWVNAV, "vnav_speed": f.B_SWVNAVSPD, "selspd_mach": f.B_SELSPD_MACH,
-              "early_climb": f.B_SWTOC, "late_descent": f.B_SWTOD, "rotor": f.B_ROTOR}
+              "early_climb": f.B_SWTOC, "late_descent": f.B_SWTOD, "rotor": f.B_ROTOR,
+              "noncooperative": f.B_NONCOOP}
 
 
 @functools.lru_cache(maxsize=64)
@@ -200,6 +202,7 @@ class TrafficView:
     early_climb = _flag_view("early_climb")
     late_descent = _flag_view("late_descent")
     rotor = _flag_view("rotor")
+    noncooperative = _flag_view("noncooperative")
 
 
 def kinematic_matrix(traffic: Traffic, names: tuple[str, ...]) -> tuple[np.ndarray, np.ndarray]:

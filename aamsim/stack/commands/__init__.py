@@ -6,6 +6,7 @@ from aamsim.stack.commands import (
     asas_cmds,
     display_cmds,
     plugin_cmds,
+    realtraffic_cmds,
     route_cmds,
     sim_cmds,
     traffic_cmds,
@@ -13,7 +14,7 @@ from aamsim.stack.commands import (
 )
 from aamsim.stack.registry import CommandRegistry
 
-MODULES = (traffic_cmds, route_cmds, sim_cmds, asas_cmds, plugin_cmds, display_cmds, wind_cmds)
+MODULES = (traffic_cmds, route_cmds, sim_cmds, asas_cmds, plugin_cmds, display_cmds, wind_cmds, realtraffic_cmds)
 
 
 def register_builtin_commands(registry: CommandRegistry) -> None:
