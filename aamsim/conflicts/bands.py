@@ -96,6 +96,35 @@ def _conflict_in(sx: float, sy: float, vx: float, vy: float, a: float, b: float,
 
 
 @njit(cache=True)
+def _midpoints(edges: np.ndarray) -> np.ndarray:
+    """Midpoints of the segments between sorted edges (one point when the range is a single value)."""
+    if edges[-1] <= edges[0]:
+        return edges[:1].copy()
+    return 0.5 * (edges[:-1] + edges[1:])
+
+
+@njit(cache=True)
+def _collect(edges: np.ndarray, conf: np.ndarray, out: np.ndarray) -> int:
+    """Bands (rows of ``out``) from the segments between ``edges`` whose midpoint is in conflict."""
+    if edges[-1] <= edges[0]:
+        if conf[0]:
+            out[0, 0], out[0, 1] = edges[0], edges[-1]
+            return 1
+        return 0
+    m = 0
+    for k in range(edges.shape[0] - 1):
+        g0, g1 = edges[k], edges[k + 1]
+        if g1 <= g0 or not conf[k]:
+            continue
+        if m > 0 and out[m - 1, 1] >= g0:
+            out[m - 1, 1] = g1
+        elif m < out.shape[0]:
+            out[m, 0], out[m, 1] = g0, g1
+            m += 1
+    return m
+
+
+@njit(cache=True)
 def gs_conflicts(sx: float, sy: float, sz: float, ex: float, ey: float, wx: float, wy: float, vz: float,
                  gmin: float, gmax: float, dmod: float, hmd: float, taumod: float, zthr: float, tcoa: float,
                  lookahead: float, out: np.ndarray) -> int:
@@ -140,25 +169,12 @@ def gs_conflicts(sx: float, sy: float, sz: float, ex: float, ey: float, wx: floa
         pts[n] = gmax
         n += 1
     edges = np.sort(pts[:n])
-    m = 0
-    if edges.shape[0] == 1 or edges[-1] - edges[0] <= 0.0:  # a single speed
-        g = gmin
-        if _conflict_in(sx, sy, g * ex - wx, g * ey - wy, a, b, dmod, hmd, taumod):
-            out[0, 0], out[0, 1] = gmin, gmax
-            return 1
-        return 0
-    for k in range(edges.shape[0] - 1):
-        g0, g1 = edges[k], edges[k + 1]
-        if g1 <= g0:
-            continue
-        g = 0.5 * (g0 + g1)
-        if _conflict_in(sx, sy, g * ex - wx, g * ey - wy, a, b, dmod, hmd, taumod):
-            if m > 0 and out[m - 1, 1] >= g0:
-                out[m - 1, 1] = g1
-            elif m < out.shape[0]:
-                out[m, 0], out[m, 1] = g0, g1
-                m += 1
-    return m
+    mids = _midpoints(edges)
+    conf = np.empty(mids.shape[0], dtype=np.bool_)
+    for k in range(mids.shape[0]):
+        g = mids[k]
+        conf[k] = _conflict_in(sx, sy, g * ex - wx, g * ey - wy, a, b, dmod, hmd, taumod)
+    return _collect(edges, conf, out)
 
 
 @njit(cache=True)
@@ -186,20 +202,12 @@ def vs_conflicts(sx: float, sy: float, sz: float, vx: float, vy: float, wz: floa
     pts[n] = vsmax
     n += 1
     edges = np.sort(pts[:n])
-    m = 0
-    for k in range(edges.shape[0] - 1):
-        g0, g1 = edges[k], edges[k + 1]
-        if g1 <= g0 and edges.shape[0] > 2:
-            continue
-        g = 0.5 * (g0 + g1)
-        zlo, zhi = vertical_interval(sz, g - wz, zthr, tcoa)
-        if max(zlo, a) <= min(zhi, b):
-            if m > 0 and out[m - 1, 1] >= g0:
-                out[m - 1, 1] = g1
-            elif m < out.shape[0]:
-                out[m, 0], out[m, 1] = g0, g1
-                m += 1
-    return m
+    mids = _midpoints(edges)
+    conf = np.empty(mids.shape[0], dtype=np.bool_)
+    for k in range(mids.shape[0]):
+        zlo, zhi = vertical_interval(sz, mids[k] - wz, zthr, tcoa)
+        conf[k] = max(zlo, a) <= min(zhi, b)
+    return _collect(edges, conf, out)
 
 
 @njit(cache=True)
@@ -222,7 +230,7 @@ def hdg_conflicts(sx: float, sy: float, sz: float, gs: float, wx: float, wy: flo
     Sampled every ``step_deg``; each change between samples is refined by bisection
     to 1e-6 deg. A band crossing north is returned as two rows (``..., 360`` and ``0, ...``).
     """
-    nstep = max(int(math.ceil(360.0 / step_deg)), 4)
+    nstep = max(math.ceil(360.0 / step_deg), 4)
     h = 360.0 / nstep
     m = 0
     prev = _hdg_conflict(sx, sy, sz, gs, 0.0, wx, wy, vz, dmod, hmd, taumod, zthr, tcoa, lookahead)

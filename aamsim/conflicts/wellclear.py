@@ -29,6 +29,8 @@ import math
 import numpy as np
 from numba import njit
 
+from aamsim.conflicts.pairs import relative_state
+
 # A relative speed below this [m/s] is no relative motion (the state then never changes).
 _STILL = 1e-9
 
@@ -140,3 +142,31 @@ def pair_violations(dx: np.ndarray, dy: np.ndarray, dz: np.ndarray, du: np.ndarr
         t_in[k], t_out[k] = violation_interval(dx[k], dy[k], dz[k], du[k], dv[k], dw[k], dmod, hmd, taumod,
                                                zthr, tcoa, 0.0, lookahead)
     return t_in, t_out
+
+
+@njit(cache=True)
+def pair_alerts(latr: np.ndarray, lonr: np.ndarray, ch: np.ndarray, sh: np.ndarray, alt: np.ndarray, u: np.ndarray,
+                v: np.ndarray, w: np.ndarray, pi: np.ndarray, pj: np.ndarray, volumes: np.ndarray,
+                alerting_s: np.ndarray, lookahead: float) -> tuple[np.ndarray, np.ndarray]:
+    """Alert level of each pair and its time to loss of well clear under each level's volume.
+
+    ``volumes`` has one row per alert level, lowest first: DMOD, HMD, TAUMOD, ZTHR, TCOA
+    [m, m, s, m, s]; ``alerting_s`` the level's alerting time [s]. A pair is at level
+    ``k + 1`` when it loses well clear under volume ``k`` within ``alerting_s[k]``; its
+    level is the highest such. Returns levels (0: none) and ``t_in`` (pairs x levels,
+    ``inf`` when well clear over ``lookahead``).
+    """
+    m = pi.shape[0]
+    nl = volumes.shape[0]
+    level = np.zeros(m, dtype=np.int64)
+    t_in = np.full((m, nl), np.inf)
+    for k in range(m):
+        dx, dy, dz, du, dv, dw = relative_state(latr, lonr, ch, sh, alt, u, v, w, pi[k], pj[k])
+        for q in range(nl):
+            a, b = violation_interval(dx, dy, dz, du, dv, dw, volumes[q, 0], volumes[q, 1], volumes[q, 2],
+                                      volumes[q, 3], volumes[q, 4], 0.0, lookahead)
+            if a <= b:
+                t_in[k, q] = a
+                if a <= alerting_s[q]:
+                    level[k] = q + 1
+    return level, t_in
