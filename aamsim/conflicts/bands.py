@@ -31,7 +31,7 @@ import numpy as np
 from numba import njit
 
 from aamsim.conflicts.pairs import relative_state
-from aamsim.conflicts.wellclear import horizontal_interval, vertical_interval
+from aamsim.conflicts.wellclear import horizontal_interval, vertical_interval, violation_interval
 
 MAX_EDGES = 32  # critical points per pair and variable (ground speed: at most 2 + 4 * 2 + 2 + 2 + 4 + 1)
 MAX_BANDS = MAX_EDGES // 2 + 1
@@ -307,3 +307,29 @@ def pair_gs_bands(latr: np.ndarray, lonr: np.ndarray, ch: np.ndarray, sh: np.nda
             b_owner[nb], b_lo[nb], b_hi[nb] = i, buf[q, 0], buf[q, 1]
             nb += 1
     return merge_bands(b_owner[:nb], b_lo[:nb], b_hi[:nb])
+
+
+@njit(cache=True)
+def pair_exit_times(latr: np.ndarray, lonr: np.ndarray, ch: np.ndarray, sh: np.ndarray, alt: np.ndarray,
+                    u: np.ndarray, v: np.ndarray, w: np.ndarray, ex: np.ndarray, ey: np.ndarray, own: np.ndarray,
+                    intr: np.ndarray, speeds: np.ndarray, dmod: float, hmd: float, taumod: float, zthr: float,
+                    tcoa: float, lookahead: float) -> np.ndarray:
+    """For directed pairs and candidate ground speeds of the ownship, when well clear is regained.
+
+    Returns ``(pairs, speeds)``: the end of the violation interval that starts within
+    ``lookahead`` [s from now], 0 when the pair stays well clear, ``inf`` when it never
+    ends (no relative motion). DAIDALUS's recovery bands prefer the speeds that
+    regain well clear soonest.
+    """
+    m = own.shape[0]
+    out = np.zeros((m, speeds.shape[0]))
+    for k in range(m):
+        i, j = own[k], intr[k]
+        dx, dy, dz, _du, _dv, dw = relative_state(latr, lonr, ch, sh, alt, u, v, w, i, j)
+        for q in range(speeds.shape[0]):
+            g = speeds[q]
+            lo, hi = violation_interval(-dx, -dy, -dz, g * ex[i] - u[j], g * ey[i] - v[j], -dw, dmod, hmd, taumod,
+                                        zthr, tcoa, 0.0, math.inf)
+            if lo <= hi and lo <= lookahead:
+                out[k, q] = hi
+    return out

@@ -12,9 +12,10 @@ aircraft:
   current track that lose well clear within the look-ahead;
 * **resolutions** (:meth:`DetectAndAvoid.resolutions`): the conflict-free
   ground speed of the envelope closest to the current one, and the calibrated
-  airspeed that flies it. When every speed conflicts (saturated bands) the
-  recovery volume (the NMAC distances) is used instead, as DAIDALUS computes
-  recovery bands; when even that is saturated, no resolution (NaN).
+  airspeed that flies it. When every speed conflicts (saturated bands), the
+  recovery speed: as DAIDALUS's recovery bands, the speed that stays clear of
+  the recovery volume (the NMAC distances) and regains well clear soonest;
+  when none avoids even the recovery volume, no resolution (NaN).
 
 The service (:mod:`aamsim.resolution.service`, stack command ``RESO DAA``) and
 the ``daa`` baseline policy of the tactical use cases both use it.
@@ -29,7 +30,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from aamsim.aero import cas2tas, tas2cas
-from aamsim.conflicts.bands import pair_gs_bands
+from aamsim.conflicts.bands import pair_exit_times, pair_gs_bands
 from aamsim.conflicts.service import TrafficSnapshot, search_pairs, traffic_snapshot
 from aamsim.conflicts.wellclear import pair_alerts
 from aamsim.units import FT, KTS
@@ -108,6 +109,7 @@ class Alerts:
     pi: np.ndarray  # candidate pairs (slots i < j) ...
     pj: np.ndarray
     pair_level: np.ndarray  # ... and their alert levels
+    pair_t_in: np.ndarray  # ... and their times to loss of well clear (corrective volume; inf: none)
 
 
 @dataclass(frozen=True)
@@ -206,7 +208,7 @@ class DetectAndAvoid:
         tlowc = np.full(n, np.inf)
         empty = np.empty(0, dtype=np.int64)
         if n < 2:
-            return Alerts(tuple(s.ids), level, tlowc, empty, empty, empty)
+            return Alerts(tuple(s.ids), level, tlowc, empty, empty, empty, np.empty(0))
         horizon = max(p.lookahead_s, p.preventive_s, p.corrective_s, p.warning_s)
         speed = np.hypot(s.u, s.v)
         pi, pj = search_pairs(s, np.zeros(n), np.full(n, horizon), p.reach_m(float(speed.max(initial=0.0))))
@@ -215,57 +217,163 @@ class DetectAndAvoid:
         np.maximum.at(level, pj, plevel)
         np.minimum.at(tlowc, pi, t_in[:, CORRECTIVE - 1])
         np.minimum.at(tlowc, pj, t_in[:, CORRECTIVE - 1])
-        return Alerts(tuple(s.ids), level, tlowc, pi, pj, plevel)
+        return Alerts(tuple(s.ids), level, tlowc, pi, pj, plevel, t_in[:, CORRECTIVE - 1].copy())
 
-    def gs_bands(self, sim: SimulationAPI, slots: np.ndarray, recovery: bool = False) -> SpeedBands:
-        """Ground-speed conflict bands of the aircraft in ``slots`` (the recovery volume when ``recovery``)."""
-        p = self.params
+    def _directed(self, sim: SimulationAPI, slots: np.ndarray) -> tuple[TrafficSnapshot, np.ndarray, np.ndarray,
+                                                                         np.ndarray, np.ndarray]:
+        """The snapshot, directed candidate pairs (ownship in ``slots``, intruder) and the tracks' unit vectors."""
         s = traffic_snapshot(sim)  # type: ignore[arg-type]
-        gmin, gmax = self._ranges(sim)
-        slots = np.asarray(slots, dtype=np.int64)
-        if len(s.ids) < 2 or slots.size == 0:
-            empty = np.empty(0)
-            return SpeedBands(np.empty(0, dtype=np.int64), empty, empty, gmin, gmax)
-        pi, pj, ex, ey = self._search(sim, s, gmax, p.lookahead_s)
+        _gmin, gmax = self._ranges(sim)
+        pi, pj, ex, ey = self._search(sim, s, gmax, self.params.lookahead_s)
         wanted = np.zeros(len(s.ids), dtype=bool)
         wanted[slots] = True
         own = np.concatenate([pi[wanted[pi]], pj[wanted[pj]]])
         intr = np.concatenate([pj[wanted[pi]], pi[wanted[pj]]])
-        if recovery:
-            vol = (p.recovery_m, p.recovery_m, 0.0, p.recovery_zthr_m, 0.0)
-        else:
-            vol = (p.dmod_m, p.hmd_m, p.taumod_s, p.zthr_m, p.tcoa_s)
-        owner, lo, hi = pair_gs_bands(*s.frame, s.alt, s.u, s.v, s.w, ex, ey, own, intr, gmin, gmax, *vol,
-                                      p.lookahead_s)
+        return s, own, intr, ex, ey
+
+    def gs_bands(self, sim: SimulationAPI, slots: np.ndarray, recovery: bool = False) -> SpeedBands:
+        """Ground-speed conflict bands of the aircraft in ``slots`` (the recovery volume when ``recovery``)."""
+        p = self.params
+        gmin, gmax = self._ranges(sim)
+        slots = np.asarray(slots, dtype=np.int64)
+        if sim.view.n < 2 or slots.size == 0:
+            empty = np.empty(0)
+            return SpeedBands(np.empty(0, dtype=np.int64), empty, empty, gmin, gmax)
+        s, own, intr, ex, ey = self._directed(sim, slots)
+        owner, lo, hi = pair_gs_bands(*s.frame, s.alt, s.u, s.v, s.w, ex, ey, own, intr, gmin, gmax,
+                                      *self._volume(recovery), p.lookahead_s)
         return SpeedBands(owner, lo, hi, gmin, gmax)
 
+    def _volume(self, recovery: bool) -> tuple[float, float, float, float, float]:
+        p = self.params
+        if recovery:
+            return p.recovery_m, p.recovery_m, 0.0, p.recovery_zthr_m, 0.0
+        return p.dmod_m, p.hmd_m, p.taumod_s, p.zthr_m, p.tcoa_s
+
+    def recovery_speeds(self, sim: SimulationAPI, slots: np.ndarray, step_mps: float = 0.5) -> np.ndarray:
+        """For aircraft whose every speed loses well clear: the speed that regains it soonest [m/s of GS].
+
+        As DAIDALUS's recovery bands: among the speeds (on a ``step_mps`` grid) that stay
+        clear of the recovery volume (the NMAC distances) over the look-ahead, the one
+        whose losses of well clear end first; ties go to the speed closest to the
+        current one. NaN where every speed enters the recovery volume.
+        """
+        slots = np.asarray(slots, dtype=np.int64)
+        out = np.full(slots.size, np.nan)
+        rec = self.gs_bands(sim, slots, recovery=True)
+        s, own, intr, ex, ey = self._directed(sim, slots)
+        top = float(rec.gmax[slots].max(initial=0.0))
+        grid = np.arange(0.0, top + step_mps, step_mps)
+        exits = pair_exit_times(*s.frame, s.alt, s.u, s.v, s.w, ex, ey, own, intr, grid, *self._volume(False),
+                                self.params.lookahead_s)
+        gs_now = sim.view.gs
+        for k, i in enumerate(slots.tolist()):
+            ok = (grid >= rec.gmin[i]) & (grid <= rec.gmax[i])
+            ok &= ~np.array([rec.conflicts(i, float(g)) for g in grid])
+            if not ok.any():
+                continue
+            mine = own == i
+            last = exits[mine].max(axis=0) if mine.any() else np.zeros(grid.size)
+            cand = np.flatnonzero(ok)
+            best = cand[np.lexsort((np.abs(grid[cand] - gs_now[i]), last[cand]))[0]]
+            out[k] = grid[best]
+        return out
+
+    # --------------------------------------------------------- coordination
+    def sides(self, sim: SimulationAPI, alerts: Alerts, slots: np.ndarray) -> np.ndarray:
+        """Per slot, the side of its speed resolution against its most urgent intruder.
+
+        +1: it passes first (keeps its speed, or gains speed if that is needed), -1: it
+        yields (slows), 0: no intruder ahead in time (either side). Speed-only resolutions of two aircraft that each assume the other
+        flies on can both slow down and stall each other (a symmetric crossing ends in
+        two hovering aircraft); this implicit coordination, antisymmetric within the
+        pair, makes them move apart along their tracks. The aircraft that passes first
+        is the one ahead at the closest point of approach, measured along both tracks
+        (``s_c . (e_own + e_intruder)``, ``s_c`` the ownship's position relative to the
+        intruder there); a tie goes to the callsign that sorts first.
+        """
+        view = sim.view
+        out = np.zeros(len(slots), dtype=np.int64)
+        if alerts.pi.size == 0:
+            return out
+        s = traffic_snapshot(sim)  # type: ignore[arg-type]
+        trk = np.radians(np.where(view.gs > 0.1, view.trk, view.hdg))
+        ex, ey = np.sin(trk), np.cos(trk)
+        for k, i in enumerate(np.asarray(slots, dtype=np.int64).tolist()):
+            mine = np.flatnonzero((alerts.pi == i) | (alerts.pj == i))
+            if mine.size == 0:
+                continue
+            q = mine[int(np.argmin(alerts.pair_t_in[mine]))]
+            if not math.isfinite(alerts.pair_t_in[q]):
+                continue
+            j = int(alerts.pj[q] if alerts.pi[q] == i else alerts.pi[q])
+            sx, sy = s.x[i] - s.x[j], s.y[i] - s.y[j]
+            vx, vy = s.u[i] - s.u[j], s.v[i] - s.v[j]
+            v2 = vx * vx + vy * vy
+            tc = max(0.0, -(sx * vx + sy * vy) / v2) if v2 > 1e-9 else 0.0
+            cx, cy = sx + tc * vx, sy + tc * vy
+            lead = cx * (ex[i] + ex[j]) + cy * (ey[i] + ey[j])
+            if abs(lead) < 1.0:
+                lead = 1.0 if view.ids[i] < view.ids[j] else -1.0
+            out[k] = 1 if lead > 0 else -1
+        return out
+
+    def resume_order(self, sim: SimulationAPI, slots: np.ndarray) -> np.ndarray:
+        """Which of the aircraft in ``slots``, all ready to resume their own speed, resume now.
+
+        Two aircraft that held each other up would both resume at once and meet again
+        (each checked its own speed against the other holding still); of those that are
+        candidate pairs, only the callsign that sorts first resumes this cycle.
+        """
+        slots = np.asarray(slots, dtype=np.int64)
+        allowed = np.ones(slots.size, dtype=bool)
+        if slots.size < 2:
+            return allowed
+        _s, own, intr, _ex, _ey = self._directed(sim, slots)
+        ids = sim.view.ids
+        ready = set(slots.tolist())
+        deferred = {int(o) for o, j in zip(own.tolist(), intr.tolist()) if j in ready and ids[j] < ids[o]}
+        return np.array([i not in deferred for i in slots.tolist()], dtype=bool)
+
     # ----------------------------------------------------------- resolutions
-    def resolutions(self, sim: SimulationAPI, slots: np.ndarray,
-                    bands: SpeedBands | None = None) -> tuple[np.ndarray, np.ndarray]:
+    def resolutions(self, sim: SimulationAPI, slots: np.ndarray, bands: SpeedBands | None = None,
+                    sides: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
         """Per slot in ``slots``: the resolution ground speed [m/s] and the CAS that flies it [m/s].
 
-        The ground speed is the current one when it is conflict-free; NaN when no
-        speed of the range avoids even the recovery volume.
+        The conflict-free ground speed closest to the current one (the current one when
+        it is conflict-free), on the side given by ``sides`` (:meth:`sides`; none: either):
+        an aircraft that passes first and has no faster conflict-free speed keeps its
+        speed (NaN: no advisory), one that yields and has no slower one takes the closest
+        on either side. Saturated bands: the recovery volume's bands. NaN when nothing
+        avoids even the recovery volume.
         """
         slots = np.asarray(slots, dtype=np.int64)
         bands = bands if bands is not None else self.gs_bands(sim, slots)
+        sides = np.zeros(slots.size, dtype=np.int64) if sides is None else np.asarray(sides)
         view = sim.view
         target = np.full(slots.size, np.nan)
         saturated: list[int] = []
         for k, i in enumerate(slots.tolist()):
-            target[k] = self._pick(bands, i, float(view.gs[i]))
-            if math.isnan(target[k]):
+            if not bands.free_of(i):
                 saturated.append(k)
+                continue
+            target[k] = self._pick(bands, i, float(view.gs[i]), int(sides[k]))
         if saturated:
-            rec = self.gs_bands(sim, slots[saturated], recovery=True)
-            for k in saturated:
-                target[k] = self._pick(rec, int(slots[k]), float(view.gs[slots[k]]))
+            target[saturated] = self.recovery_speeds(sim, slots[saturated])
         return target, self.cas_for(sim, slots, target)
 
-    def _pick(self, bands: SpeedBands, slot: int, gs: float) -> float:
+    def _pick(self, bands: SpeedBands, slot: int, gs: float, side: int) -> float:
         conflict = bands.of(slot)
         edges = {x for band in conflict for x in band}
-        return closest_free(bands.free_of(slot), edges, gs, self.params.margin_mps)
+        free = bands.free_of(slot)
+        if side != 0:
+            part = [(max(lo, gs), hi) if side > 0 else (lo, min(hi, gs)) for lo, hi in free]
+            part = [(lo, hi) for lo, hi in part if lo <= hi]
+            if part:
+                return closest_free(part, edges, gs, self.params.margin_mps)
+            if side > 0:
+                return math.nan  # passes first and cannot go faster: keeps its speed
+        return closest_free(free, edges, gs, self.params.margin_mps)
 
     @staticmethod
     def cas_for(sim: SimulationAPI, slots: np.ndarray, gs: np.ndarray) -> np.ndarray:

@@ -6,13 +6,16 @@ Every ``interval_s`` (1 s) while ``RESO DAA`` is on, the service
 2. gives each aircraft at or above the resolution level (corrective by default)
    whose speed loses well clear a **speed advisory**: the conflict-free ground
    speed of its envelope closest to the current one, flown as a selected CAS
-   (BlueSky's ``SPD``); the aircraft's own selected speed and VNAV speed mode
-   are noted first;
+   (BlueSky's ``SPD``); of a pair, the aircraft that passes first keeps or gains
+   speed and the other slows (:meth:`DetectAndAvoid.sides`), except at the
+   warning level; the aircraft's own selected speed and VNAV speed mode are
+   noted first;
 3. holds each advisory while the aircraft is alerted or its noted speed would
    still lose well clear, replacing it only when the held speed itself comes to
    lose well clear (a new intruder, a manoeuvring one);
 4. resumes the noted speed (and VNAV speed control) once clear of conflict:
-   no alert at the resolution level and the noted speed conflict-free.
+   no alert at the resolution level and the noted speed conflict-free (of two
+   nearby aircraft ready at once, one resumes first: :meth:`DetectAndAvoid.resume_order`).
 
 Each advisory issued (a new or a replaced one) is counted in the flight's
 advisories (the operational metric ``alert_rate_per_flight_hour``); the alerts
@@ -98,6 +101,7 @@ class DAAService:
             return
         bands = self.daa.gs_bands(sim, slots)
         need: list[int] = []
+        ready: list[int] = []
         for i in slots.tolist():
             acid = view.ids[i]
             adv = self.advisories.get(acid)
@@ -107,14 +111,18 @@ class DAAService:
                 continue
             resume_gs = float(self.daa.gs_for(sim, np.array([i]), np.array([self._resume_cas(sim, i, adv)]))[0])
             if not alerted[i] and not bands.conflicts(i, resume_gs):
-                self._release(sim, acid, adv)
+                ready.append(i)
             elif bands.conflicts(i, adv.gs_mps):
                 need.append(i)
+        if ready:
+            go = self.daa.resume_order(sim, np.array(ready, dtype=np.int64))
+            for i in np.array(ready)[go].tolist():
+                self._release(sim, view.ids[i], self.advisories[view.ids[i]])
         if need:
             idx = np.array(need, dtype=np.int64)
-            gs, cas = self.daa.resolutions(sim, idx, bands)
+            gs, cas = self.daa.resolutions(sim, idx, bands, self.daa.sides(sim, alerts, idx))
             for i, g, c in zip(idx.tolist(), gs.tolist(), cas.tolist()):
-                if not math.isnan(g):  # NaN: no speed avoids even the recovery volume; keep flying
+                if not math.isnan(g):  # NaN: passes first at its speed, or nothing avoids the recovery volume
                     self._advise(sim, i, g, c)
 
     def _count_alerts(self, ids: tuple[str, ...], level: np.ndarray) -> None:
