@@ -64,6 +64,7 @@ class DAAParams:
     lookahead_s: float = 75.0  # bands: well clear over this time
     recovery_m: float = 150.0  # recovery volume when every speed loses well clear: DMOD = HMD (NMAC) ...
     recovery_zthr_m: float = 150.0  # ... and ZTHR; TAUMOD 0
+    recovery_lookahead_s: float = 300.0  # recovery speeds stay clear of the recovery volume this long
     speed_min_kts: float = 0.0  # resolution speeds [CAS kt], within the aircraft's envelope
     speed_max_kts: float = 150.0
     margin_mps: float = 1.0  # a resolution lies this far inside its conflict-free band (ground speed)
@@ -219,12 +220,14 @@ class DetectAndAvoid:
         np.minimum.at(tlowc, pj, t_in[:, CORRECTIVE - 1])
         return Alerts(tuple(s.ids), level, tlowc, pi, pj, plevel, t_in[:, CORRECTIVE - 1].copy())
 
-    def _directed(self, sim: SimulationAPI, slots: np.ndarray) -> tuple[TrafficSnapshot, np.ndarray, np.ndarray,
-                                                                         np.ndarray, np.ndarray]:
-        """The snapshot, directed candidate pairs (ownship in ``slots``, intruder) and the tracks' unit vectors."""
+    def _directed(self, sim: SimulationAPI, slots: np.ndarray,
+                  horizon_s: float | None = None) -> tuple[TrafficSnapshot, np.ndarray, np.ndarray, np.ndarray,
+                                                           np.ndarray]:
+        """The snapshot, directed candidate pairs (ownship in ``slots``, intruder) over ``horizon_s`` (default:
+        the look-ahead) and the tracks' unit vectors."""
         s = traffic_snapshot(sim)  # type: ignore[arg-type]
         _gmin, gmax = self._ranges(sim)
-        pi, pj, ex, ey = self._search(sim, s, gmax, self.params.lookahead_s)
+        pi, pj, ex, ey = self._search(sim, s, gmax, horizon_s or self.params.lookahead_s)
         wanted = np.zeros(len(s.ids), dtype=bool)
         wanted[slots] = True
         own = np.concatenate([pi[wanted[pi]], pj[wanted[pj]]])
@@ -239,9 +242,10 @@ class DetectAndAvoid:
         if sim.view.n < 2 or slots.size == 0:
             empty = np.empty(0)
             return SpeedBands(np.empty(0, dtype=np.int64), empty, empty, gmin, gmax)
-        s, own, intr, ex, ey = self._directed(sim, slots)
+        horizon = p.recovery_lookahead_s if recovery else p.lookahead_s
+        s, own, intr, ex, ey = self._directed(sim, slots, horizon)
         owner, lo, hi = pair_gs_bands(*s.frame, s.alt, s.u, s.v, s.w, ex, ey, own, intr, gmin, gmax,
-                                      *self._volume(recovery), p.lookahead_s)
+                                      *self._volume(recovery), horizon)
         return SpeedBands(owner, lo, hi, gmin, gmax)
 
     def _volume(self, recovery: bool) -> tuple[float, float, float, float, float]:
@@ -254,7 +258,7 @@ class DetectAndAvoid:
         """For aircraft whose every speed loses well clear: the speed that regains it soonest [m/s of GS].
 
         As DAIDALUS's recovery bands: among the speeds (on a ``step_mps`` grid) that stay
-        clear of the recovery volume (the NMAC distances) over the look-ahead, the one
+        clear of the recovery volume (the NMAC distances) for ``recovery_lookahead_s``, the one
         whose losses of well clear end first; ties go to the speed closest to the
         current one. NaN where every speed enters the recovery volume.
         """
@@ -380,7 +384,10 @@ class DetectAndAvoid:
         """The CAS [m/s] that flies ground speed ``gs`` with the along-track wind of now."""
         view = sim.view
         tas = np.maximum(gs - (view.gs[slots] - view.tas[slots]), 0.0)
-        return np.asarray(tas2cas(tas, np.asarray(view.alt[slots], dtype=np.float64)), dtype=np.float64)
+        known = np.isfinite(tas)
+        cas = np.full(tas.shape, np.nan)
+        cas[known] = tas2cas(tas[known], np.asarray(view.alt[slots], dtype=np.float64)[known])
+        return cas
 
     @staticmethod
     def gs_for(sim: SimulationAPI, slots: np.ndarray, cas: np.ndarray) -> np.ndarray:

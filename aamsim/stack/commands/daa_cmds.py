@@ -25,6 +25,7 @@ DAA_SETTINGS: dict[str, tuple[str, str, float]] = {
     "LOOKAHEAD": ("lookahead_s", "s", 1.0),
     "RECOVERY": ("recovery_m", "m", 1.0),
     "RECOVERYZ": ("recovery_zthr_m", "m", 1.0),
+    "RECOVERYT": ("recovery_lookahead_s", "s", 1.0),
     "SPDMIN": ("speed_min_kts", "kt", 1.0),
     "SPDMAX": ("speed_max_kts", "kt", 1.0),
     "MARGIN": ("margin_mps", "m/s", 1.0),
@@ -47,7 +48,8 @@ def daa(sim: CommandContext, name: Text = "", value: Number | None = None) -> st
     well-clear volume; ZTHRPREV [m], the preventive volume's ZTHR; TPREV, TCORR,
     TWARN [s], the alerting times of the preventive, corrective and warning
     levels; LOOKAHEAD [s] of the bands; RECOVERY, RECOVERYZ [m], the recovery
-    volume used when every speed loses well clear; SPDMIN, SPDMAX [kt CAS], the
+    volume used when every speed loses well clear, and RECOVERYT [s], how long
+    a recovery speed must stay clear of it; SPDMIN, SPDMAX [kt CAS], the
     resolution speeds; MARGIN [m/s] inside a band; LEVEL (1-3), the alert level
     that gets a resolution; INTERVAL [s], the cycle. Without arguments, list them.
     """
