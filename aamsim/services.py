@@ -1,14 +1,16 @@
 """The simulation's built-in services, wired in one place.
 
-:func:`build_services` creates conflict detection, metrics and the traffic
-snapshot stream (:mod:`aamsim.snapshots`), attaches their
+:func:`build_services` creates conflict detection, metrics, detect and avoid
+(:mod:`aamsim.resolution`) and the traffic snapshot stream (:mod:`aamsim.snapshots`), attaches their
 hooks and sets the typed field ``sim.services`` (a :class:`Services`); every
 entry point (``aamsim run``, the episode engine, the simulation server) calls
 it once, before the scenario loads. Settings have one owner each: the
 detection settings (``ASAS``, ``ZONER``, ``ZONEDH``, ``DTLOOK``, ``DT ASAS``)
 live in ``sim.settings`` and the service reads them when it runs, so ``DT ASAS
 5`` changes the check interval from then on; the separation volumes live in
-the conflict service (``SEPVOLUME``); the metric groups in the metrics service.
+the conflict service (``SEPVOLUME``); the metric groups in the metrics service;
+the detect-and-avoid thresholds in the DAA service (``DAA``), which acts only
+while ``RESO DAA`` is on.
 """
 
 from __future__ import annotations
@@ -19,6 +21,7 @@ from typing import TYPE_CHECKING, Any
 
 from aamsim.conflicts.service import PAPER_VOLUMES, ConflictService, SeparationVolume
 from aamsim.metrics.service import DEFAULT_GROUPS, MetricsService, write_conflicts_csv
+from aamsim.resolution.service import DAAService
 from aamsim.snapshots import SnapshotStream
 
 if TYPE_CHECKING:
@@ -32,17 +35,20 @@ class Services:
     conflicts: ConflictService
     metrics: MetricsService
     snapshots: SnapshotStream  # frozen traffic snapshots for the recorder, the bridge and viewers
+    daa: DAAService  # detect-and-avoid alerting and speed resolutions (idle until RESO DAA)
 
 
 def build_services(sim: Simulation, volumes: tuple[SeparationVolume, ...] = PAPER_VOLUMES,
                    groups: tuple[str, ...] = DEFAULT_GROUPS) -> Services:
-    """Create and attach conflict detection and metrics (once per simulation); returns ``sim.services``."""
+    """Create and attach conflict detection, metrics and DAA (once per simulation); returns ``sim.services``."""
     if sim.services is not None:
         raise RuntimeError("the simulation's services are already built")
     conflicts = ConflictService(volumes=tuple(volumes))
     conflicts.attach(sim)
     metrics = MetricsService(groups=tuple(groups))
-    sim.services = Services(conflicts, metrics, SnapshotStream(sim))
+    daa = DAAService()
+    daa.attach(sim)
+    sim.services = Services(conflicts, metrics, SnapshotStream(sim), daa)
     return sim.services
 
 
@@ -61,6 +67,8 @@ def attach_run_services(sim: Simulation, cfg: Any) -> None:
         conflicts.finish(sim)
         summary["separation_volumes"] = {v.name: v.describe() for v in conflicts.volumes}
         summary.update(metrics.compute(sim))
+        if services.daa.issued or services.daa.active(sim):
+            summary["daa"] = services.daa.summary()
         write_conflicts_csv(out_dir / "conflicts.csv", sim)
 
     sim.extensions.setdefault("run_outputs", []).append(finish)

@@ -153,7 +153,7 @@ def test_evaluate_compare_and_report(tmp_path, trained_run):
     ev_dir = tmp_path / "eval"
     ev = json.loads((ev_dir / "evaluation.json").read_text())
     assert ev["scenario"] == "tiny_conflict" and ev["episodes"] == 3 and ev["seeds"] == [0, 1, 2]
-    assert set(ev["policies"]) == {"d2mava_a", "unequipped", "mvp_speed"}
+    assert set(ev["policies"]) == {"d2mava_a", "unequipped", "mvp_speed", "daa"}
     # tiny_conflict: unequipped, the pair meets at the merge fix (one NMAC per episode); MVP's speed
     # change sequences them (none), so its risk ratio is 0 / 1 on every seed.
     assert ev["policies"]["unequipped"]["nmac_events"] == {"mean": 1.0, "std": 0.0}

@@ -16,7 +16,7 @@ import sys
 USAGE = """usage: aamgym {train,evaluate,report} [args...]
 
   train     train an algorithm (Hydra overrides: algorithm=ddqn scenario=... workers=2 train.hours=1)
-  evaluate  evaluate a training run's best weights against the baselines (run=RUN_DIR scenario=...)
+  evaluate  a training run's best weights (run=RUN_DIR) or a baseline (baseline=daa scenario=...) against the baselines
   report    tables and figures from evaluation and training runs (EVAL_DIR... --train TRAIN_DIR... -o OUT)
 
 'aamgym <command> --help' describes each command."""

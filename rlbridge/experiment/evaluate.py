@@ -12,6 +12,11 @@ altitude noise, ``alt_noise_ft``) of the trained policy loaded from the run's
 
 The frozen policy acts greedily by default (D2MAV-A: its most likely action, DDQN: argmax Q);
 ``greedy=false`` samples D2MAV-A's stochastic policy instead.
+
+``baseline=<name>`` instead of ``run=`` evaluates a baseline (``unequipped``, ``mvp_speed``,
+``daa``) against the others with no training run: on ``scenario=`` with the use case of
+the ``usecase`` config group (``usecase.params.*`` overrides). An unknown baseline name is
+an error listing the known ones.
 """
 
 from __future__ import annotations
@@ -27,13 +32,15 @@ import numpy as np
 from omegaconf import DictConfig, OmegaConf
 
 from aamsim.metrics.compare import compare_runs, expand_runs
+from rlbridge.agents import BASELINE_KINDS
 from rlbridge.agents.rollout import EnvSpec, EpisodeStats
 from rlbridge.experiment.train import find_checkpoint, load_checkpoint, resolve_scenario_path
 from rlbridge.experiment.workers import make_pool
 
 log = logging.getLogger("aamgym.evaluate")
 
-BASELINE_LABELS = {"unequipped": "Unequipped", "mvp_speed": "MVP speed-only (rule-based)"}
+BASELINE_LABELS = {"unequipped": "Unequipped", "mvp_speed": "MVP speed-only (rule-based)",
+                   "daa": "DAA speed-only (DO-365/DAIDALUS)"}
 CSV_COLUMNS = ("policy", "seed", "nmac_events", "lowc_events", "reward_per_aircraft", "aircraft", "aircraft_states",
                "sim_s", "wall_s", "flights_completed", "alert_rate_per_flight_hour", "airborne_holding_s",
                "mean_flight_time_s", "mean_delay_s", "min_separation_m")
@@ -74,32 +81,67 @@ def evaluation_env(cfg: DictConfig, trained_env: EnvSpec) -> EnvSpec:
                    dt=trained_env.dt if cfg.env.dt is None else float(cfg.env.dt))
 
 
+def check_baselines(names: list[str]) -> None:
+    """Unknown baseline names are an error listing the known ones."""
+    unknown = [n for n in names if n not in BASELINE_KINDS]
+    if unknown:
+        raise ValueError(f"unknown baseline(s) {', '.join(unknown)}; known: {', '.join(BASELINE_KINDS)}")
+
+
+def baseline_env(cfg: DictConfig) -> EnvSpec:
+    """The episode settings of a baseline evaluation (no training run): the scenario and use case of ``cfg``."""
+    if not cfg.scenario:
+        raise ValueError("baseline=... evaluates on scenario=...: give a scenario (e.g. scenario=nyc_train_100)")
+    params = dict(OmegaConf.to_container(cfg.usecase.params, resolve=True))  # type: ignore[arg-type]
+    return EnvSpec(resolve_scenario_path(str(cfg.scenario)), str(cfg.usecase.name), params,
+                   None if cfg.env.time_limit_s is None else float(cfg.env.time_limit_s),
+                   0.05 if cfg.env.dt is None else float(cfg.env.dt), tuple(cfg.metrics))
+
+
 def run_evaluation(cfg: DictConfig, out_dir: str | Path) -> dict[str, Any]:
     out = Path(out_dir)
+    has_run = cfg.get("run") not in (None, "")
+    subject = cfg.get("baseline")
+    if has_run == (subject is not None):
+        raise ValueError("give run=<training run> (a trained policy against the baselines) or baseline=<name> "
+                         f"(a baseline against the others), not {'both' if has_run else 'neither'}; "
+                         f"baselines: {', '.join(BASELINE_KINDS)}")
+    check_baselines([str(b) for b in cfg.baselines] + ([str(subject)] if subject is not None else []))
     out.mkdir(parents=True, exist_ok=True)
     (out / "resolved_config.yaml").write_text(OmegaConf.to_yaml(cfg, resolve=True))
-    which = str(cfg.checkpoint)
-    ckpt_path = Path(which) if which not in ("best", "last") else find_checkpoint(str(cfg.run), which)
-    ckpt = load_checkpoint(ckpt_path)
-    algo = ckpt["algorithm"]
-    trained_env = EnvSpec(**{**ckpt["env"], "metrics": tuple(ckpt["env"]["metrics"])})
-    env = evaluation_env(cfg, trained_env)
-    scenario = env.scenario
-    name = str(algo["name"])
-    label = str(cfg.name or algo.get("label", name))
-    if algo["kind"] == "d2mava":
-        greedy = bool(algo["params"].get("greedy_eval", True)) if cfg.greedy is None else bool(cfg.greedy)
-        explore: dict[str, Any] = {"greedy": greedy}
+    weights: dict[str, np.ndarray] | None = None
+    ckpt: dict[str, Any] = {"state": {}}
+    ckpt_path: Path | None = None
+    if has_run:
+        which = str(cfg.checkpoint)
+        ckpt_path = Path(which) if which not in ("best", "last") else find_checkpoint(str(cfg.run), which)
+        ckpt = load_checkpoint(ckpt_path)
+        algo = ckpt["algorithm"]
+        trained_env = EnvSpec(**{**ckpt["env"], "metrics": tuple(ckpt["env"]["metrics"])})
+        env = evaluation_env(cfg, trained_env)
+        name = str(algo["name"])
+        label = str(cfg.name or algo.get("label", name))
+        if algo["kind"] == "d2mava":
+            greedy = bool(algo["params"].get("greedy_eval", True)) if cfg.greedy is None else bool(cfg.greedy)
+            explore: dict[str, Any] = {"greedy": greedy}
+        else:
+            greedy = True if cfg.greedy is None else bool(cfg.greedy)
+            explore = {"epsilon": 0.0 if greedy else float(algo["params"].get("eps_end", 0.0))}
+        actors: dict[str, dict[str, Any]] = {name: {"kind": algo["kind"], "config": algo["params"],
+                                                    "dims": ckpt["dims"]}}
+        weights = numpy_weights(ckpt["learner"]["model"])
     else:
-        greedy = True if cfg.greedy is None else bool(cfg.greedy)
-        explore = {"epsilon": 0.0 if greedy else float(algo["params"].get("eps_end", 0.0))}
-    actors = {name: {"kind": algo["kind"], "config": algo["params"], "dims": ckpt["dims"]},
-              "unequipped": {"kind": "unequipped"}}
+        name = str(subject)
+        label = str(cfg.name or BASELINE_LABELS.get(name, name))
+        env = evaluation_env(cfg, baseline_env(cfg))
+        greedy, explore = True, {}
+        actors = {name: {"kind": name}}
+    scenario = env.scenario
+    actors.setdefault("unequipped", {"kind": "unequipped"})
     for b in cfg.baselines:
-        actors[str(b)] = {"kind": str(b)}
+        actors.setdefault(str(b), {"kind": str(b)})
     labels = {name: label, **{b: BASELINE_LABELS.get(b, b) for b in actors if b != name}}
     seeds = list(range(int(cfg.seed), int(cfg.seed) + int(cfg.episodes)))
-    weights = numpy_weights(ckpt["learner"]["model"])
     log.info("evaluating %s (%s, iteration %s) on %s (%s backend): %d episodes each for %s", label, ckpt_path,
              ckpt["state"].get("best_iteration"), Path(scenario).name, env.backend, len(seeds), ", ".join(actors))
     from tqdm import tqdm
@@ -141,7 +183,7 @@ def run_evaluation(cfg: DictConfig, out_dir: str | Path) -> dict[str, Any]:
     for policy, got in results.items():
         comp = compare_runs(expand_runs([out / "episodes" / policy]), base_runs)
         policies[policy] = {
-            "label": labels[policy], "learned": policy == name,
+            "label": labels[policy], "learned": has_run and policy == name,
             "risk_ratio": comp.to_dict()["risk_ratio"], "lowc_ratio": comp.to_dict()["lowc_ratio"],
             "per_seed": comp.per_seed,
             "nmac_events": _mean_std([s.nmac_events for s in got]),
@@ -154,7 +196,8 @@ def run_evaluation(cfg: DictConfig, out_dir: str | Path) -> dict[str, Any]:
                   "episodes": len(seeds),
                   "seeds": seeds, "alt_noise_ft": float(cfg.alt_noise_ft),
                   "alt_noise_lanes_ft": [float(x) for x in cfg.alt_noise_lanes_ft], "greedy": greedy,
-                  "checkpoint": str(ckpt_path), "train_run": ckpt.get("run_dir"), "algorithm": name,
+                  "checkpoint": None if ckpt_path is None else str(ckpt_path), "train_run": ckpt.get("run_dir"),
+                  "algorithm": name,
                   "best_iteration": ckpt["state"].get("best_iteration"),
                   "trained_iterations": ckpt["state"].get("iteration"),
                   "policies": policies}

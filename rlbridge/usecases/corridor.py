@@ -265,6 +265,13 @@ class CorridorSA(UseCaseBase):
         return r_sh + r_a - p.omega
 
     # ----------------------------------------------------------------- action
+    def speed_action_targets(self, sim: Simulation, slots: np.ndarray) -> np.ndarray:
+        """CAS [m/s] each action selects per aircraft: decelerate, hold (the current CAS), accelerate."""
+        p = self.params
+        cas = np.asarray(sim.view.cas[slots], dtype=np.float64)
+        return np.stack([np.full_like(cas, p.speed_low_kts * KTS), cas, np.full_like(cas, p.speed_high_kts * KTS)],
+                        axis=1)
+
     def apply_actions(self, sim: Simulation, actions: dict[str, Any]) -> None:
         """Speed advisories: set the selected CAS of each agent (missing agents: no advisory).
 

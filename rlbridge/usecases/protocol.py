@@ -123,6 +123,14 @@ class UseCaseBase:
         return {}
 
 
+class SpeedActions(Protocol):
+    """A tactical use case whose discrete actions select speeds (what the rule-based baselines steer with)."""
+
+    def speed_action_targets(self, sim: Simulation, slots: np.ndarray) -> np.ndarray:
+        """Per aircraft slot, the CAS [m/s] each action selects: ``(len(slots), n_actions)``."""
+        ...
+
+
 def make_params(cls: Any, params: dict[str, Any] | None) -> Any:
     """A use case's parameter dataclass from keyword parameters (an unknown name is an error naming it)."""
     params = dict(params or {})

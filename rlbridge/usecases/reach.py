@@ -101,6 +101,10 @@ class ReachDestination(UseCaseBase):
                         axis=1).astype(np.float32)
         return Observations(flat=flat)
 
+    def speed_action_targets(self, sim: Simulation, slots: np.ndarray) -> np.ndarray:
+        """CAS [m/s] each action selects (the same speeds for every aircraft)."""
+        return np.tile(np.asarray(self.params.speeds_kts, dtype=np.float64) * KTS, (len(slots), 1))
+
     def apply_actions(self, sim: Simulation, actions: dict[str, Any]) -> None:
         agents = [a for a in actions if a in sim.view]
         codes = [int(actions[a]) for a in agents]

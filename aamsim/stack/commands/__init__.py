@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from aamsim.stack.commands import (
     asas_cmds,
+    daa_cmds,
     display_cmds,
     plugin_cmds,
     realtraffic_cmds,
@@ -14,7 +15,8 @@ from aamsim.stack.commands import (
 )
 from aamsim.stack.registry import CommandRegistry
 
-MODULES = (traffic_cmds, route_cmds, sim_cmds, asas_cmds, plugin_cmds, display_cmds, wind_cmds, realtraffic_cmds)
+MODULES = (traffic_cmds, route_cmds, sim_cmds, asas_cmds, daa_cmds, plugin_cmds, display_cmds, wind_cmds,
+           realtraffic_cmds)
 
 
 def register_builtin_commands(registry: CommandRegistry) -> None:

@@ -88,15 +88,22 @@ def sepvolume(sim: CommandContext, name: Text = "", radius_m: Number | None = No
     return None
 
 
+RESO_METHODS = ("OFF", "DAA")
+
+
 @command("RESO", group="conflicts")
 def reso(sim: CommandContext, method: Text = "") -> str | None:
-    """RESO [OFF/method]: conflict resolution method. It is stored; aamsim resolves no conflicts itself
-    (an agent or a plugin does)."""
+    """RESO [OFF/DAA/method]: conflict resolution method. DAA: the detect-and-avoid service (DO-365/DAIDALUS
+    alerting and speed-band resolutions; thresholds with the DAA command). Another method is stored only
+    (an agent or a plugin resolves)."""
     if not method:
         return f"conflict resolution: {sim.settings.reso}"
     sim.settings.reso = method
-    if method != "OFF":
-        sim.note_once("RESO", f"RESO {method} stored; aamsim applies no built-in resolution", sim.current_source)
+    if method == "DAA":
+        sim.require_services()  # the DAA service acts from the next cycle on
+    elif method != "OFF":
+        sim.note_once("RESO", f"RESO {method} stored; aamsim's built-in methods are {', '.join(RESO_METHODS)}",
+                      sim.current_source)
     return None
 
 
@@ -104,7 +111,7 @@ def _accepted_setting(name: str):
     @command(name, group="conflicts")
     @raw_arguments
     def handler(sim: CommandContext, argtext: RestOfLine) -> None:
-        sim.note_once(name, f"{name} is accepted and ignored: aamsim has no built-in conflict resolution",
+        sim.note_once(name, f"{name} is accepted and ignored: aamsim's built-in resolution is RESO DAA",
                       sim.current_source)
 
     handler.__doc__ = f"{name} ...: BlueSky resolution setting, accepted and ignored (no built-in resolution)."

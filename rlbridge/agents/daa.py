@@ -1,0 +1,162 @@
+"""The detect-and-avoid baseline (``baseline=daa``): DO-365 / DAIDALUS alerting and speed bands as a policy.
+
+The open real-world counterpart of the learned separation policies: at each
+decision, every agent's alert level and ground-speed bands come from
+:class:`aamsim.resolution.DetectAndAvoid` (the logic behind ``RESO DAA``). It is
+speed-only and acts through the use case's own discrete actions, so its
+advisories are those a learned policy could give:
+
+* an agent alerted at the resolution level (corrective by default) whose
+  current speed loses well clear gets the action whose speed after one decision
+  interval (the aircraft's acceleration limit applied) is conflict-free, on the
+  side the pair's coordination gives it (the aircraft passing first keeps or
+  gains speed, the other slows: :meth:`aamsim.resolution.DetectAndAvoid.sides`),
+  and closest to its current speed; when there is none, the action that ends
+  closest to the DAA resolution speed (the conflict-free speed closest to the
+  current one, or the recovery speed when the bands saturate);
+* the advisory is held while the agent is alerted or its own speed, noted at
+  the first advisory, would still lose well clear: each decision it gets the
+  same choice again, which is the hold action once its speed is conflict-free;
+* clear of conflict, the agent steers back to its own speed (the action ending
+  closest to it; of two nearby agents ready at once, one first:
+  :meth:`aamsim.resolution.DetectAndAvoid.resume_order`) and gets no advisory
+  once within ``resume_band_kts`` of it.
+
+Agents never alerted get no advisory (as the unequipped aircraft). The use case
+must say which speed each action selects (:class:`rlbridge.usecases.protocol.SpeedActions`):
+``corridor_sa`` and ``reach_destination`` do.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from aamsim.resolution import DAAParams, DetectAndAvoid, SpeedBands
+from aamsim.units import KTS
+from rlbridge.agents.rollout import ActOutput
+from rlbridge.core import EpisodeCore, StepResult
+
+
+@dataclass(frozen=True)
+class DAAPolicyConfig:
+    """Parameters of the DAA baseline: DAA thresholds (``DAAParams`` names) and the resumption band."""
+
+    daa: dict[str, Any] = field(default_factory=dict)  # overrides of aamsim.resolution.DAAParams
+    resume_band_kts: float = 8.0  # no advisory once this close to the agent's own speed
+
+
+@dataclass
+class _Held:
+    action: int
+    resume_cas: float  # the agent's own selected CAS when first advised [m/s]
+
+
+class DAAActor:
+    """Speed-only detect and avoid on a use case's discrete speed actions (see the module docstring)."""
+
+    obs_format: str | None = None
+
+    def __init__(self, config: DAAPolicyConfig | None = None):
+        self.config = config or DAAPolicyConfig()
+        self.daa = DetectAndAvoid(DAAParams(**self.config.daa))
+        self._held: dict[str, _Held] = {}
+        self._episode: tuple[int | None, int] | None = None
+
+    def set_weights(self, weights: Any) -> None:
+        pass
+
+    def act(self, result: StepResult, core: EpisodeCore, rng: np.random.Generator,
+            explore: dict[str, Any]) -> ActOutput:
+        sim = core.sim
+        assert sim is not None
+        usecase = core.usecase
+        targets_of = getattr(usecase, "speed_action_targets", None)
+        if targets_of is None:
+            raise TypeError(f"baseline daa needs a use case whose actions select speeds (speed_action_targets); "
+                            f"{usecase.name} has none")
+        key = (core.seed, id(sim))
+        if key != self._episode:  # a new episode: forget the previous aircraft
+            self._episode, self._held = key, {}
+        view = sim.view
+        alive = set(result.alive)
+        rows = [k for k, a in enumerate(result.agents) if a in alive and a in view]
+        actions = np.zeros(len(result.agents), dtype=np.int64)
+        advise = np.zeros(len(result.agents), dtype=bool)
+        if not rows:
+            return ActOutput(actions, advise=advise)
+        names = [result.agents[k] for k in rows]
+        slots = np.array([view.slot(a) for a in names], dtype=np.int64)
+        alerts = self.daa.alerts(sim)
+        level = alerts.level[slots]
+        alerted = level >= self.daa.params.resolve_level
+        involved = alerted | np.array([a in self._held for a in names], dtype=bool)
+        bands = self.daa.gs_bands(sim, slots[involved])
+        # The speed each action reaches within one decision interval, as ground speed.
+        targets = np.asarray(targets_of(sim, slots), dtype=np.float64)
+        cas = np.asarray(view.cas[slots], dtype=np.float64)[:, None]
+        step = (np.asarray(view.axmax[slots], dtype=np.float64) * usecase.decision_interval_s)[:, None]
+        end_cas = cas + np.clip(targets - cas, -step, step)
+        end_gs = np.stack([self.daa.gs_for(sim, slots, end_cas[:, a]) for a in range(targets.shape[1])], axis=1)
+        end_gs = np.clip(end_gs, bands.gmin[slots][:, None], bands.gmax[slots][:, None])
+        resolve: list[int] = []
+        ready: list[int] = []
+        for r, (acid, i) in enumerate(zip(names, slots.tolist())):
+            held = self._held.get(acid)
+            if held is None:
+                if alerted[r] and bands.conflicts(i, float(view.gs[i])):
+                    resolve.append(r)
+                continue
+            own_gs = float(self.daa.gs_for(sim, slots[r:r + 1], np.array([held.resume_cas]))[0])
+            if alerted[r] or bands.conflicts(i, own_gs):
+                resolve.append(r)  # still advised: re-chosen each decision (hold once conflict-free)
+            elif abs(float(view.cas[i]) - held.resume_cas) <= self.config.resume_band_kts * KTS:
+                del self._held[acid]  # back at its own speed: no advisory
+            else:
+                ready.append(r)
+        if ready:
+            go = self.daa.resume_order(sim, slots[ready])
+            for r, now in zip(ready, go.tolist()):
+                if now:  # steer back to its own speed
+                    held = self._held[names[r]]
+                    held.action = int(np.argmin(np.abs(end_cas[r] - held.resume_cas)))
+                    actions[rows[r]], advise[rows[r]] = held.action, True
+                else:
+                    resolve.append(r)  # waits for the one resuming first (holds once conflict-free)
+        if resolve:
+            idx = np.array(resolve, dtype=np.int64)
+            sides = self.daa.sides(sim, alerts, slots[idx])
+            goal, _ = self.daa.resolutions(sim, slots[idx], bands, sides)
+            for r, g, side in zip(idx.tolist(), goal.tolist(), sides.tolist()):
+                a = self._choose(bands, int(slots[r]), end_gs[r], np.abs(targets[r] - cas[r, 0]),
+                                 float(view.gs[slots[r]]), g, side)
+                acid = names[r]
+                held = self._held.get(acid)
+                if held is None:
+                    self._held[acid] = _Held(a, float(view.selspd[slots[r]]))
+                else:
+                    held.action = a
+                actions[rows[r]], advise[rows[r]] = a, True
+        return ActOutput(actions, advise=advise)
+
+    @staticmethod
+    def _choose(bands: SpeedBands, slot: int, end_gs: np.ndarray, change: np.ndarray, gs: float, goal: float,
+                side: int) -> int:
+        """The action for a resolution (see the module docstring).
+
+        Among the actions ending conflict-free on the resolution's side (faster for
+        an aircraft that passes first, slower for one that yields), the one ending
+        closest to the current speed; an aircraft passing first with none keeps its
+        speed; otherwise the action ending closest to the DAA resolution speed. Ties go
+        to the action asking the smallest change (``change``: |target - current| CAS).
+        """
+        actions = range(end_gs.shape[0])
+        free = [a for a in actions if not bands.conflicts(slot, float(end_gs[a]))]
+        sided = [a for a in free if side == 0 or (end_gs[a] - gs) * side >= 0]
+        if sided:
+            return min(sided, key=lambda a: (abs(float(end_gs[a]) - gs), float(change[a]), a))
+        ref = gs if math.isnan(goal) else goal  # NaN: passes first at its speed (or nothing avoids recovery)
+        return min(actions, key=lambda a: (abs(float(end_gs[a]) - ref), float(change[a]), a))
