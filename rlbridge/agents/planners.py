@@ -54,40 +54,39 @@ def _planner(core: EpisodeCore) -> Any:
     return planner
 
 
-class NoPlanningActor:
+class _PlannerBaseline:
+    """A rule acting for the planner agent only (the hierarchical use case's aircraft get nothing)."""
+
+    obs_format: str | None = None
+
+    def set_weights(self, weights: Any) -> None:
+        pass
+
+    def choose(self, planner: Any) -> int:
+        raise NotImplementedError
+
+    def act(self, result: StepResult, core: EpisodeCore, rng: np.random.Generator,
+            explore: dict[str, Any]) -> ActOutput:
+        planner = _planner(core)
+        mine = np.array([a == PLANNER for a in result.agents], bool)
+        actions = np.array([self.choose(planner) if m else 0 for m in mine], np.int64)
+        return ActOutput(actions, advise=mine)
+
+
+class NoPlanningActor(_PlannerBaseline):
     """Depart on schedule, on the filed layer."""
 
-    obs_format: str | None = None
-
-    def set_weights(self, weights: Any) -> None:
-        pass
-
-    def act(self, result: StepResult, core: EpisodeCore, rng: np.random.Generator,
-            explore: dict[str, Any]) -> ActOutput:
-        planner = _planner(core)
-        actions = np.array([planner.default_action() if a == PLANNER else 0 for a in result.agents], np.int64)
-        return ActOutput(actions, advise=np.array([a == PLANNER for a in result.agents]))
+    def choose(self, planner: Any) -> int:
+        return int(planner.default_action())
 
 
-class FCFSActor:
+class FCFSActor(_PlannerBaseline):
     """First-come-first-served strategic deconfliction (module docstring)."""
 
-    obs_format: str | None = None
-
-    def set_weights(self, weights: Any) -> None:
-        pass
-
-    def act(self, result: StepResult, core: EpisodeCore, rng: np.random.Generator,
-            explore: dict[str, Any]) -> ActOutput:
-        planner = _planner(core)
-        actions = np.zeros(len(result.agents), np.int64)
-        for k, a in enumerate(result.agents):
-            if a != PLANNER:
-                continue
-            req = planner.current()
-            if req is None:
-                continue
-            conflicts, _ = planner.candidate_table()
-            filed = max(planner.plan.filed_layer.get(req.key, 0), 0)
-            actions[k] = fcfs_action(conflicts, planner.action_mask(req), filed, planner.reject_action)
-        return ActOutput(actions, advise=np.array([a == PLANNER for a in result.agents]))
+    def choose(self, planner: Any) -> int:
+        req = planner.current()
+        if req is None:
+            return 0
+        conflicts, _ = planner.candidate_table()
+        filed = max(planner.plan.filed_layer.get(req.key, 0), 0)
+        return fcfs_action(conflicts, planner.action_mask(req), filed, planner.reject_action)

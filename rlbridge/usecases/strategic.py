@@ -157,7 +157,8 @@ class StrategicPlanning(UseCaseBase):
             "closest": box(self.n_delays, self.n_layers, low=0.0), "planned": box(p.n_planned, 6),
             "planned_mask": gym.spaces.Box(0.0, 1.0, shape=(p.n_planned,), dtype=np.float32),
             "queues": box(2, 3, low=0.0),
-            "action_mask": gym.spaces.Box(0.0, 1.0, shape=(self.n_actions,), dtype=np.float32)})
+            # int8, as Gymnasium's masked sampling (Discrete.sample(mask=...)) expects it
+            "action_mask": gym.spaces.Box(0, 1, shape=(self.n_actions,), dtype=np.int8)})
         dim = int(gym.spaces.flatdim(self.dict_space))
         self._obs_space: gym.Space = self.dict_space if p.obs_format == "dict" else box(dim)
         self._act_space: gym.spaces.Discrete = gym.spaces.Discrete(self.n_actions)
@@ -290,12 +291,12 @@ class StrategicPlanning(UseCaseBase):
         return layers_m - layers_m[self.plan.filed_layer[req.key]]
 
     def action_mask(self, req: DepartureRequest | None) -> np.ndarray:
-        mask = np.zeros(self.n_actions, np.float32)
+        mask = np.zeros(self.n_actions, np.int8)
         if req is None:
             return mask
-        mask[: (self._latest_slot(req) + 1) * self.n_layers] = 1.0
+        mask[: (self._latest_slot(req) + 1) * self.n_layers] = 1
         if self.params.allow_reject:
-            mask[self.n_place] = 1.0
+            mask[self.n_place] = 1
         return mask
 
     def default_action(self) -> int:
@@ -346,7 +347,7 @@ class StrategicPlanning(UseCaseBase):
         """The Dict observation of the current request (zeros when none is left)."""
         assert self.plan is not None and self.ep is not None
         p = self.params
-        parts: dict[str, np.ndarray] = {name: np.zeros(sp.shape or (), np.float32)
+        parts: dict[str, np.ndarray] = {name: np.zeros(sp.shape or (), sp.dtype)
                                         for name, sp in self.dict_space.spaces.items()}
         req = self.current()
         parts["action_mask"] = self.action_mask(req)
