@@ -155,3 +155,44 @@ def test_same_episode_in_process_and_over_zmq():
             env.close()
     assert runs[0] == runs[1]
     assert runs[0][1]["strategic_planning"]["mean_delay_s"] == pytest.approx((60 + 120) / 4)
+
+
+# ---------------------------------------------------------------------------------------- hierarchical
+def test_hierarchical_checkers_both_levels():
+    gym_id = env_id("hierarchical")
+    assert gym_id == "aamgym/Hierarchical-v0" and gym_id in gymnasium.registry
+    env = gymnasium.make(gym_id, scenario=CROSS, planning=NO_LAYERS)  # the planner learns, MVP flies
+    check_env(env.unwrapped)
+    assert env.unwrapped.ego == "planner"
+    parallel_api_test(rlbridge.parallel_env(CROSS, usecase="hierarchical", train="tactical", planner="fcfs",
+                                            planning=NO_LAYERS), num_cycles=40)
+
+
+def test_frozen_fcfs_planner_under_learning_aircraft_plans_as_the_planner_agent():
+    # train="tactical": aircraft are the agents; the frozen FCFS planner decides each request at
+    # its time, with the same delays as the planner agent played by FCFS (hand-computed above).
+    core = EpisodeCore(CROSS, "hierarchical", {"train": "tactical", "planner": "fcfs", "planning": NO_LAYERS})
+    result = core.reset(1)
+    seen = set(result.agents)
+    while not result.done:
+        result = core.step({a: 1 for a in result.alive})
+        seen |= set(result.agents)
+    assert seen == {"N1", "E1", "N2"}
+    m = core.metrics()
+    h = m["hierarchical"]
+    assert (h["train"], h["planner"], h["unplaced_flights"], h["max_delay_s"]) == ("tactical", "fcfs", ["N3"], 120.0)
+    assert {f.acid: f.created_s for f in core.sim.flight_log} == {"N1": 10.0, "E1": 70.0, "N2": 130.0}
+    assert m["operational"]["advisories"] == 0  # hold is not an advisory
+
+
+def test_hierarchical_planner_with_frozen_tactical_layer_reports_both_levels():
+    core = EpisodeCore(CROSS, "hierarchical", {"planning": NO_LAYERS, "tactical": "mvp_speed"})
+    infos = play(core, "no_planning")
+    assert len(infos) == 4
+    m = core.metrics()
+    assert m["hierarchical"]["tactical_decisions"] > 0 and m["operational"]["advisories"] > 0
+    assert m["hierarchical"]["flights_planned"] == 4
+    with pytest.raises(ValueError, match="train must be 'planner' or 'tactical'"):
+        make_usecase("hierarchical", train="both")
+    with pytest.raises(ValueError, match="planner 'mvp_speed' is neither a known baseline \\(unequipped, no_planning"):
+        make_usecase("hierarchical", train="tactical", planner="mvp_speed")
