@@ -160,8 +160,9 @@ class Hierarchical(UseCaseBase):
         return fb
 
     def extra_metrics(self, sim: Simulation) -> dict[str, Any]:
-        out = {"train": self.params.train, "planner": self.params.planner if self.corridor else "agent",
-               "tactical": self.params.tactical if self.corridor is None else "agents"}
+        out: dict[str, Any] = {"train": self.params.train,
+                               "planner": self.params.planner if self.corridor else "agent",
+                               "tactical": self.params.tactical if self.corridor is None else "agents"}
         out.update(self.planning.extra_metrics(sim))
         if self.corridor is not None:
             out["tactical_decisions"] = None  # the agents' decisions are the episode's transitions
