@@ -144,6 +144,15 @@ class IntentTable:
     grid_s: float = 5.0
     separation_m: float = 450.0
     reserved: list[Reservation] = field(default_factory=list)
+    _local: dict[int, tuple[Intent, np.ndarray, np.ndarray]] = field(default_factory=dict)
+
+    def local(self, intent: Intent) -> tuple[np.ndarray, np.ndarray]:
+        """An intent's samples in the local frame [m] (computed once per intent)."""
+        got = self._local.get(id(intent))
+        if got is None or got[0] is not intent:
+            x, y = self.frame.xy(intent.lat, intent.lon)
+            got = self._local[id(intent)] = (intent, x, y)
+        return got[1], got[2]
 
     def on_grid(self, intent: Intent, depart_s: float) -> tuple[int, np.ndarray, np.ndarray]:
         """First grid index and east/north positions at the grid instants the flight spans."""
@@ -151,8 +160,8 @@ class IntentTable:
         k0 = math.ceil(depart_s / g - 1e-9)
         k1 = math.floor((depart_s + intent.duration_s) / g + 1e-9)
         t = np.arange(k0, max(k1, k0 - 1) + 1) * g - depart_s
-        x, y = self.frame.xy(np.interp(t, intent.t_rel, intent.lat), np.interp(t, intent.t_rel, intent.lon))
-        return k0, x, y
+        x, y = self.local(intent)
+        return k0, np.interp(t, intent.t_rel, x), np.interp(t, intent.t_rel, y)
 
     def reserve(self, key: str, intent: Intent, depart_s: float, alt_m: float) -> None:
         k0, x, y = self.on_grid(intent, depart_s)
@@ -175,7 +184,7 @@ class IntentTable:
         if m == 0 or not self.reserved:
             return conflicts, closest
         lo, hi = k0, k0 + (shifts - 1) * step + m - 1  # grid window every candidate lies in
-        near = [r for r in self.reserved if r.k1 >= lo and r.k0 <= hi]
+        near = [r for r in self.reserved if r.k1 >= lo and r.k0 <= hi]  # a scan: a few hundred flights a day
         if not near:
             return conflicts, closest
         w = hi - lo + 1

@@ -110,6 +110,7 @@ class PlanData:
     intents: dict[str, Intent]
     frame: Frame
     filed_layer: dict[str, int]  # request key -> nearest layer index (-1 without layers)
+    ends: dict[str, tuple[float, float, float, float]] = field(default_factory=dict)  # key -> origin, dest x/y [m]
 
 
 @dataclass
@@ -210,7 +211,12 @@ class StrategicPlanning(UseCaseBase):
             lat0 = lon0 = 0.0
         layers_m = np.array(self.params.layers_ft) * FT
         filed = {k: int(np.argmin(np.abs(layers_m - i.alt_m))) if len(layers_m) else -1 for k, i in intents.items()}
-        return PlanData(schedule, intents, Frame(lat0, lon0), filed)
+        frame = Frame(lat0, lon0)
+        ends = {}
+        for k, i in intents.items():
+            x, y = frame.xy(i.lat[[0, -1]], i.lon[[0, -1]])
+            ends[k] = (float(x[0]), float(y[0]), float(x[1]), float(y[1]))
+        return PlanData(schedule, intents, frame, filed, ends)
 
     def _on_created(self, sim: Simulation, slot: int) -> None:
         """A planned flight takes off on its planned layer (its filed noise about it kept)."""
@@ -357,13 +363,13 @@ class StrategicPlanning(UseCaseBase):
         conf, closest = self.candidate_table()
         parts["conflicts"] = conf.astype(np.float32)
         parts["closest"] = np.minimum(closest / p.separation_m, 10.0).astype(np.float32)
-        ox, oy = self.plan.frame.xy(intent.lat[[0, -1]], intent.lon[[0, -1]])
+        ox, oy, dx, dy = self.plan.ends[req.key]
         s = p.scale_pos_m
         filed = self.plan.filed_layer[req.key]
-        parts["request"] = np.array([req.request_s / 3600.0, ox[0] / s, oy[0] / s, ox[1] / s, oy[1] / s,
+        parts["request"] = np.array([req.request_s / 3600.0, ox / s, oy / s, dx / s, dy / s,
                                      intent.duration_s / 600.0, max(filed, 0) / max(self.n_layers - 1, 1)],
                                     np.float32)
-        parts["planned"], parts["planned_mask"] = self._planned(req, ox[0], oy[0])
+        parts["planned"], parts["planned_mask"] = self._planned(req, ox, oy)
         parts["queues"] = self._queues(req, intent)
         return parts
 
@@ -377,10 +383,9 @@ class StrategicPlanning(UseCaseBase):
         placed.sort(key=lambda o: abs(o.request_s + o.delay_s - req.request_s))
         s = self.params.scale_pos_m
         for k, o in enumerate(placed[:n]):
-            it = self.plan.intents[o.key]
-            x, y = self.plan.frame.xy(it.lat[[0, -1]], it.lon[[0, -1]])
-            rows[k] = [(o.request_s + o.delay_s - req.request_s) / 600.0, (x[0] - ox) / s, (y[0] - oy) / s,
-                       (x[1] - ox) / s, (y[1] - oy) / s, max(o.layer, 0) / max(self.n_layers - 1, 1)]
+            x0, y0, x1, y1 = self.plan.ends[o.key]
+            rows[k] = [(o.request_s + o.delay_s - req.request_s) / 600.0, (x0 - ox) / s, (y0 - oy) / s,
+                       (x1 - ox) / s, (y1 - oy) / s, max(o.layer, 0) / max(self.n_layers - 1, 1)]
             mask[k] = 1.0
         return rows, mask
 
