@@ -125,8 +125,10 @@ class EpisodeCore:
         self._parsed = template.parse(self.text, str(path))
         self.parse_errors = [str(e) for e in self._parsed.errors]
         standing = list(self.usecase.standing_agents)
-        self.possible_agents: list[str] = standing + [a for a in scenario_callsigns(self._parsed)
-                                                      if a not in standing]
+        # Aircraft named by CRE lines are known agents before the run, unless the use case's agents are not
+        # aircraft (a planner).
+        named = scenario_callsigns(self._parsed) if getattr(self.usecase, "aircraft_agents", True) else []
+        self.possible_agents: list[str] = standing + [a for a in named if a not in standing]
         self._possible = set(self.possible_agents)
         last_command_s = max((c.time_s for c in self._parsed.commands), default=0.0)
         # Without a limit a policy that hovers would never end the episode.

@@ -196,3 +196,15 @@ def test_hierarchical_planner_with_frozen_tactical_layer_reports_both_levels():
         make_usecase("hierarchical", train="both")
     with pytest.raises(ValueError, match="planner 'mvp_speed' is neither a known baseline \\(unequipped, no_planning"):
         make_usecase("hierarchical", train="tactical", planner="mvp_speed")
+
+
+def test_the_planner_is_the_only_agent():
+    env = rlbridge.parallel_env(CROSS, usecase="strategic_planning", **NO_LAYERS)
+    env.reset(seed=0)
+    steps = 0
+    while env.agents:
+        assert env.agents == ["planner"]
+        obs, *_ = env.step({"planner": 0})
+        assert set(obs) == {"planner"}
+        steps += 1
+    assert env.possible_agents == ["planner"] and steps == 4  # one step per request

@@ -75,6 +75,7 @@ class Hierarchical(UseCaseBase):
         if p.train == "planner":
             self.planning = StrategicPlanning(**{**p.planning, "tactical": p.tactical, **fmt})
             self.standing_agents = (PLANNER,)
+            self.aircraft_agents = False
             self.info_fields = dict(self.planning.info_fields)
             self.baselines: tuple[str, ...] = StrategicPlanning.baselines
         else:

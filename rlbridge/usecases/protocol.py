@@ -113,6 +113,7 @@ class UseCaseBase:
     name: ClassVar[str] = ""
     env_name: ClassVar[str] = ""
     standing_agents: tuple[str, ...] = ()
+    aircraft_agents: bool = True  # aircraft can be agents (False: agent_of is always None, e.g. a planner)
     info_fields: dict[str, type] = {}  # noqa: RUF012 (read-only by convention; subclasses replace it)
     default_decision_interval_s: ClassVar[float] = 10.0
 

@@ -134,6 +134,7 @@ class StrategicPlanning(UseCaseBase):
     env_name = "StrategicPlanning"
     params_class = StrategicParams
     standing_agents = (PLANNER,)
+    aircraft_agents = False
     plans_departures: ClassVar[bool] = True  # holds the scenario's departures back (not on BlueSky's reader)
     baselines: ClassVar[tuple[str, ...]] = ("no_planning", "fcfs")
     info_fields = {"delay_s": np.float64, "unplaced": np.bool_, "intent_conflicts": np.int64,  # noqa: RUF012
@@ -233,6 +234,9 @@ class StrategicPlanning(UseCaseBase):
         assert self.plan is not None and self.ep is not None
         reqs = self.plan.schedule.requests
         return reqs[self.ep.next] if self.ep.next < len(reqs) else None
+
+    def agent_of(self, sim: Simulation, slot: int) -> str | None:
+        return None  # the aircraft are not agents: the planner is
 
     def holding(self, sim: Simulation) -> bool:
         return self.plan is not None and self.current() is not None
