@@ -1,4 +1,5 @@
-"""Agent-transitions per second of the multi-agent environment, in-process and over ZeroMQ.
+"""Agent-transitions per second of the multi-agent environment, in-process and over ZeroMQ; decisions per
+second of the planner environments (strategic_planning, hierarchical) in-process.
 
 An agent-transition is one aircraft's observation and reward delivered by a
 ``step`` of the PettingZoo environment (``rlbridge.parallel_env``). Random
@@ -9,6 +10,11 @@ the per-core figure.
 
     python bench/bench_env.py                          # nyc_train_100.scn, or a synthetic stand-in
     python bench/bench_env.py --scenario my.scn --intervals 10 --backends local
+    python bench/bench_env.py --intervals 10 --backends local --planners strategic_planning hierarchical
+
+A planner decision decides one departure request (one flight) and then flies the simulation to
+the next request, so "s per flight" of a planner env compares with "s per aircraft-decision" of
+the corridor env (random valid actions; the hierarchical env's tactical layer is MVP).
 """
 
 from __future__ import annotations
@@ -112,6 +118,27 @@ def run_episode(scenario: Path, interval_s: float, backend: str, address: str | 
     return Result(backend, interval_s, agents, steps, transitions, reset_s, wall, cpu, sim_s)
 
 
+def run_planner_episode(env: rlbridge.AamParallelEnv, seed: int) -> tuple[int, int, float, float, float]:
+    """One episode of a planner env with random valid actions: (decisions, flights, wall s, CPU s, sim s).
+
+    The env is reused between episodes, as a rollout worker does: the intent probe of the
+    scenario runs at its first episode only.
+    """
+    rng = np.random.default_rng(seed)
+    obs, _ = env.reset(seed=seed)
+    decisions = 0
+    cpu0, t0 = time.process_time(), time.perf_counter()
+    while env.agents:
+        mask = obs["planner"]["action_mask"]
+        valid = np.flatnonzero(mask) if mask.any() else np.array([0])
+        obs, *_ = env.step({"planner": int(rng.choice(valid))})
+        decisions += 1
+    wall, cpu = time.perf_counter() - t0, time.process_time() - cpu0
+    flights = len(env.core.sim.flight_log) + env.core.sim.traffic.n if env.core.sim is not None else 0
+    sim_s = env.last_result.simt if env.last_result else 0.0
+    return decisions, flights, wall, cpu, sim_s
+
+
 def start_server(root: Path) -> tuple[subprocess.Popen, str]:
     env = dict(os.environ, PYTHONPATH=str(ROOT))
     proc = subprocess.Popen([sys.executable, "-m", "aamsim", "serve", "--bind", "tcp://127.0.0.1:*",
@@ -129,6 +156,8 @@ def main() -> None:
     parser.add_argument("--intervals", type=float, nargs="+", default=[10.0, 1.0], help="decision intervals [s]")
     parser.add_argument("--backends", nargs="+", default=["local", "zmq"], choices=["local", "zmq"])
     parser.add_argument("--seed", type=int, default=1)
+    parser.add_argument("--planners", nargs="*", default=["strategic_planning", "hierarchical"],
+                        help="planner use cases to measure in-process (decisions per second)")
     args = parser.parse_args()
 
     found = resolve_scenario(args.scenario)
@@ -162,6 +191,16 @@ def main() -> None:
         if server is not None:
             server.send_signal(signal.SIGTERM)
             server.wait(30)
+    if args.planners:
+        print(f"\n{'planner env':20} {'decisions':>9} {'flights':>7} {'wall s':>7} {'decisions/s':>11} "
+              f"{'decisions/CPU-s':>15} {'ms/flight':>9} {'sim speed-up':>12}")
+        for usecase in args.planners:
+            env = rlbridge.parallel_env(scenario, usecase=usecase)
+            run_planner_episode(env, args.seed)  # warm-up: the intent probe, compilation
+            d, f, wall, cpu, sim_s = run_planner_episode(env, args.seed)
+            env.close()
+            print(f"{usecase:20} {d:9d} {f:7d} {wall:7.2f} {d / wall:11,.0f} {d / cpu:15,.0f} "
+                  f"{1000 * wall / max(f, 1):9.2f} {sim_s / wall:11,.0f}x", flush=True)
 
 
 if __name__ == "__main__":

@@ -34,6 +34,7 @@ from rlbridge.usecases.registry import make_usecase
 
 TRAFFIC_STATE_FIELDS = ("lat", "lon", "alt", "tas", "gs", "trk", "vs")
 DEFAULT_EXTRA_TIME_S = 7200.0  # default episode limit: last scheduled command + 2 h
+ADVANCE_CHUNK_S = 60.0  # a longer advance checks every this many seconds whether the scenario is over
 
 
 class ScenarioError(ValueError):
@@ -124,8 +125,10 @@ class EpisodeCore:
         self._parsed = template.parse(self.text, str(path))
         self.parse_errors = [str(e) for e in self._parsed.errors]
         standing = list(self.usecase.standing_agents)
-        self.possible_agents: list[str] = standing + [a for a in scenario_callsigns(self._parsed)
-                                                      if a not in standing]
+        # Aircraft named by CRE lines are known agents before the run, unless the use case's agents are not
+        # aircraft (a planner).
+        named = scenario_callsigns(self._parsed) if getattr(self.usecase, "aircraft_agents", True) else []
+        self.possible_agents: list[str] = standing + [a for a in named if a not in standing]
         self._possible = set(self.possible_agents)
         last_command_s = max((c.time_s for c in self._parsed.commands), default=0.0)
         # Without a limit a policy that hovers would never end the episode.
@@ -156,7 +159,11 @@ class EpisodeCore:
             load_plugin(sim, name)
         sim.hooks.created.add(self._on_created, name="episode.created")
         sim.hooks.deleted.add(self._on_deleted, name="episode.deleted")
-        sim.queue.extend([TimedCommand(c.time_s, c.command, c.source) for c in self._parsed.commands])
+        commands = list(self._parsed.commands)
+        hold = getattr(self.usecase, "scenario_commands", None)  # a planner holds departures back
+        if hold is not None:
+            commands = hold(sim, commands)
+        sim.queue.extend([TimedCommand(c.time_s, c.command, c.source) for c in commands])
         return sim
 
     def _on_created(self, sim: Simulation, slot: int) -> None:
@@ -192,19 +199,28 @@ class EpisodeCore:
             return True
         if self.time_limit_s is not None and sim.simt >= self.time_limit_s - 1e-9:
             return True
-        return sim.is_quiescent()
+        holding = getattr(self.usecase, "holding", None)  # departures a planner has still to release
+        return sim.is_quiescent() and not (holding is not None and holding(sim))
 
     def _advance(self) -> None:
         """Advance to the use case's next decision; skip ahead while no agent is alive."""
         sim = self.sim
         assert sim is not None
         while True:
-            target = max(self.usecase.next_decision_s(sim), sim.simt + sim.dt)
+            due = self.usecase.next_decision_s(sim)
+            if due <= sim.simt and self._live and not self._scenario_over():
+                return  # another decision due now (e.g. two departure requests at one time)
+            target = max(due, sim.simt + sim.dt)
             if self.time_limit_s is not None:
                 target = min(target, self.time_limit_s)
-            sim.run_until(target)
-            if sim.state == sim.STATE_HOLD:
-                sim.state = sim.STATE_OP  # no operator in an RL loop
+            # A long advance (a planner's last decision flies the rest of the episode) stops as soon as
+            # the scenario is over instead of running an empty sky up to the time limit.
+            while True:
+                sim.run_until(min(target, sim.simt + ADVANCE_CHUNK_S))
+                if sim.state == sim.STATE_HOLD:
+                    sim.state = sim.STATE_OP  # no operator in an RL loop
+                if sim.simt >= target - 1e-9 or self._scenario_over():
+                    break
             if self._live or self._scenario_over():
                 return
 
@@ -221,7 +237,8 @@ class EpisodeCore:
         self._live = dict.fromkeys(self.usecase.standing_agents)
         self.sim = self._new_simulation(seed)
         self.sim.run_until(0.0)
-        if not self._live and not self._scenario_over():
+        # Advance to the first decision: when an agent first exists, or a standing agent's first event.
+        if (not self._live or self.usecase.standing_agents) and not self._scenario_over():
             self._advance()
         self.agents = self._live_agents()
         self._reported = set(self.agents)

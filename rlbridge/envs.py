@@ -144,7 +144,9 @@ class AamSingleAgentEnv(gym.Env):
         self._multi = AamParallelEnv(scenario, usecase, backend, address, time_limit_s, dt, timeout_s, **params)
         if not self._multi.possible_agents:
             raise ValueError(f"scenario {scenario} creates no aircraft")
-        self.ego = (ego or self._multi.possible_agents[0]).upper()
+        ego = ego or self._multi.possible_agents[0]
+        # Callsigns are upper case; standing agents (a planner) keep their own names.
+        self.ego = ego if ego in self._multi.possible_agents else ego.upper()
         if self.ego not in self._multi.possible_agents:
             raise ValueError(f"ego {self.ego} is not an agent the scenario names")
         self.traffic_policy = traffic_policy

@@ -25,7 +25,7 @@ MAX_DEPTH = 32  # nesting of lists and maps in a header
 ND_KEY = "__nd__"
 DTYPES: dict[str, np.dtype] = {
     name: np.dtype(name).newbyteorder("<")
-    for name in ("float32", "float64", "int64", "int32", "bool", "uint8")
+    for name in ("float32", "float64", "int64", "int32", "bool", "uint8", "int8")
 }
 
 

@@ -9,6 +9,7 @@ module                    contents
 ``agents.d2mava``         D2MAV-A (PPO + attention over intruders, shared or separate layers)
 ``agents.baselines``      unequipped aircraft, speed-only MVP conflict resolution
 ``agents.daa``            speed-only DO-365 / DAIDALUS detect and avoid (``baseline=daa``)
+``agents.planners``       departure planning: no planning, FCFS strategic deconfliction
 ========================  =====================================================================
 
 An *actor spec* ``{"kind": ..., "config": {...}, "dims": {...}}`` is all a worker needs to
@@ -25,7 +26,7 @@ import gymnasium as gym
 from rlbridge.usecases.registry import make_usecase, usecase_class
 
 LEARNER_KINDS = ("d2mava", "dqn")
-BASELINE_KINDS = ("unequipped", "mvp_speed", "daa")
+BASELINE_KINDS = ("unequipped", "mvp_speed", "daa", "no_planning", "fcfs")
 
 
 def usecase_dims(usecase: str, params: dict[str, Any]) -> dict[str, int]:
@@ -83,6 +84,14 @@ def make_actor(spec: dict[str, Any]) -> Any:
         from rlbridge.agents.daa import DAAActor, DAAPolicyConfig
 
         return DAAActor(DAAPolicyConfig(**spec.get("config", {})))
+    if kind == "no_planning":
+        from rlbridge.agents.planners import NoPlanningActor
+
+        return NoPlanningActor()
+    if kind == "fcfs":
+        from rlbridge.agents.planners import FCFSActor
+
+        return FCFSActor()
     raise KeyError(f"unknown actor kind {kind!r}; known: {', '.join(LEARNER_KINDS + BASELINE_KINDS)}")
 
 

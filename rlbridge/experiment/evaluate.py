@@ -24,6 +24,7 @@ from __future__ import annotations
 import csv
 import json
 import logging
+from dataclasses import fields as dataclass_fields
 from dataclasses import replace
 from pathlib import Path
 from typing import Any
@@ -36,11 +37,13 @@ from rlbridge.agents import BASELINE_KINDS
 from rlbridge.agents.rollout import EnvSpec, EpisodeStats
 from rlbridge.experiment.train import find_checkpoint, load_checkpoint, resolve_scenario_path
 from rlbridge.experiment.workers import make_pool
+from rlbridge.usecases.registry import usecase_class
 
 log = logging.getLogger("aamgym.evaluate")
 
 BASELINE_LABELS = {"unequipped": "Unequipped", "mvp_speed": "MVP speed-only (rule-based)",
-                   "daa": "DAA speed-only (DO-365/DAIDALUS)"}
+                   "daa": "DAA speed-only (DO-365/DAIDALUS)",
+                   "no_planning": "No planning (depart on schedule)", "fcfs": "FCFS strategic deconfliction"}
 CSV_COLUMNS = ("policy", "seed", "nmac_events", "lowc_events", "reward_per_aircraft", "aircraft", "aircraft_states",
                "sim_s", "wall_s", "flights_completed", "alert_rate_per_flight_hour", "airborne_holding_s",
                "mean_flight_time_s", "mean_delay_s", "min_separation_m")
@@ -72,8 +75,8 @@ def evaluation_env(cfg: DictConfig, trained_env: EnvSpec) -> EnvSpec:
     evaluation's.
     """
     scenario = resolve_scenario_path(str(cfg.scenario)) if cfg.scenario else trained_env.scenario
-    params = dict(trained_env.params, alt_noise_ft=float(cfg.alt_noise_ft),
-                  alt_noise_lanes_ft=[float(x) for x in cfg.alt_noise_lanes_ft])
+    params = with_altitude_noise(trained_env.usecase, dict(trained_env.params), float(cfg.alt_noise_ft),
+                                 [float(x) for x in cfg.alt_noise_lanes_ft])
     backend = str(cfg.get("backend") or "local")
     return replace(trained_env, scenario=scenario, params=params, metrics=tuple(cfg.metrics), backend=backend,
                    time_limit_s=trained_env.time_limit_s if cfg.env.time_limit_s is None
@@ -98,6 +101,36 @@ def baseline_env(cfg: DictConfig) -> EnvSpec:
                    0.05 if cfg.env.dt is None else float(cfg.env.dt), tuple(cfg.metrics))
 
 
+def with_altitude_noise(usecase: str, params: dict[str, Any], noise_ft: float, lanes_ft: list[float]) -> dict[str, Any]:
+    """The evaluation's altitude noise given to the use case that flies aircraft as agents (corridor_sa, and
+    the hierarchical use case's corridor level); a planner's flights keep their scenario's noise."""
+    noise = {"alt_noise_ft": noise_ft, "alt_noise_lanes_ft": lanes_ft}
+    params_class = getattr(usecase_class(usecase), "params_class", None)
+    fields = {f.name for f in dataclass_fields(params_class)} if params_class is not None else set()
+    if "alt_noise_ft" in fields:
+        return {**params, **noise}
+    if "corridor" in fields and params.get("train") == "tactical":
+        return {**params, "corridor": {**params.get("corridor", {}), **noise}}
+    return params
+
+
+def evaluation_baselines(cfg: DictConfig, env: EnvSpec) -> list[str]:
+    """The baselines to evaluate: ``cfg.baselines``, or (null) the use case's own; each must be one it can use."""
+    from rlbridge.agents import BASELINE_KINDS
+    from rlbridge.usecases.registry import make_usecase
+
+    usecase = make_usecase(env.usecase, **env.params)
+    own = tuple(getattr(usecase, "baselines", ("mvp_speed", "daa")))  # speed-advising use cases: both
+    names = [str(b) for b in cfg.baselines] if cfg.baselines is not None else list(own)
+    for b in names:
+        if b not in BASELINE_KINDS:
+            raise ValueError(f"unknown baseline {b!r}; known: {', '.join(BASELINE_KINDS)}")
+        if b != "unequipped" and b not in own:
+            raise ValueError(f"baseline {b!r} does not apply to use case {env.usecase}; its baselines: unequipped, "
+                             f"{', '.join(own)}")
+    return names
+
+
 def run_evaluation(cfg: DictConfig, out_dir: str | Path) -> dict[str, Any]:
     out = Path(out_dir)
     has_run = cfg.get("run") not in (None, "")
@@ -106,7 +139,8 @@ def run_evaluation(cfg: DictConfig, out_dir: str | Path) -> dict[str, Any]:
         raise ValueError("give run=<training run> (a trained policy against the baselines) or baseline=<name> "
                          f"(a baseline against the others), not {'both' if has_run else 'neither'}; "
                          f"baselines: {', '.join(BASELINE_KINDS)}")
-    check_baselines([str(b) for b in cfg.baselines] + ([str(subject)] if subject is not None else []))
+    check_baselines(([str(b) for b in cfg.baselines] if cfg.baselines is not None else [])
+                    + ([str(subject)] if subject is not None else []))
     out.mkdir(parents=True, exist_ok=True)
     (out / "resolved_config.yaml").write_text(OmegaConf.to_yaml(cfg, resolve=True))
     weights: dict[str, np.ndarray] | None = None
@@ -138,8 +172,8 @@ def run_evaluation(cfg: DictConfig, out_dir: str | Path) -> dict[str, Any]:
         actors = {name: {"kind": name}}
     scenario = env.scenario
     actors.setdefault("unequipped", {"kind": "unequipped"})
-    for b in cfg.baselines:
-        actors.setdefault(str(b), {"kind": str(b)})
+    for b in evaluation_baselines(cfg, env):
+        actors.setdefault(b, {"kind": b})
     labels = {name: label, **{b: BASELINE_LABELS.get(b, b) for b in actors if b != name}}
     seeds = list(range(int(cfg.seed), int(cfg.seed) + int(cfg.episodes)))
     log.info("evaluating %s (%s, iteration %s) on %s (%s backend): %d episodes each for %s", label, ckpt_path,

@@ -8,6 +8,8 @@ seed-paired episodes, as in the paper's tables):
 * ``risk_ratio.csv/.md`` — NMAC events / unequipped NMAC events on the same seed;
 * ``lowc_ratio.csv/.md`` — the same with LoWC events;
 * ``operational.csv/.md`` — safety counts and operational metrics per algorithm and scenario;
+* ``planning.csv/.md`` — for planner runs (``strategic_planning``, ``hierarchical``): throughput,
+  mean and 95th-percentile departure delay, flights planned, unplaced requests, safety;
 * ``nmac_encounters.csv/.md`` — NMAC events per episode by their geometry at the closest
   point (same-direction, head-on, crossing, vertical, hover: docs/metrics.md), which tells
   what a speed-only resolution could have avoided.
@@ -47,6 +49,14 @@ OPERATIONAL_COLUMNS = (
     ("operational.holding_flight_share", "holding flight share"),
     ("operational.mean_flight_time_s", "mean flight time [s]"), ("operational.mean_delay_s", "mean delay [s]"),
     ("reward_per_aircraft", "reward / aircraft"))
+# The planner's metrics (strategic_planning, hierarchical): both levels of a hierarchical run in one table.
+PLANNING_GROUPS = ("strategic_planning", "hierarchical")
+PLANNING_COLUMNS = (
+    ("planning.throughput_per_hour", "throughput [flights/h]", 1), ("planning.mean_delay_s", "mean delay [s]", 1),
+    ("planning.p95_delay_s", "p95 delay [s]", 1), ("planning.flights_planned", "flights planned", 1),
+    ("planning.unplaced", "unplaced", 2), ("planning.layer_changes", "layer changes", 1),
+    ("planning.intent_conflicts", "intent conflicts", 1), ("nmac_events", "NMAC / episode", 2),
+    ("lowc_events", "LoWC / episode", 2), ("operational.advisories", "tactical advisories", 1))
 
 
 # ------------------------------------------------------------------------------- tables
@@ -117,10 +127,10 @@ def _episode_rows(d: Path) -> dict[str, dict[int, dict[str, float]]]:
         s = json.loads(summary.read_text())
         flights = max(s.get("flights_created", 1), 1)
         flat: dict[str, float] = {"reward_per_aircraft": s.get("reward_total", 0.0) / flights}
-        for group in ("safety", "operational"):
+        for group in ("safety", "operational") + PLANNING_GROUPS:
             for k, v in (s.get(group) or {}).items():
-                if isinstance(v, (int, float)):
-                    flat[f"{group}.{k}"] = float(v)
+                if isinstance(v, (int, float)) and not isinstance(v, bool):
+                    flat[f"{'planning' if group in PLANNING_GROUPS else group}.{k}"] = float(v)
         flat["nmac_events"] = flat.get("safety.nmac_events", float("nan"))
         flat["lowc_events"] = flat.get("safety.lowc_events", float("nan"))
         out[summary.parent.parent.name][int(s["seed"])] = flat
@@ -182,6 +192,17 @@ def operational_table(cells: dict[str, dict[str, Cell]], labels: list[str], scen
                for key, _ in OPERATIONAL_COLUMNS]
     write_table(out / "operational", header, _per_episode_rows(cells, labels, scenarios, columns),
                 "Safety and operational metrics, mean ± std over episodes")
+
+
+def planning_table(cells: dict[str, dict[str, Cell]], labels: list[str], scenarios: list[str], out: Path) -> bool:
+    """Planner and safety metrics per algorithm and scenario; False (nothing written) without planner runs."""
+    if not any(k.startswith("planning.") for row in cells.values() for c in row.values() for k in c.values):
+        return False
+    header = ["Algorithm", "Scenario", "episodes"] + [title for _, title, _ in PLANNING_COLUMNS]
+    rows = _per_episode_rows(cells, labels, scenarios, [(key, digits) for key, _, digits in PLANNING_COLUMNS])
+    write_table(out / "planning", header, rows, "Strategic planning: throughput, delay, unplaced requests and "
+                "safety, mean ± std over episodes")
+    return True
 
 
 def encounter_table(cells: dict[str, dict[str, Cell]], labels: list[str], scenarios: list[str], out: Path) -> None:
@@ -397,7 +418,11 @@ def make_report(eval_dirs: list[Path], train_dirs: list[Path], out: Path, window
         encounter_table(cells, labels, scenarios, out)
         written += [out / "operational.csv", out / "operational.md", out / "nmac_encounters.csv",
                     out / "nmac_encounters.md"]
-        for name in ("risk_ratio", "lowc_ratio", "operational", "nmac_encounters"):
+        names = ["risk_ratio", "lowc_ratio", "operational", "nmac_encounters"]
+        if planning_table(cells, labels, scenarios, out):
+            written += [out / "planning.csv", out / "planning.md"]
+            names.insert(0, "planning")
+        for name in names:
             parts += [(out / f"{name}.md").read_text(), ""]
         # Run names only: a report is meant to be committed, the machine's paths are not.
         parts += ["Evaluation runs: " + ", ".join(d.resolve().name for d in eval_dirs), ""]

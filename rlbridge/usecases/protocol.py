@@ -13,7 +13,10 @@ A use case names only what every use case has:
 * **feedback**: per-agent rewards and a typed per-agent info (columns declared
   in ``info_fields``, e.g. ``{"nmac": np.bool_}``), computed over the interval
   since the last decision;
-* optional **extra metrics** added to the episode's standard metrics.
+* optional **extra metrics** added to the episode's standard metrics;
+* optional **scenario commands**: the commands the engine queues, so that a
+  planner can hold departure requests back and release them as it decides
+  (``holding`` tells the engine the scenario is not over while it does).
 
 The engine (:mod:`rlbridge.core`), the environments, the wire and the agents'
 dimension helpers use nothing else, so a new use case is one module plus a
@@ -30,6 +33,7 @@ import numpy as np
 
 if TYPE_CHECKING:
     from aamsim import Simulation
+    from aamsim.stack.parser import TimedCommand
 
 # Per-agent info columns travel as arrays of these dtypes (docs/protocol.md).
 INFO_DTYPES = (np.bool_, np.int64, np.float64)
@@ -96,6 +100,12 @@ class UseCase(Protocol):
     def extra_metrics(self, sim: Simulation) -> dict[str, Any]:
         """Metrics the use case adds to the episode's standard ones ({} when none)."""
 
+    def scenario_commands(self, sim: Simulation, commands: list[TimedCommand]) -> list[TimedCommand]:
+        """The scenario's commands the engine queues (a planner holds departure requests back)."""
+
+    def holding(self, sim: Simulation) -> bool:
+        """Whether the use case still holds traffic to release (the scenario is not over before)."""
+
 
 class UseCaseBase:
     """Defaults for the optional members of :class:`UseCase`: every aircraft is an agent named by its callsign."""
@@ -103,6 +113,7 @@ class UseCaseBase:
     name: ClassVar[str] = ""
     env_name: ClassVar[str] = ""
     standing_agents: tuple[str, ...] = ()
+    aircraft_agents: bool = True  # aircraft can be agents (False: agent_of is always None, e.g. a planner)
     info_fields: dict[str, type] = {}  # noqa: RUF012 (read-only by convention; subclasses replace it)
     default_decision_interval_s: ClassVar[float] = 10.0
 
@@ -121,6 +132,12 @@ class UseCaseBase:
 
     def extra_metrics(self, sim: Simulation) -> dict[str, Any]:
         return {}
+
+    def scenario_commands(self, sim: Simulation, commands: list[TimedCommand]) -> list[TimedCommand]:
+        return commands
+
+    def holding(self, sim: Simulation) -> bool:
+        return False
 
 
 class SpeedActions(Protocol):

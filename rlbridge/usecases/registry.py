@@ -18,6 +18,8 @@ from rlbridge.usecases.protocol import Feedback, Observations, UseCase, UseCaseB
 BUILTIN_USECASES: dict[str, str] = {
     "corridor_sa": "rlbridge.usecases.corridor:CorridorSA",
     "reach_destination": "rlbridge.usecases.reach:ReachDestination",
+    "strategic_planning": "rlbridge.usecases.strategic:StrategicPlanning",
+    "hierarchical": "rlbridge.usecases.hierarchical:Hierarchical",
 }
 
 
