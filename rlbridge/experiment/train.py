@@ -21,6 +21,7 @@ from __future__ import annotations
 import csv
 import json
 import logging
+import os
 import shutil
 import time
 from collections import OrderedDict
@@ -59,6 +60,22 @@ class TrainState:
     rewards: list[float] = field(default_factory=list)  # reward_mean per iteration
     best: float = -float("inf")  # best rolling mean so far
     best_iteration: int = 0
+
+
+def learner_threads(setting: Any, workers: int) -> int:
+    """PyTorch threads of the learner: a number, or ``auto``: the CPUs the Ray workers leave free.
+
+    Each worker holds one CPU (its own PyTorch runs one thread); an in-process worker shares
+    the learner's process, where one thread is fastest for its small inference batches.
+    """
+    if str(setting) != "auto":
+        n = int(setting)
+        if n < 1:
+            raise ValueError(f"train.torch_threads must be >= 1 or auto, not {setting!r}")
+        return n
+    if workers <= 0:
+        return 1
+    return max(1, (os.cpu_count() or 1) - workers)
 
 
 def resolve_device(name: str) -> str:
@@ -207,7 +224,7 @@ def run_training(cfg: DictConfig, run_dir: str | Path) -> dict[str, Any]:
     run_dir.mkdir(parents=True, exist_ok=True)
     (run_dir / "resolved_config.yaml").write_text(OmegaConf.to_yaml(cfg, resolve=True))
     tc = cfg.train
-    torch.set_num_threads(int(tc.torch_threads))
+    torch.set_num_threads(learner_threads(tc.torch_threads, int(cfg.workers)))
     device = resolve_device(str(cfg.device))
     algo = cfg.algorithm
     env = env_spec_from(cfg)
