@@ -1,7 +1,7 @@
 """Whole training runs (rollouts + learner updates) in aircraft-states per second, old vs new path.
 
 Runs ``aamgym train``'s loop (:func:`rlbridge.experiment.train.run_training`, the real Ray
-workers, the real learner) for a fixed wall-clock budget per run on ``nyc_train_100`` with the
+workers, the real learner) for a fixed number of iterations per run (the same work for both paths) on ``nyc_train_100`` with the
 paper's hyper-parameters, once per (algorithm, path), in this one process on this one machine,
 and prints aircraft-states per second of each path side by side with their ratio: after the first
 iteration (steady state, the figure that decides a multi-hour run) and over the whole run (the
@@ -9,17 +9,20 @@ first iteration carries the workers' start-up). An
 aircraft-state is one agent decision (what the learning curves count).
 
 * ``old``: the loop as it was before the overlap (``train.mode=serial``): every iteration the
-  workers play, then the learner updates while they wait; 2 Ray workers, one episode each.
+  workers play, then the learner updates while they wait; 2 Ray workers, one episode each;
+  D2MAV-A's update runs the attention over all 30 padded intruder slots.
 * ``new``: ``train.mode=overlap``: the workers keep playing the next iteration (policy lag of one
   update, docs/algorithms.md) while the learner updates; one Ray worker plays the iteration's
-  two episodes in lockstep with one batched forward pass over the aircraft of both.
+  two episodes in lockstep with one batched forward pass over the aircraft of both; D2MAV-A's
+  update attends over the valid intruders only (``packed_attention``, same loss and gradients);
+  the learner's PyTorch takes the CPUs the worker leaves (``train.torch_threads=auto``).
 
 Both paths put two episodes in an iteration, so each update sees the same amount of data.
 The machine's load average is printed before and after each run: on a shared machine the
 figures are only comparable within one invocation.
 
-    python bench/bench_train.py                              # 90 s per run, all three contenders
-    python bench/bench_train.py --seconds 60 --algorithms d2mava_a --paths old new
+    python bench/bench_train.py                              # 12 iterations per run, all three contenders
+    python bench/bench_train.py --iterations 8 --algorithms d2mava_a --paths old new
     python bench/bench_train.py --json out.json
 """
 
@@ -47,6 +50,13 @@ PATHS: dict[str, list[str]] = {
 ALGORITHMS = ("d2mava_a", "ddqn", "d2mava_a_shared")
 
 
+def path_overrides(path: str, algorithm: str) -> list[str]:
+    """The old path also runs the old padded attention in D2MAV-A's update."""
+    if path == "old" and algorithm.startswith("d2mava"):
+        return [*PATHS[path], "algorithm.params.packed_attention=false"]
+    return list(PATHS[path])
+
+
 def steady_rate(run: Path) -> float:
     """Aircraft-states per second after the first iteration (which carries the workers' start-up:
     Ray actors importing PyTorch and loading the compiled kernels, 20-30 s on 2 busy cores)."""
@@ -58,14 +68,14 @@ def steady_rate(run: Path) -> float:
     return states / (float(rows[-1]["wall_s"]) - float(rows[0]["wall_s"]))
 
 
-def run_one(algorithm: str, path: str, seconds: float, scenario: str, out: Path, extra: list[str]) -> dict[str, Any]:
-    """One training run of ``seconds`` wall-clock; its training summary plus the load around it."""
+def run_one(algorithm: str, path: str, iterations: int, scenario: str, out: Path, extra: list[str]) -> dict[str, Any]:
+    """One training run of ``iterations`` iterations; its training summary plus the load around it."""
     from hydra import compose, initialize_config_module
 
     from rlbridge.experiment.train import run_training
 
-    overrides = [f"algorithm={algorithm}", f"scenario={scenario}", f"train.hours={seconds / 3600.0}",
-                 "train.baseline_episodes=0", "train.checkpoint_every=0", "seed=0", *PATHS[path], *extra]
+    overrides = [f"algorithm={algorithm}", f"scenario={scenario}", f"train.iterations={iterations}",
+                 "train.baseline_episodes=0", "train.checkpoint_every=0", "seed=0", *path_overrides(path, algorithm), *extra]
     with initialize_config_module("rlbridge.conf", version_base="1.3"):
         cfg = compose("config", overrides=overrides)
     load0 = os.getloadavg()
@@ -82,7 +92,8 @@ def run_one(algorithm: str, path: str, seconds: float, scenario: str, out: Path,
 
 def main(argv: list[str] | None = None) -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--seconds", type=float, default=90.0, help="wall-clock budget of each run [s]")
+    ap.add_argument("--iterations", type=int, default=12,
+                    help="iterations of each run (2 episodes, about 12,500 aircraft-states each)")
     ap.add_argument("--algorithms", nargs="+", default=list(ALGORITHMS), choices=ALGORITHMS)
     ap.add_argument("--paths", nargs="+", default=list(PATHS), choices=list(PATHS))
     ap.add_argument("--scenario", default="nyc_train_100")
@@ -90,12 +101,12 @@ def main(argv: list[str] | None = None) -> None:
     ap.add_argument("overrides", nargs="*", help="more Hydra overrides for every run (e.g. device=cuda)")
     args = ap.parse_args(argv)
     logging.basicConfig(level=logging.WARNING)
-    print(f"{os.cpu_count()} CPUs; load average at start {os.getloadavg()[0]:.2f}; {args.seconds:.0f} s per run")
+    print(f"{os.cpu_count()} CPUs; load average at start {os.getloadavg()[0]:.2f}; {args.iterations} iterations per run")
     results: list[dict[str, Any]] = []
     with tempfile.TemporaryDirectory() as tmp:
         for algo in args.algorithms:
             for path in args.paths:
-                r = run_one(algo, path, args.seconds, args.scenario, Path(tmp), list(args.overrides))
+                r = run_one(algo, path, args.iterations, args.scenario, Path(tmp), list(args.overrides))
                 results.append(r)
                 print(f"  {algo:16s} {path:4s} {r['states_per_s']:8.0f} aircraft-states/s after iteration 1, "
                       f"{r['whole_run_states_per_s']:.0f} over the whole run "

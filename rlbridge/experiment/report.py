@@ -45,6 +45,7 @@ OPERATIONAL_COLUMNS = (
     ("operational.alert_rate_per_flight_hour", "alerts / flight hour"),
     ("operational.airborne_holding_s", "airborne holding [s]"),
     ("operational.holding_flight_share", "holding flight share"),
+    ("operational.parked_at_time_limit", "parked at time limit"),
     ("operational.mean_flight_time_s", "mean flight time [s]"), ("operational.mean_delay_s", "mean delay [s]"),
     ("reward_per_aircraft", "reward / aircraft"))
 
@@ -137,16 +138,78 @@ def write_table(path: Path, header: list[str], rows: list[list[str]], title: str
     path.with_suffix(".md").write_text("\n".join(lines) + "\n")
 
 
-def ratio_tables(cells: dict[str, dict[str, Cell]], labels: list[str], scenarios: list[str], out: Path) -> list[Path]:
+# What every ratio is bought with, beside it in the ratio tables (key, title, digits).
+COST_COLUMNS = (
+    ("operational.flights_completed", "flights completed", 1),
+    ("operational.airborne_holding_s", "airborne holding [s]", 0),
+    ("operational.holding_flight_share", "flights holding [%]", 1),
+    ("operational.parked_at_time_limit", "parked at time limit", 2),
+    ("operational.mean_delay_s", "mean delay [s]", 1),
+    ("operational.alert_rate_per_flight_hour", "advisories / flight hour", 1),
+)
+
+
+def parked_per_episode(c: Cell) -> tuple[float, str] | None:
+    """Mean aircraft left hovering at the time limit per episode, and what was counted.
+
+    Episodes recorded before ``parked_at_time_limit`` existed count the flights that had not
+    arrived when the time limit cut them (``flights - flights_completed``: airborne, not
+    necessarily hovering).
+    """
+    parked = [v for v in c.values.get("operational.parked_at_time_limit", []) if not math.isnan(v)]
+    if parked:
+        return float(np.mean(parked)), "parked"
+    flights = c.values.get("operational.flights", [])
+    done = c.values.get("operational.flights_completed", [])
+    if flights and len(flights) == len(done):
+        return float(np.mean([f - d for f, d in zip(flights, done)])), "airborne"
+    return None
+
+
+def cost_cells(c: Cell | None) -> list[str]:
+    """The cost columns of one (algorithm, scenario) cell, means over its episodes."""
+    out = []
+    for key, _, digits in COST_COLUMNS:
+        if c is None:
+            out.append("n/a")
+            continue
+        if key == "operational.parked_at_time_limit":
+            p = parked_per_episode(c)
+            out.append("n/a" if p is None else f"{p[0]:.{digits}f}" + (" (airborne)" if p[1] == "airborne" else ""))
+            continue
+        ms = mean_std(c.values.get(key, []))
+        scale = 100.0 if key.endswith("share") else 1.0
+        out.append("n/a" if ms is None else f"{ms[0] * scale:.{digits}f}")
+    return out
+
+
+def parking_note(cells: dict[str, Cell], scenarios: list[str]) -> str:
+    """' — PARKS AIRCRAFT: ...' when the policy leaves aircraft hovering at the time limit somewhere."""
+    notes = []
+    for s in scenarios:
+        c = cells.get(s)
+        p = parked_per_episode(c) if c is not None else None
+        if p is not None and p[0] > 0:
+            what = "hovering" if p[1] == "parked" else "not arrived"
+            notes.append(f"{p[0]:.2f} per episode {what} at the time limit on {s}")
+    return " — PARKS AIRCRAFT: " + "; ".join(notes) if notes else ""
+
+
+def ratio_tables(cells: dict[str, dict[str, Cell]], labels: list[str], scenarios: list[str], out: Path,
+                 suffix: str = "", config: str = "") -> list[Path]:
+    """Risk and LoWC ratio tables; each scenario's ratio sits beside what it cost (:data:`COST_COLUMNS`)."""
     written = []
     for name, attr, title in (("risk_ratio", "risk", "Risk ratio (NMAC / unequipped NMAC), mean ± std over seeds"),
                               ("lowc_ratio", "lowc", "LoWC ratio (LoWC / unequipped LoWC), mean ± std over seeds")):
-        header = ["Algorithm"] + [f"{name.replace('_', ' ').title().replace('Lowc', 'LoWC')} - {s}" for s in scenarios]
+        ratio_title = name.replace("_", " ").title().replace("Lowc", "LoWC")
+        header = ["Algorithm"]
+        for s in scenarios:
+            header += [f"{ratio_title} - {s}"] + [f"{t} - {s}" for _, t, _ in COST_COLUMNS]
         rows = []
         for label in labels:
             if label == "Unequipped":
                 continue
-            row = [label]
+            row = [label + parking_note(cells[label], scenarios)]
             for s in scenarios:
                 c = cells[label].get(s)
                 vals = list(getattr(c, attr).values()) if c else []
@@ -154,10 +217,12 @@ def ratio_tables(cells: dict[str, dict[str, Cell]], labels: list[str], scenarios
                 txt = fmt_pm(mean_std([v for v in vals if v is not None]))
                 if c and vals:
                     txt += f" (n={len(vals) - n_undef}" + (f", {n_undef} undefined)" if n_undef else ")")
-                row.append(txt)
+                row += [txt] + cost_cells(c)
             rows.append(row)
-        write_table(out / name, header, rows, title)
-        written += [out / f"{name}.csv", out / f"{name}.md"]
+        full_title = title + (f" — use case {config}" if config else "") + \
+            "; beside each ratio, per episode: what it cost"
+        write_table(out / f"{name}{suffix}", header, rows, full_title)
+        written += [out / f"{name}{suffix}.csv", out / f"{name}{suffix}.md"]
     return written
 
 
