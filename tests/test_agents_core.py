@@ -9,9 +9,8 @@ import pytest
 import torch
 
 from rlbridge.agents.core import (
-    PackedIntruders,
-    segment_attention_pool,
     LinearSchedule,
+    PackedIntruders,
     attention_pool,
     compute_gae,
     ddqn_target,
@@ -20,6 +19,7 @@ from rlbridge.agents.core import (
     masked_softmax,
     ppo_clip_loss,
     rolling_mean,
+    segment_attention_pool,
     value_loss,
 )
 

@@ -7,6 +7,11 @@ seed-paired episodes, as in the paper's tables):
 
 * ``risk_ratio.csv/.md`` — NMAC events / unequipped NMAC events on the same seed;
 * ``lowc_ratio.csv/.md`` — the same with LoWC events;
+
+  beside each ratio, what it cost, per episode (:data:`COST_COLUMNS`): flights completed,
+  airborne holding (seconds, share of flights), aircraft parked (hovering) at the time limit,
+  mean delay, advisories per flight hour; a policy that leaves aircraft hovering at the time
+  limit has "PARKS AIRCRAFT" in its row's name;
 * ``operational.csv/.md`` — safety counts and operational metrics per algorithm and scenario;
 * ``nmac_encounters.csv/.md`` — NMAC events per episode by their geometry at the closest
   point (same-direction, head-on, crossing, vertical, hover: docs/metrics.md), which tells
@@ -20,7 +25,9 @@ Figures (PNG, from the training runs' ``learning_curve.csv``):
 * ``nmac_curve.png`` — NMAC events per aircraft per iteration, 95 % band;
 * ``states_per_hour.png`` — aircraft-states generated per wall-clock hour (and cumulative).
 
-``report.md`` gathers everything. Several evaluation runs of the same algorithm and
+``report.md`` gathers everything. Evaluations of different use-case configurations (the
+paper's reward, variant ``v1``, ...) get separate tables (``risk_ratio.md``,
+``risk_ratio_v1.md``, ...): their rows are never mixed. Several evaluation runs of the same algorithm and
 scenario (e.g. training seeds) are pooled; baselines evaluated twice on a seed count once.
 """
 
@@ -241,20 +248,22 @@ def _per_episode_rows(cells: dict[str, dict[str, Cell]], labels: list[str], scen
     return rows
 
 
-def operational_table(cells: dict[str, dict[str, Cell]], labels: list[str], scenarios: list[str], out: Path) -> None:
+def operational_table(cells: dict[str, dict[str, Cell]], labels: list[str], scenarios: list[str], out: Path,
+                      suffix: str = "") -> None:
     header = ["Algorithm", "Scenario", "episodes"] + [title for _, title in OPERATIONAL_COLUMNS]
     columns = [(key, 4 if ("per_flight" in key or "share" in key or "reward" in key) else 2)
                for key, _ in OPERATIONAL_COLUMNS]
-    write_table(out / "operational", header, _per_episode_rows(cells, labels, scenarios, columns),
+    write_table(out / f"operational{suffix}", header, _per_episode_rows(cells, labels, scenarios, columns),
                 "Safety and operational metrics, mean ± std over episodes")
 
 
-def encounter_table(cells: dict[str, dict[str, Cell]], labels: list[str], scenarios: list[str], out: Path) -> None:
+def encounter_table(cells: dict[str, dict[str, Cell]], labels: list[str], scenarios: list[str], out: Path,
+                    suffix: str = "") -> None:
     from aamsim.metrics.standard import ENCOUNTERS
 
     header = ["Algorithm", "Scenario", "episodes", "NMAC / episode"] + list(ENCOUNTERS)
     columns = [("nmac_events", 2)] + [(f"safety.nmac_{kind.replace('-', '_')}", 2) for kind in ENCOUNTERS]
-    write_table(out / "nmac_encounters", header, _per_episode_rows(cells, labels, scenarios, columns),
+    write_table(out / f"nmac_encounters{suffix}", header, _per_episode_rows(cells, labels, scenarios, columns),
                 "NMAC events per episode by encounter geometry at the closest point, mean ± std over episodes")
 
 
@@ -284,7 +293,10 @@ def load_train_run(d: Path) -> TrainRun:
     summary = json.loads((d / "training_summary.json").read_text()) if (d / "training_summary.json").exists() else None
     baseline = json.loads((d / "baseline.json").read_text()) if (d / "baseline.json").exists() else None
     label, workers = _from_config(d)
-    return TrainRun(d, (summary or {}).get("label") or label, curve, split("episode_rewards"),
+    # The configuration's label (it names a use-case variant): runs of two rewards are never one curve.
+    if not (d / "resolved_config.yaml").exists():
+        label = (summary or {}).get("label") or label
+    return TrainRun(d, label, curve, split("episode_rewards"),
                     split("episode_nmac_per_aircraft"), baseline, summary, workers)
 
 
@@ -295,7 +307,9 @@ def _from_config(d: Path) -> tuple[str, int]:
         from omegaconf import OmegaConf
 
         c: Any = OmegaConf.load(cfg)
-        return str(c.algorithm.get("label", c.algorithm.name)), int(c.get("workers", 1))
+        variant = str(c.get("usecase", {}).get("params", {}).get("variant", "paper"))
+        label = str(c.algorithm.get("label", c.algorithm.name)) + ("" if variant == "paper" else f" [{variant}]")
+        return label, int(c.get("workers", 1))
     return d.name, 1
 
 
@@ -451,21 +465,49 @@ def training_table(train: list[TrainRun], out: Path) -> None:
     write_table(out / "training", header, rows, "Training runs and wall-clock metrics")
 
 
+def usecase_config(ev: dict[str, Any]) -> tuple[str, str]:
+    """(use case, variant) of an evaluation; evaluations written before variants existed are the paper's."""
+    uc = ev.get("usecase") or {}
+    return str(uc.get("name", "corridor_sa")), str(uc.get("variant", "paper"))
+
+
+def group_by_config(eval_dirs: list[Path]) -> dict[tuple[str, str], list[Path]]:
+    """Evaluation directories per use-case configuration, the paper's first: their rows never mix."""
+    groups: dict[tuple[str, str], list[Path]] = defaultdict(list)
+    for d in eval_dirs:
+        groups[usecase_config(json.loads((d / "evaluation.json").read_text()))].append(d)
+    return dict(sorted(groups.items(), key=lambda kv: (kv[0][1] != "paper", kv[0])))
+
+
+def config_suffix(config: tuple[str, str]) -> str:
+    """'' for the paper's configuration, ``_<variant>`` for another (file names)."""
+    return "" if config[1] == "paper" else f"_{config[1]}"
+
+
+def config_title(config: tuple[str, str]) -> str:
+    return f"{config[0]} (the paper's reward)" if config[1] == "paper" else f"{config[0]} variant {config[1]}"
+
+
 def make_report(eval_dirs: list[Path], train_dirs: list[Path], out: Path, window: int = 1) -> list[Path]:
     out.mkdir(parents=True, exist_ok=True)
     parts: list[str] = ["# AAM-Gym report", ""]
     written: list[Path] = []
-    if eval_dirs:
-        cells, labels, scenarios = load_evaluations(eval_dirs)
-        written += ratio_tables(cells, labels, scenarios, out)
-        operational_table(cells, labels, scenarios, out)
-        encounter_table(cells, labels, scenarios, out)
-        written += [out / "operational.csv", out / "operational.md", out / "nmac_encounters.csv",
-                    out / "nmac_encounters.md"]
+    groups = group_by_config(eval_dirs)
+    for config, dirs in groups.items():
+        # One set of tables per use-case configuration: a ratio bought under one reward is not
+        # comparable with one bought under another, and a label (an algorithm) appears in both.
+        sfx = config_suffix(config)
+        cells, labels, scenarios = load_evaluations(dirs)
+        written += ratio_tables(cells, labels, scenarios, out, sfx, config_title(config))
+        operational_table(cells, labels, scenarios, out, sfx)
+        encounter_table(cells, labels, scenarios, out, sfx)
+        written += [out / f"{n}{sfx}.{e}" for n in ("operational", "nmac_encounters") for e in ("csv", "md")]
+        if len(groups) > 1:
+            parts += [f"## Use case {config_title(config)}", ""]
         for name in ("risk_ratio", "lowc_ratio", "operational", "nmac_encounters"):
-            parts += [(out / f"{name}.md").read_text(), ""]
+            parts += [(out / f"{name}{sfx}.md").read_text(), ""]
         # Run names only: a report is meant to be committed, the machine's paths are not.
-        parts += ["Evaluation runs: " + ", ".join(d.resolve().name for d in eval_dirs), ""]
+        parts += ["Evaluation runs: " + ", ".join(d.resolve().name for d in dirs), ""]
     if train_dirs:
         runs = [load_train_run(d) for d in train_dirs]
         training_table(runs, out)
