@@ -269,7 +269,8 @@ def run_training(cfg: DictConfig, run_dir: str | Path) -> dict[str, Any]:
     epw = int(tc.episodes_per_worker)
     max_iter = tc.iterations
     hours = tc.hours
-    if max_iter is None and hours is None:
+    budget = tc.get("aircraft_states")  # stop once this many aircraft-states were collected (equal budgets)
+    if max_iter is None and hours is None and budget is None:
         max_iter = 100
     curve = CurveWriter(run_dir / "learning_curve.csv")
     actors = {"policy": learner.actor_spec(str(algo.kind)), "unequipped": {"kind": "unequipped"}}
@@ -291,10 +292,12 @@ def run_training(cfg: DictConfig, run_dir: str | Path) -> dict[str, Any]:
                      base_summary["reward_mean"], base_summary["nmac_per_aircraft"], len(base))
         t_train = time.perf_counter()  # throughput clock: iterations only (not Ray start-up nor baseline)
 
-        def may_start(done_iterations: int) -> str | None:
+        def may_start(done_iterations: int, collected: int) -> str | None:
             """None if iteration ``done_iterations + 1`` may start, else why the run stops."""
             if max_iter is not None and done_iterations >= int(max_iter):
                 return "iterations"
+            if budget is not None and collected >= int(budget):
+                return "aircraft_states"
             if hours is not None and time.perf_counter() - t_start >= float(hours) * 3600.0:
                 return "hours"
             return None
@@ -305,7 +308,7 @@ def run_training(cfg: DictConfig, run_dir: str | Path) -> dict[str, Any]:
 
         # overlap: the weights the in-flight iteration plays with (one update behind the learner's).
         behaviour = resumed_behaviour if resumed_behaviour is not None else learner.weights()
-        stop = may_start(state.iteration)
+        stop = may_start(state.iteration, state.transitions)
         pending = None if stop else submit(state.iteration + 1, behaviour, state.transitions)
         t0 = time.perf_counter()
         while pending is not None:
@@ -319,7 +322,7 @@ def run_training(cfg: DictConfig, run_dir: str | Path) -> dict[str, Any]:
                 # The workers play the next iteration with the weights before this update while the
                 # learner updates: the episodes of iteration k come from the policy of update k - 2.
                 behaviour = learner.weights()
-                stop = may_start(it)
+                stop = may_start(it, state.transitions + ep["aircraft_states"])
                 if not stop:
                     pending = submit(it + 1, behaviour, state.transitions + ep["aircraft_states"])
             lstats = learner.update(batches)
@@ -358,7 +361,7 @@ def run_training(cfg: DictConfig, run_dir: str | Path) -> dict[str, Any]:
             if int(tc.checkpoint_every) > 0 and it % int(tc.checkpoint_every) == 0:
                 save_checkpoint(ckpt_dir / "last.pt", learner, state, {**meta, **extra})
             if not overlap:
-                stop = may_start(it)
+                stop = may_start(it, state.transitions)
                 if not stop:
                     pending = submit(it + 1, learner.weights(), state.transitions)
             t0 = t2 if overlap else time.perf_counter()
