@@ -10,6 +10,7 @@ import torch
 
 from rlbridge.agents.core import (
     LinearSchedule,
+    PackedIntruders,
     attention_pool,
     compute_gae,
     ddqn_target,
@@ -18,6 +19,7 @@ from rlbridge.agents.core import (
     masked_softmax,
     ppo_clip_loss,
     rolling_mean,
+    segment_attention_pool,
     value_loss,
 )
 
@@ -166,6 +168,51 @@ def test_d2mava_network_ignores_padded_intruders():
         logits2, value2 = net(own, intr2, mask)
         torch.testing.assert_close(logits, logits2)
         torch.testing.assert_close(value, value2)
+
+
+def test_segment_attention_pool_by_hand():
+    # Ownship 0: intruders with scores 0 and ln 3 -> weights 1/4, 3/4; ownship 1: none -> zero context.
+    values = torch.tensor([[4.0, 0.0], [0.0, 8.0]])
+    scores = torch.tensor([0.0, math.log(3.0)])
+    ctx, w = segment_attention_pool(values, scores, torch.tensor([0, 0]), 2)
+    torch.testing.assert_close(w, torch.tensor([0.25, 0.75]))
+    torch.testing.assert_close(ctx, torch.tensor([[1.0, 6.0], [0.0, 0.0]]))
+
+
+def test_packed_gather_returns_each_rows_valid_intruders_in_order():
+    intr = torch.arange(3 * 4, dtype=torch.float32).reshape(3, 4, 1)
+    mask = torch.tensor([[1, 1, 0, 0], [0, 0, 0, 0], [1, 1, 1, 0]], dtype=torch.float32)
+    packed = PackedIntruders.from_padded(intr, mask)
+    rows, seg = packed.gather(torch.tensor([2, 1, 0]))
+    assert rows[:, 0].tolist() == [8.0, 9.0, 10.0, 0.0, 1.0]
+    assert seg.tolist() == [0, 0, 0, 2, 2]
+
+
+@pytest.mark.parametrize("shared", [False, True])
+def test_packed_attention_gives_the_padded_networks_outputs_and_gradients(shared):
+    from rlbridge.agents.d2mava import ActorCritic, D2MAVAConfig
+
+    torch.manual_seed(2)
+    net = ActorCritic(9, 11, 3, D2MAVAConfig(shared=shared))
+    own = torch.randn(6, 9)
+    intr = torch.randn(6, 5, 11)
+    counts = torch.tensor([5, 0, 2, 1, 3, 0])
+    mask = (torch.arange(5)[None, :] < counts[:, None]).float()
+    idx = torch.tensor([4, 0, 1, 2, 5])
+    grads = []
+    for packed in (False, True):
+        net.zero_grad()
+        if packed:
+            rows, seg = PackedIntruders.from_padded(intr, mask).gather(idx)
+            logits, value = net.forward_packed(own[idx], rows, seg)
+        else:
+            logits, value = net(own[idx], intr[idx], mask[idx])
+        (logits.square().sum() + value.sum()).backward()
+        grads.append((logits.detach(), value.detach(), [p.grad.clone() for p in net.parameters()]))
+    torch.testing.assert_close(grads[0][0], grads[1][0])
+    torch.testing.assert_close(grads[0][1], grads[1][1])
+    for g_pad, g_pack in zip(grads[0][2], grads[1][2]):
+        torch.testing.assert_close(g_pad, g_pack, rtol=1e-5, atol=1e-6)
 
 
 # -------------------------------------------------------------------------------- helpers

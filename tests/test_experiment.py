@@ -179,9 +179,21 @@ def test_evaluate_compare_and_report(tmp_path, trained_run):
         assert (rep / name).stat().st_size > 0, name
     with open(rep / "risk_ratio.csv", newline="") as fh:
         table = list(csv.reader(fh))
-    assert table[0] == ["Algorithm", "Risk Ratio - tiny_conflict"]
-    assert [r[0] for r in table[1:]] == ["D2MAV-A No Shared Layers", "MVP speed-only (rule-based)"]
+    # Every ratio beside what it cost (issue 13: safety never without its cost).
+    assert table[0] == ["Algorithm", "Risk Ratio - tiny_conflict", "flights completed - tiny_conflict",
+                        "airborne holding [s] - tiny_conflict", "flights holding [%] - tiny_conflict",
+                        "parked at time limit - tiny_conflict", "mean delay [s] - tiny_conflict",
+                        "advisories / flight hour - tiny_conflict"]
+    assert [r[0].split(" — ")[0] for r in table[1:]] == ["D2MAV-A No Shared Layers", "MVP speed-only (rule-based)"]
     assert "±" in table[1][1]
+    episodes = {p: [json.loads(f.read_text()) for f in sorted((ev_dir / "episodes" / p).glob("seed-*/summary.json"))]
+                for p in ("d2mava_a", "mvp_speed")}
+    for row, policy in zip(table[1:], ("d2mava_a", "mvp_speed")):
+        ops = [e["operational"] for e in episodes[policy]]
+        assert float(row[2]) == pytest.approx(np.mean([o["flights_completed"] for o in ops]), abs=0.05)
+        parked = np.mean([o["parked_at_time_limit"] for o in ops])
+        assert float(row[5]) == pytest.approx(parked, abs=0.005)
+        assert ("PARKS AIRCRAFT" in row[0]) == (parked > 0)
     # No path of this machine in a report meant to be committed (only run names).
     assert str(tmp_path) not in (rep / "report.md").read_text()
     assert f"Evaluation runs: {ev_dir.name}" in (rep / "report.md").read_text()

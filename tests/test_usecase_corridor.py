@@ -170,3 +170,25 @@ def test_altitude_noise_added_or_redrawn_around_the_lane(lanes):
     uc.attach(off_lane)
     off_lane.stack("CRE Y EC35 40.7 -74.0 0 3000 0")
     assert off_lane.traffic.F[f.ALT, 0] / FT == pytest.approx(3000.0 + offsets[7])  # the same draw, added
+
+
+def test_variant_v1_charges_hovering_and_the_paper_does_not(scene):
+    """v1 (docs/usecase-corridor.md): -hover_cost per decision under 5 kt ground speed; the paper: free."""
+    paper = make_usecase("corridor_sa")
+    v1 = make_usecase("corridor_sa", variant="v1", hover_cost=0.05)
+    paper.apply_actions(scene, {"O": DECELERATE, "A": ACCELERATE})
+    scene.run_until(60.0)
+    agents = ["O", "A"]
+    closest = np.array([5000.0, 5000.0])  # nobody near: only Omega (and the hover cost)
+    np.testing.assert_allclose(v1.hovering(scene, agents), [1.0, 0.0])
+    np.testing.assert_allclose(paper.rewards(scene, agents, {}, closest, {}), [-0.001, -0.001])
+    np.testing.assert_allclose(v1.rewards(scene, agents, {}, closest, {}), [-0.051, -0.001])
+
+
+def test_variant_names_its_reward():
+    with pytest.raises(ValueError, match="variant='v1'"):
+        make_usecase("corridor_sa", hover_cost=0.05)  # the paper's name with another reward
+    with pytest.raises(ValueError, match="positive hover_cost"):
+        make_usecase("corridor_sa", variant="v1")
+    with pytest.raises(ValueError, match="variant must be"):
+        make_usecase("corridor_sa", variant="v2")

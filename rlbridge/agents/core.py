@@ -7,6 +7,10 @@
 * :func:`ppo_clip_loss`, :func:`value_loss` — PPO's clipped surrogate (Schulman et al. 2017);
 * :func:`masked_softmax`, :func:`attention_pool` — attention over a padded set of intruders
   in which padded rows get exactly zero weight;
+* :class:`PackedIntruders`, :func:`segment_attention_pool` — the same attention over only the
+  valid intruders, packed row after row (the learner's path: on ``nyc_train_100`` an aircraft
+  observes 11.2 of its 30 intruder slots on average, so the padded path spends 63 % of its
+  intruder work on rows whose weight is exactly zero);
 * :class:`LinearSchedule` — the epsilon schedule;
 * :func:`rolling_mean` — the 25-iteration rolling mean that picks the best weights;
 * :func:`episode_seed` — deterministic seeds from (seed, iteration, worker).
@@ -148,6 +152,49 @@ def attention_pool(values: torch.Tensor, scores: torch.Tensor, mask: torch.Tenso
     """
     weights = masked_softmax(scores, mask)
     return torch.einsum("bn,bnh->bh", weights, values), weights
+
+
+def segment_attention_pool(values: torch.Tensor, scores: torch.Tensor, seg: torch.Tensor, n: int
+                           ) -> tuple[torch.Tensor, torch.Tensor]:
+    """:func:`attention_pool` over packed rows: ``values`` (K, H) and ``scores`` (K,) of the valid
+    intruders, ``seg`` (K,) the ownship row (0..n-1) each belongs to.
+
+    Returns (context (n, H), weights (K,)); an ownship without intruders gets a zero context,
+    exactly as a fully masked padded row does.
+    """
+    # The max shift only keeps exp() finite; it cancels in the ratio, so no gradient flows through it.
+    top = torch.full((n,), -torch.inf, dtype=scores.dtype, device=scores.device)
+    top = top.scatter_reduce(0, seg, scores.detach(), "amax", include_self=True)
+    e = torch.exp(scores - top.index_select(0, seg))
+    total = torch.zeros(n, dtype=scores.dtype, device=scores.device).index_add(0, seg, e)
+    weights = e / total.index_select(0, seg)
+    context = torch.zeros(n, values.shape[1], dtype=values.dtype, device=values.device)
+    return context.index_add(0, seg, weights.unsqueeze(1) * values), weights
+
+
+@dataclass
+class PackedIntruders:
+    """The valid intruders of many ownship rows, packed: ``rows`` (K, Di) with ``counts[i]`` rows
+    of ownship ``i`` starting at ``offsets[i]``. Built once per update; minibatches gather from it."""
+
+    rows: torch.Tensor
+    counts: torch.Tensor  # (B,) int64
+    offsets: torch.Tensor  # (B,) int64
+
+    @classmethod
+    def from_padded(cls, intruders: torch.Tensor, mask: torch.Tensor) -> PackedIntruders:
+        valid = mask > 0
+        counts = valid.sum(dim=1)
+        return cls(intruders[valid], counts, torch.cumsum(counts, 0) - counts)
+
+    def gather(self, idx: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+        """The packed intruders of ownship rows ``idx`` and their segment (position in ``idx``)."""
+        c = self.counts.index_select(0, idx)
+        seg = torch.repeat_interleave(torch.arange(len(idx), device=idx.device), c)
+        first = torch.cumsum(c, 0) - c  # where each ownship's rows start in the minibatch
+        pos = self.offsets.index_select(0, idx).index_select(0, seg) + torch.arange(len(seg), device=idx.device) \
+            - first.index_select(0, seg)
+        return self.rows.index_select(0, pos), seg
 
 
 # ------------------------------------------------------------------------------ schedules

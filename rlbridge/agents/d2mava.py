@@ -28,7 +28,15 @@ import numpy as np
 import torch
 from torch import nn
 
-from rlbridge.agents.core import attention_pool, compute_gae, normalize, ppo_clip_loss, value_loss
+from rlbridge.agents.core import (
+    PackedIntruders,
+    attention_pool,
+    compute_gae,
+    normalize,
+    ppo_clip_loss,
+    segment_attention_pool,
+    value_loss,
+)
 from rlbridge.agents.rollout import ActOutput, EpisodeBatch
 from rlbridge.core import EpisodeCore, StepResult
 
@@ -51,6 +59,9 @@ class D2MAVAConfig:
     max_grad_norm: float = 0.5  # gradient clipping (not in the paper)
     norm_adv: bool = True  # per-minibatch advantage normalisation (not in the paper)
     greedy_eval: bool = True  # frozen evaluation picks the most likely action (False: sample)
+    # Implementation, not a hyper-parameter: the update runs the attention on the valid intruders
+    # only (same loss and gradients up to float rounding, 2.4x faster on nyc_train_100); false: padded.
+    packed_attention: bool = True
 
 
 class AttentionEncoder(nn.Module):
@@ -76,6 +87,14 @@ class AttentionEncoder(nn.Module):
         context, weights = attention_pool(hi, scores, mask)
         return self.trunk(torch.cat([ho, context], dim=-1)), weights
 
+    def forward_packed(self, own: torch.Tensor, rows: torch.Tensor, seg: torch.Tensor) -> torch.Tensor:
+        """:meth:`forward` on packed valid intruders (``rows`` (K, Di) of ownship ``seg``): same features."""
+        ho = self.own(own)
+        hi = self.intr(rows)
+        scores = (self.query(ho).index_select(0, seg) * hi).sum(dim=-1) * self.scale
+        context, _ = segment_attention_pool(hi, scores, seg, own.shape[0])
+        return self.trunk(torch.cat([ho, context], dim=-1))
+
 
 class ActorCritic(nn.Module):
     """Policy logits and state value from (ownship, intruders, mask)."""
@@ -97,6 +116,13 @@ class ActorCritic(nn.Module):
                 ) -> tuple[torch.Tensor, torch.Tensor]:
         za, _ = self.actor_enc(own, intr, mask)
         zc = za if self.critic_enc is None else self.critic_enc(own, intr, mask)[0]
+        return self.pi(za), self.v(zc).squeeze(-1)
+
+    def forward_packed(self, own: torch.Tensor, rows: torch.Tensor, seg: torch.Tensor
+                       ) -> tuple[torch.Tensor, torch.Tensor]:
+        """:meth:`forward` with packed intruders (:class:`~rlbridge.agents.core.PackedIntruders`)."""
+        za = self.actor_enc.forward_packed(own, rows, seg)
+        zc = za if self.critic_enc is None else self.critic_enc.forward_packed(own, rows, seg)
         return self.pi(za), self.v(zc).squeeze(-1)
 
 
@@ -139,19 +165,33 @@ class D2MAVAActor:
 
     def act(self, result: StepResult, core: EpisodeCore, rng: np.random.Generator,
             explore: dict[str, Any]) -> ActOutput:
-        parts = result.obs.parts
-        assert parts is not None, "D2MAV-A needs obs_format='dict'"
+        return self.act_many([result], [core], [rng], explore)[0]
+
+    def act_many(self, results: list[StepResult], cores: list[EpisodeCore], rngs: list[np.random.Generator],
+                 explore: dict[str, Any]) -> list[ActOutput]:
+        """One forward pass over the aircraft of every episode; each episode samples with its own generator."""
+        parts = [r.obs.parts for r in results]
+        assert all(p is not None for p in parts), "D2MAV-A needs obs_format='dict'"
+        cat = {k: np.concatenate([p[k] for p in parts]) if len(parts) > 1 else parts[0][k]  # type: ignore[index]
+               for k in ("ownship", "intruders", "mask")}
         with torch.no_grad():
-            logits, values = self.model(torch.from_numpy(parts["ownship"]), torch.from_numpy(parts["intruders"]),
-                                        torch.from_numpy(parts["mask"]))
-        lg = logits.numpy().astype(np.float64)
-        if explore.get("greedy", False):
-            actions = lg.argmax(axis=1)
-            z = lg - lg.max(axis=1, keepdims=True)
-            logp = (z - np.log(np.exp(z).sum(axis=1, keepdims=True)))[np.arange(len(actions)), actions]
-        else:
-            actions, logp = sample_categorical(lg, rng)
-        return ActOutput(actions, logp.astype(np.float32), values.numpy())
+            logits, values = self.model(torch.from_numpy(cat["ownship"]), torch.from_numpy(cat["intruders"]),
+                                        torch.from_numpy(cat["mask"]))
+        lg_all, v_all = logits.numpy().astype(np.float64), values.numpy()
+        outs = []
+        start = 0
+        for r, rng in zip(results, rngs):
+            end = start + len(r.agents)
+            lg = lg_all[start:end]
+            if explore.get("greedy", False):
+                actions = lg.argmax(axis=1)
+                z = lg - lg.max(axis=1, keepdims=True)
+                logp = (z - np.log(np.exp(z).sum(axis=1, keepdims=True)))[np.arange(len(actions)), actions]
+            else:
+                actions, logp = sample_categorical(lg, rng)
+            outs.append(ActOutput(actions, logp.astype(np.float32), v_all[start:end]))
+            start = end
+        return outs
 
 
 class D2MAVALearner:
@@ -212,6 +252,7 @@ class D2MAVALearner:
         if n == 0:
             return {}
         t = {k: torch.as_tensor(v, device=self.device) for k, v in data.items()}
+        packed = PackedIntruders.from_padded(t["intruders"], t["mask"]) if c.packed_attention else None
         self.model.train()
         stats: dict[str, list[float]] = {"policy_loss": [], "value_loss": [], "entropy": [], "approx_kl": [],
                                          "clip_fraction": []}
@@ -219,7 +260,11 @@ class D2MAVALearner:
             perm = torch.randperm(n, generator=self.gen).to(self.device)
             for start in range(0, n, c.batch_size):
                 idx = perm[start:start + c.batch_size]
-                logits, values = self.model(t["ownship"][idx], t["intruders"][idx], t["mask"][idx])
+                if packed is not None:
+                    rows, seg = packed.gather(idx)
+                    logits, values = self.model.forward_packed(t["ownship"][idx], rows, seg)
+                else:
+                    logits, values = self.model(t["ownship"][idx], t["intruders"][idx], t["mask"][idx])
                 dist = torch.distributions.Categorical(logits=logits)
                 logp = dist.log_prob(t["actions"][idx])
                 adv = normalize(t["adv"][idx]) if c.norm_adv else t["adv"][idx]

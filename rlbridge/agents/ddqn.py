@@ -162,16 +162,28 @@ class DDQNActor:
 
     def act(self, result: StepResult, core: EpisodeCore, rng: np.random.Generator,
             explore: dict[str, Any]) -> ActOutput:
-        obs = result.obs.flat
-        assert obs is not None, "DQN needs obs_format='flat'"
+        return self.act_many([result], [core], [rng], explore)[0]
+
+    def act_many(self, results: list[StepResult], cores: list[EpisodeCore], rngs: list[np.random.Generator],
+                 explore: dict[str, Any]) -> list[ActOutput]:
+        """One forward pass over the aircraft of every episode; each episode explores with its own generator."""
+        flats = [r.obs.flat for r in results]
+        assert all(f is not None for f in flats), "DQN needs obs_format='flat'"
+        obs = np.concatenate(flats) if len(flats) > 1 else flats[0]  # type: ignore[arg-type]
         with torch.no_grad():
-            q = self.q(torch.from_numpy(obs)).numpy()
-        actions = q.argmax(axis=1)
+            q_all = self.q(torch.from_numpy(obs)).numpy()
         eps = float(explore.get("epsilon", 0.0))
-        if eps > 0:
-            rand = rng.random(len(actions)) < eps
-            actions = np.where(rand, rng.integers(0, q.shape[1], size=len(actions)), actions)
-        return ActOutput(actions, None, q.max(axis=1))
+        outs = []
+        start = 0
+        for r, rng in zip(results, rngs):
+            q = q_all[start:start + len(r.agents)]
+            start += len(r.agents)
+            actions = q.argmax(axis=1)
+            if eps > 0:
+                rand = rng.random(len(actions)) < eps
+                actions = np.where(rand, rng.integers(0, q.shape[1], size=len(actions)), actions)
+            outs.append(ActOutput(actions, None, q.max(axis=1)))
+        return outs
 
 
 class DDQNLearner:

@@ -181,6 +181,7 @@ class RolloutWorker:
         self.env = env
         self.actors: dict[str, Actor] = {name: make_actor(spec) for name, spec in actors.items()}
         self._cores: dict[str | None, EpisodeCore] = {}
+        self._extra_cores: dict[str | None, list[EpisodeCore]] = {}  # lockstep episodes beyond the first
         first = self._core_for(next(iter(self.actors.values())) if self.actors else None)
         self.scenario_name = Path(first.path).stem
         self.scenario_sha256 = hashlib.sha256(first.text.encode("utf-8")).hexdigest()
@@ -199,66 +200,154 @@ class RolloutWorker:
         self.actors[actor].set_weights(weights)
 
     def collect(self, seeds: list[int], actor: str = "policy", weights: Any = None,
-                explore: dict[str, Any] | None = None, record: bool = True) -> list[Any]:
-        """Run one episode per seed: :class:`EpisodeBatch` each when ``record`` else :class:`EpisodeStats`."""
+                explore: dict[str, Any] | None = None, record: bool = True, lockstep: bool = False) -> list[Any]:
+        """Run one episode per seed: :class:`EpisodeBatch` each when ``record`` else :class:`EpisodeStats`.
+
+        ``lockstep``: play them side by side with batched inference (:meth:`run_lockstep`), the
+        same episodes as one after the other.
+        """
         if weights is not None:
             self.actors[actor].set_weights(weights)
+        groups = [list(seeds)] if lockstep else [[s] for s in seeds]
         out: list[Any] = []
-        for s in seeds:
-            batch = self.run_episode(int(s), explore or {}, record, actor)
-            out.append(batch if record else batch.stats)
+        for group in groups:
+            for batch in self.run_lockstep([int(s) for s in group], explore or {}, record, actor):
+                out.append(batch if record else batch.stats)
         return out
 
     def run_episode(self, seed: int, explore: dict[str, Any], record: bool = True,
                     actor: str = "policy") -> EpisodeBatch:
         """One episode with actor ``actor``; the trajectories (when ``record``) and its statistics."""
+        return self.run_lockstep([seed], explore, record, actor)[0]
+
+    def run_lockstep(self, seeds: list[int], explore: dict[str, Any], record: bool = True,
+                     actor: str = "policy") -> list[EpisodeBatch]:
+        """The episodes of ``seeds`` side by side, one actor call per decision step for all of them.
+
+        Every episode keeps its own engine and its own action generator (seeded from its seed), so
+        each episode is the one :meth:`run_episode` plays alone; the actor sees the aircraft of
+        all episodes in one batch (:func:`act_batched`), which pays its per-call cost once.
+        """
         act = self.actors[actor]
-        core = self._core_for(act)
-        rng = np.random.default_rng(np.random.SeedSequence([seed, 0x5EED]))
-        t0 = time.perf_counter()
-        result = core.reset(seed)
-        rec = TrajectoryRecorder() if record else None
-        transitions = 0
-        reward_total = 0.0
-        pending: dict[str, tuple[int, int, float]] = {}  # agent -> (row, action, logp) of its last decision
-        while True:
-            if not result.done:
-                out = act.act(result, core, rng, explore)
-            elif rec is not None and len(result.agents):
-                # The episode is over, but agents cut by the time limit bootstrap from the critic's
-                # value of their last observation (GAE, docs/algorithms.md); arrived agents' values
-                # are stored too but never used (terminated: bootstrap 0). Only the values are kept.
-                out = ActOutput(None, values=act.act(result, core, rng, explore).values)
-            else:
-                out = ActOutput(None)
-            rows = rec.add(result, out, pending) if rec is not None else np.zeros(len(result.agents), np.int64)
-            transitions += len(pending)
-            reward_total += float(np.sum(result.rewards))
-            if result.done:
-                break
-            alive = set(result.alive)
-            acting = [k for k, a in enumerate(result.agents) if a in alive]
-            if out.actions is None:
-                actions: dict[str, int] = {}
-                act_rows = np.ones(len(acting), np.int64)  # recorded as hold (1): no advisory given
-            else:
-                act_rows = np.asarray(out.actions, np.int64)[acting]
-                given = np.ones(len(acting), bool) if out.advise is None else np.asarray(out.advise, bool)[acting]
-                actions = {result.agents[k]: int(a) for k, a, g in zip(acting, act_rows, given) if g}
-            lp = np.zeros(len(acting), np.float32) if out.logp is None else np.asarray(out.logp)[acting]
-            pending = {result.agents[k]: (int(rows[k]), int(act_rows[i]), float(lp[i]))
-                       for i, k in enumerate(acting)}
-            result = core.step(actions)
-        metrics = core.metrics(tuple(dict.fromkeys(("safety",) + tuple(self.env.metrics))))
+        runs = [_EpisodeRun(self, core, int(s), record)
+                for core, s in zip(self._cores_for(act, len(seeds)), seeds)]
+        active = list(runs)
+        while active:
+            asking = [r for r in active if r.wants_actor()]
+            outs = act_batched(act, [r.result for r in asking], [r.core for r in asking], [r.rng for r in asking],
+                               explore) if asking else []
+            answer = dict(zip(map(id, asking), outs))
+            for r in active:
+                r.advance(answer.get(id(r), ActOutput(None)))
+            active = [r for r in active if not r.finished]
+        return [r.batch() for r in runs]
+
+    def _cores_for(self, actor: Actor, k: int) -> list[EpisodeCore]:
+        """``k`` episode engines for ``actor``'s observation format (the first is :meth:`_core_for`'s)."""
+        first = self._core_for(actor)
+        if k == 1:
+            return [first]
+        if self.env.backend == "bluesky":
+            raise ValueError("BlueSky runs one episode per process: lockstep episodes need backend=local")
+        extra = self._extra_cores.setdefault(actor.obs_format, [])
+        while len(extra) < k - 1:
+            extra.append(self.env.make(actor.obs_format))
+        return [first, *extra[: k - 1]]
+
+
+def act_batched(actor: Actor, results: list[StepResult], cores: list[EpisodeCore], rngs: list[np.random.Generator],
+                explore: dict[str, Any]) -> list[ActOutput]:
+    """One :class:`ActOutput` per episode; one forward pass for all when the actor has ``act_many``."""
+    many = getattr(actor, "act_many", None)
+    if many is not None and len(results) > 1:
+        return list(many(results, cores, rngs, explore))
+    return [actor.act(r, c, g, explore) for r, c, g in zip(results, cores, rngs)]
+
+
+def time_limit_counts(core: EpisodeCore, result: StepResult) -> dict[str, int | None]:
+    """Aircraft still flying when the time limit cut the episode, and of them those hovering.
+
+    ``parked_at_time_limit`` counts the aircraft cut by the limit with a ground speed under the
+    simulation's holding threshold (``hold_speed_mps``, 5 kt): a policy that parks aircraft in
+    the air rather than resolve a conflict leaves them there (the corridor use case's "hold"
+    keeps 0 kt for free). None where the engine does not expose aamsim's traffic (BlueSky).
+    """
+    cut = [a for a, t in zip(result.agents, result.truncated) if t]
+    sim = getattr(core, "sim", None)
+    view = getattr(sim, "view", None)
+    if sim is None or view is None or not hasattr(sim, "settings"):
+        return {"airborne_at_time_limit": len(cut), "parked_at_time_limit": None}
+    threshold = float(sim.settings.hold_speed_mps)
+    parked = sum(1 for a in cut if abs(float(view.gs[sim.traffic.index(a)])) < threshold)
+    return {"airborne_at_time_limit": len(cut), "parked_at_time_limit": parked}
+
+
+class _EpisodeRun:
+    """One episode being played: its engine, generator, recorder and counters."""
+
+    def __init__(self, worker: RolloutWorker, core: EpisodeCore, seed: int, record: bool):
+        self.worker, self.core, self.seed = worker, core, seed
+        self.rng = np.random.default_rng(np.random.SeedSequence([seed, 0x5EED]))
+        self.t0 = time.perf_counter()
+        self.result = core.reset(seed)
+        self.rec = TrajectoryRecorder() if record else None
+        self.transitions = 0
+        self.reward_total = 0.0
+        self.pending: dict[str, tuple[int, int, float]] = {}  # agent -> (row, action, logp) of its last decision
+        self.finished = False
+        self._batch: EpisodeBatch | None = None
+
+    def wants_actor(self) -> bool:
+        # At the end, agents cut by the time limit bootstrap from the critic's value of their last
+        # observation (GAE, docs/algorithms.md): the actor runs once more, for the values only
+        # (arrived agents' values are stored too but never used: terminated, bootstrap 0).
+        return not self.result.done or (self.rec is not None and len(self.result.agents) > 0)
+
+    def advance(self, out: ActOutput) -> None:
+        """Record the step's rows with the actor's answer, then step the engine (or finish)."""
+        result = self.result
+        if result.done:
+            out = ActOutput(None, values=out.values)
+        rows = self.rec.add(result, out, self.pending) if self.rec is not None \
+            else np.zeros(len(result.agents), np.int64)
+        self.transitions += len(self.pending)
+        self.reward_total += float(np.sum(result.rewards))
+        if result.done:
+            self._finish()
+            return
+        alive = set(result.alive)
+        acting = [k for k, a in enumerate(result.agents) if a in alive]
+        if out.actions is None:
+            actions: dict[str, int] = {}
+            act_rows = np.ones(len(acting), np.int64)  # recorded as hold (1): no advisory given
+        else:
+            act_rows = np.asarray(out.actions, np.int64)[acting]
+            given = np.ones(len(acting), bool) if out.advise is None else np.asarray(out.advise, bool)[acting]
+            actions = {result.agents[k]: int(a) for k, a, g in zip(acting, act_rows, given) if g}
+        lp = np.zeros(len(acting), np.float32) if out.logp is None else np.asarray(out.logp)[acting]
+        self.pending = {result.agents[k]: (int(rows[k]), int(act_rows[i]), float(lp[i]))
+                        for i, k in enumerate(acting)}
+        self.result = self.core.step(actions)
+
+    def _finish(self) -> None:
+        w, core, result = self.worker, self.core, self.result
+        metrics = core.metrics(tuple(dict.fromkeys(("safety",) + tuple(w.env.metrics))))
+        if "operational" in metrics:
+            metrics["operational"].update(time_limit_counts(core, result))
         safety = metrics.get("safety", {})
         aircraft = int(metrics.get("operational", {}).get("flights") or len(core.possible_agents))
         stats = EpisodeStats(
-            seed=seed, scenario=self.scenario_name, scenario_sha256=self.scenario_sha256, aircraft=aircraft,
-            transitions=transitions, reward_total=reward_total,
-            reward_per_aircraft=reward_total / max(aircraft, 1),
+            seed=self.seed, scenario=w.scenario_name, scenario_sha256=w.scenario_sha256, aircraft=aircraft,
+            transitions=self.transitions, reward_total=self.reward_total,
+            reward_per_aircraft=self.reward_total / max(aircraft, 1),
             nmac_events=int(safety.get("nmac_events", 0)), lowc_events=int(safety.get("lowc_events", 0)),
-            sim_s=float(result.simt), wall_s=time.perf_counter() - t0, metrics=metrics)
-        return rec.batch(stats) if rec is not None else EpisodeBatch.empty(stats)
+            sim_s=float(result.simt), wall_s=time.perf_counter() - self.t0, metrics=metrics)
+        self._batch = self.rec.batch(stats) if self.rec is not None else EpisodeBatch.empty(stats)
+        self.finished = True
+
+    def batch(self) -> EpisodeBatch:
+        assert self._batch is not None, "the episode is not finished"
+        return self._batch
 
 
 class TrajectoryRecorder:

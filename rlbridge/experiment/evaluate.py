@@ -227,6 +227,7 @@ def run_evaluation(cfg: DictConfig, out_dir: str | Path) -> dict[str, Any]:
             "safety": group_means(got, "safety"), "operational": group_means(got, "operational")}
     first = next(iter(results.values()))[0]
     evaluation = {"scenario": first.scenario, "scenario_sha256": first.scenario_sha256, "backend": env.backend,
+                  "usecase": {"name": env.usecase, "variant": str(env.params.get("variant", "paper"))},
                   "episodes": len(seeds),
                   "seeds": seeds, "alt_noise_ft": float(cfg.alt_noise_ft),
                   "alt_noise_lanes_ft": [float(x) for x in cfg.alt_noise_lanes_ft], "greedy": greedy,

@@ -7,6 +7,11 @@ seed-paired episodes, as in the paper's tables):
 
 * ``risk_ratio.csv/.md`` — NMAC events / unequipped NMAC events on the same seed;
 * ``lowc_ratio.csv/.md`` — the same with LoWC events;
+
+  beside each ratio, what it cost, per episode (:data:`COST_COLUMNS`): flights completed,
+  airborne holding (seconds, share of flights), aircraft parked (hovering) at the time limit,
+  mean delay, advisories per flight hour; a policy that leaves aircraft hovering at the time
+  limit has "PARKS AIRCRAFT" in its row's name;
 * ``operational.csv/.md`` — safety counts and operational metrics per algorithm and scenario;
 * ``planning.csv/.md`` — for planner runs (``strategic_planning``, ``hierarchical``): throughput,
   mean and 95th-percentile departure delay, flights planned, unplaced requests, safety;
@@ -22,7 +27,9 @@ Figures (PNG, from the training runs' ``learning_curve.csv``):
 * ``nmac_curve.png`` — NMAC events per aircraft per iteration, 95 % band;
 * ``states_per_hour.png`` — aircraft-states generated per wall-clock hour (and cumulative).
 
-``report.md`` gathers everything. Several evaluation runs of the same algorithm and
+``report.md`` gathers everything. Evaluations of different use-case configurations (the
+paper's reward, variant ``v1``, ...) get separate tables (``risk_ratio.md``,
+``risk_ratio_v1.md``, ...): their rows are never mixed. Several evaluation runs of the same algorithm and
 scenario (e.g. training seeds) are pooled; baselines evaluated twice on a seed count once.
 """
 
@@ -47,6 +54,7 @@ OPERATIONAL_COLUMNS = (
     ("operational.alert_rate_per_flight_hour", "alerts / flight hour"),
     ("operational.airborne_holding_s", "airborne holding [s]"),
     ("operational.holding_flight_share", "holding flight share"),
+    ("operational.parked_at_time_limit", "parked at time limit"),
     ("operational.mean_flight_time_s", "mean flight time [s]"), ("operational.mean_delay_s", "mean delay [s]"),
     ("reward_per_aircraft", "reward / aircraft"))
 # The planner's metrics (strategic_planning, hierarchical): both levels of a hierarchical run in one table.
@@ -147,16 +155,78 @@ def write_table(path: Path, header: list[str], rows: list[list[str]], title: str
     path.with_suffix(".md").write_text("\n".join(lines) + "\n")
 
 
-def ratio_tables(cells: dict[str, dict[str, Cell]], labels: list[str], scenarios: list[str], out: Path) -> list[Path]:
+# What every ratio is bought with, beside it in the ratio tables (key, title, digits).
+COST_COLUMNS = (
+    ("operational.flights_completed", "flights completed", 1),
+    ("operational.airborne_holding_s", "airborne holding [s]", 0),
+    ("operational.holding_flight_share", "flights holding [%]", 1),
+    ("operational.parked_at_time_limit", "parked at time limit", 2),
+    ("operational.mean_delay_s", "mean delay [s]", 1),
+    ("operational.alert_rate_per_flight_hour", "advisories / flight hour", 1),
+)
+
+
+def parked_per_episode(c: Cell) -> tuple[float, str] | None:
+    """Mean aircraft left hovering at the time limit per episode, and what was counted.
+
+    Episodes recorded before ``parked_at_time_limit`` existed count the flights that had not
+    arrived when the time limit cut them (``flights - flights_completed``: airborne, not
+    necessarily hovering).
+    """
+    parked = [v for v in c.values.get("operational.parked_at_time_limit", []) if not math.isnan(v)]
+    if parked:
+        return float(np.mean(parked)), "parked"
+    flights = c.values.get("operational.flights", [])
+    done = c.values.get("operational.flights_completed", [])
+    if flights and len(flights) == len(done):
+        return float(np.mean([f - d for f, d in zip(flights, done)])), "airborne"
+    return None
+
+
+def cost_cells(c: Cell | None) -> list[str]:
+    """The cost columns of one (algorithm, scenario) cell, means over its episodes."""
+    out = []
+    for key, _, digits in COST_COLUMNS:
+        if c is None:
+            out.append("n/a")
+            continue
+        if key == "operational.parked_at_time_limit":
+            p = parked_per_episode(c)
+            out.append("n/a" if p is None else f"{p[0]:.{digits}f}" + (" (airborne)" if p[1] == "airborne" else ""))
+            continue
+        ms = mean_std(c.values.get(key, []))
+        scale = 100.0 if key.endswith("share") else 1.0
+        out.append("n/a" if ms is None else f"{ms[0] * scale:.{digits}f}")
+    return out
+
+
+def parking_note(cells: dict[str, Cell], scenarios: list[str]) -> str:
+    """' — PARKS AIRCRAFT: ...' when the policy leaves aircraft hovering at the time limit somewhere."""
+    notes = []
+    for s in scenarios:
+        c = cells.get(s)
+        p = parked_per_episode(c) if c is not None else None
+        if p is not None and p[0] > 0:
+            what = "hovering" if p[1] == "parked" else "not arrived"
+            notes.append(f"{p[0]:.2f} per episode {what} at the time limit on {s}")
+    return " — PARKS AIRCRAFT: " + "; ".join(notes) if notes else ""
+
+
+def ratio_tables(cells: dict[str, dict[str, Cell]], labels: list[str], scenarios: list[str], out: Path,
+                 suffix: str = "", config: str = "") -> list[Path]:
+    """Risk and LoWC ratio tables; each scenario's ratio sits beside what it cost (:data:`COST_COLUMNS`)."""
     written = []
     for name, attr, title in (("risk_ratio", "risk", "Risk ratio (NMAC / unequipped NMAC), mean ± std over seeds"),
                               ("lowc_ratio", "lowc", "LoWC ratio (LoWC / unequipped LoWC), mean ± std over seeds")):
-        header = ["Algorithm"] + [f"{name.replace('_', ' ').title().replace('Lowc', 'LoWC')} - {s}" for s in scenarios]
+        ratio_title = name.replace("_", " ").title().replace("Lowc", "LoWC")
+        header = ["Algorithm"]
+        for s in scenarios:
+            header += [f"{ratio_title} - {s}"] + [f"{t} - {s}" for _, t, _ in COST_COLUMNS]
         rows = []
         for label in labels:
             if label == "Unequipped":
                 continue
-            row = [label]
+            row = [label + parking_note(cells[label], scenarios)]
             for s in scenarios:
                 c = cells[label].get(s)
                 vals = list(getattr(c, attr).values()) if c else []
@@ -164,10 +234,12 @@ def ratio_tables(cells: dict[str, dict[str, Cell]], labels: list[str], scenarios
                 txt = fmt_pm(mean_std([v for v in vals if v is not None]))
                 if c and vals:
                     txt += f" (n={len(vals) - n_undef}" + (f", {n_undef} undefined)" if n_undef else ")")
-                row.append(txt)
+                row += [txt] + cost_cells(c)
             rows.append(row)
-        write_table(out / name, header, rows, title)
-        written += [out / f"{name}.csv", out / f"{name}.md"]
+        full_title = title + (f" — use case {config}" if config else "") + \
+            "; beside each ratio, per episode: what it cost"
+        write_table(out / f"{name}{suffix}", header, rows, full_title)
+        written += [out / f"{name}{suffix}.csv", out / f"{name}{suffix}.md"]
     return written
 
 
@@ -186,31 +258,34 @@ def _per_episode_rows(cells: dict[str, dict[str, Cell]], labels: list[str], scen
     return rows
 
 
-def operational_table(cells: dict[str, dict[str, Cell]], labels: list[str], scenarios: list[str], out: Path) -> None:
+def operational_table(cells: dict[str, dict[str, Cell]], labels: list[str], scenarios: list[str], out: Path,
+                      suffix: str = "") -> None:
     header = ["Algorithm", "Scenario", "episodes"] + [title for _, title in OPERATIONAL_COLUMNS]
     columns = [(key, 4 if ("per_flight" in key or "share" in key or "reward" in key) else 2)
                for key, _ in OPERATIONAL_COLUMNS]
-    write_table(out / "operational", header, _per_episode_rows(cells, labels, scenarios, columns),
+    write_table(out / f"operational{suffix}", header, _per_episode_rows(cells, labels, scenarios, columns),
                 "Safety and operational metrics, mean ± std over episodes")
 
 
-def planning_table(cells: dict[str, dict[str, Cell]], labels: list[str], scenarios: list[str], out: Path) -> bool:
+def planning_table(cells: dict[str, dict[str, Cell]], labels: list[str], scenarios: list[str], out: Path,
+                   suffix: str = "") -> bool:
     """Planner and safety metrics per algorithm and scenario; False (nothing written) without planner runs."""
     if not any(k.startswith("planning.") for row in cells.values() for c in row.values() for k in c.values):
         return False
     header = ["Algorithm", "Scenario", "episodes"] + [title for _, title, _ in PLANNING_COLUMNS]
     rows = _per_episode_rows(cells, labels, scenarios, [(key, digits) for key, _, digits in PLANNING_COLUMNS])
-    write_table(out / "planning", header, rows, "Strategic planning: throughput, delay, unplaced requests and "
+    write_table(out / f"planning{suffix}", header, rows, "Strategic planning: throughput, delay, unplaced requests and "
                 "safety, mean ± std over episodes")
     return True
 
 
-def encounter_table(cells: dict[str, dict[str, Cell]], labels: list[str], scenarios: list[str], out: Path) -> None:
+def encounter_table(cells: dict[str, dict[str, Cell]], labels: list[str], scenarios: list[str], out: Path,
+                    suffix: str = "") -> None:
     from aamsim.metrics.standard import ENCOUNTERS
 
     header = ["Algorithm", "Scenario", "episodes", "NMAC / episode"] + list(ENCOUNTERS)
     columns = [("nmac_events", 2)] + [(f"safety.nmac_{kind.replace('-', '_')}", 2) for kind in ENCOUNTERS]
-    write_table(out / "nmac_encounters", header, _per_episode_rows(cells, labels, scenarios, columns),
+    write_table(out / f"nmac_encounters{suffix}", header, _per_episode_rows(cells, labels, scenarios, columns),
                 "NMAC events per episode by encounter geometry at the closest point, mean ± std over episodes")
 
 
@@ -240,7 +315,10 @@ def load_train_run(d: Path) -> TrainRun:
     summary = json.loads((d / "training_summary.json").read_text()) if (d / "training_summary.json").exists() else None
     baseline = json.loads((d / "baseline.json").read_text()) if (d / "baseline.json").exists() else None
     label, workers = _from_config(d)
-    return TrainRun(d, (summary or {}).get("label") or label, curve, split("episode_rewards"),
+    # The configuration's label (it names a use-case variant): runs of two rewards are never one curve.
+    if not (d / "resolved_config.yaml").exists():
+        label = (summary or {}).get("label") or label
+    return TrainRun(d, label, curve, split("episode_rewards"),
                     split("episode_nmac_per_aircraft"), baseline, summary, workers)
 
 
@@ -251,7 +329,9 @@ def _from_config(d: Path) -> tuple[str, int]:
         from omegaconf import OmegaConf
 
         c: Any = OmegaConf.load(cfg)
-        return str(c.algorithm.get("label", c.algorithm.name)), int(c.get("workers", 1))
+        variant = str(c.get("usecase", {}).get("params", {}).get("variant", "paper"))
+        label = str(c.algorithm.get("label", c.algorithm.name)) + ("" if variant == "paper" else f" [{variant}]")
+        return label, int(c.get("workers", 1))
     return d.name, 1
 
 
@@ -407,25 +487,53 @@ def training_table(train: list[TrainRun], out: Path) -> None:
     write_table(out / "training", header, rows, "Training runs and wall-clock metrics")
 
 
+def usecase_config(ev: dict[str, Any]) -> tuple[str, str]:
+    """(use case, variant) of an evaluation; evaluations written before variants existed are the paper's."""
+    uc = ev.get("usecase") or {}
+    return str(uc.get("name", "corridor_sa")), str(uc.get("variant", "paper"))
+
+
+def group_by_config(eval_dirs: list[Path]) -> dict[tuple[str, str], list[Path]]:
+    """Evaluation directories per use-case configuration, the paper's first: their rows never mix."""
+    groups: dict[tuple[str, str], list[Path]] = defaultdict(list)
+    for d in eval_dirs:
+        groups[usecase_config(json.loads((d / "evaluation.json").read_text()))].append(d)
+    return dict(sorted(groups.items(), key=lambda kv: (kv[0][1] != "paper", kv[0])))
+
+
+def config_suffix(config: tuple[str, str]) -> str:
+    """'' for the paper's configuration, ``_<variant>`` for another (file names)."""
+    return "" if config[1] == "paper" else f"_{config[1]}"
+
+
+def config_title(config: tuple[str, str]) -> str:
+    return f"{config[0]} (the paper's reward)" if config[1] == "paper" else f"{config[0]} variant {config[1]}"
+
+
 def make_report(eval_dirs: list[Path], train_dirs: list[Path], out: Path, window: int = 1) -> list[Path]:
     out.mkdir(parents=True, exist_ok=True)
     parts: list[str] = ["# AAM-Gym report", ""]
     written: list[Path] = []
-    if eval_dirs:
-        cells, labels, scenarios = load_evaluations(eval_dirs)
-        written += ratio_tables(cells, labels, scenarios, out)
-        operational_table(cells, labels, scenarios, out)
-        encounter_table(cells, labels, scenarios, out)
-        written += [out / "operational.csv", out / "operational.md", out / "nmac_encounters.csv",
-                    out / "nmac_encounters.md"]
+    groups = group_by_config(eval_dirs)
+    for config, dirs in groups.items():
+        # One set of tables per use-case configuration: a ratio bought under one reward is not
+        # comparable with one bought under another, and a label (an algorithm) appears in both.
+        sfx = config_suffix(config)
+        cells, labels, scenarios = load_evaluations(dirs)
+        written += ratio_tables(cells, labels, scenarios, out, sfx, config_title(config))
+        operational_table(cells, labels, scenarios, out, sfx)
+        encounter_table(cells, labels, scenarios, out, sfx)
+        written += [out / f"{n}{sfx}.{e}" for n in ("operational", "nmac_encounters") for e in ("csv", "md")]
         names = ["risk_ratio", "lowc_ratio", "operational", "nmac_encounters"]
-        if planning_table(cells, labels, scenarios, out):
-            written += [out / "planning.csv", out / "planning.md"]
+        if planning_table(cells, labels, scenarios, out, sfx):
+            written += [out / f"planning{sfx}.csv", out / f"planning{sfx}.md"]
             names.insert(0, "planning")
+        if len(groups) > 1:
+            parts += [f"## Use case {config_title(config)}", ""]
         for name in names:
-            parts += [(out / f"{name}.md").read_text(), ""]
+            parts += [(out / f"{name}{sfx}.md").read_text(), ""]
         # Run names only: a report is meant to be committed, the machine's paths are not.
-        parts += ["Evaluation runs: " + ", ".join(d.resolve().name for d in eval_dirs), ""]
+        parts += ["Evaluation runs: " + ", ".join(d.resolve().name for d in dirs), ""]
     if train_dirs:
         runs = [load_train_run(d) for d in train_dirs]
         training_table(runs, out)

@@ -21,6 +21,7 @@ from __future__ import annotations
 import csv
 import json
 import logging
+import os
 import shutil
 import time
 from collections import OrderedDict
@@ -40,6 +41,7 @@ from rlbridge.experiment.workers import make_pool
 log = logging.getLogger("aamgym.train")
 
 CHECKPOINT_FORMAT = 1
+TRAIN_MODES = ("serial", "overlap")
 LEARNER_STATS = ("policy_loss", "value_loss", "entropy", "approx_kl", "clip_fraction", "explained_variance",
                  "td_loss", "epsilon", "gradient_steps")
 CURVE_COLUMNS = ("iteration", "wall_s", "sim_s", "episodes", "reward_mean", "reward_std", "episode_rewards",
@@ -59,6 +61,22 @@ class TrainState:
     rewards: list[float] = field(default_factory=list)  # reward_mean per iteration
     best: float = -float("inf")  # best rolling mean so far
     best_iteration: int = 0
+
+
+def learner_threads(setting: Any, workers: int) -> int:
+    """PyTorch threads of the learner: a number, or ``auto``: the CPUs the Ray workers leave free.
+
+    Each worker holds one CPU (its own PyTorch runs one thread); an in-process worker shares
+    the learner's process, where one thread is fastest for its small inference batches.
+    """
+    if str(setting) != "auto":
+        n = int(setting)
+        if n < 1:
+            raise ValueError(f"train.torch_threads must be >= 1 or auto, not {setting!r}")
+        return n
+    if workers <= 0:
+        return 1
+    return max(1, (os.cpu_count() or 1) - workers)
 
 
 def resolve_device(name: str) -> str:
@@ -207,7 +225,7 @@ def run_training(cfg: DictConfig, run_dir: str | Path) -> dict[str, Any]:
     run_dir.mkdir(parents=True, exist_ok=True)
     (run_dir / "resolved_config.yaml").write_text(OmegaConf.to_yaml(cfg, resolve=True))
     tc = cfg.train
-    torch.set_num_threads(int(tc.torch_threads))
+    torch.set_num_threads(learner_threads(tc.torch_threads, int(cfg.workers)))
     device = resolve_device(str(cfg.device))
     algo = cfg.algorithm
     env = env_spec_from(cfg)
@@ -215,6 +233,11 @@ def run_training(cfg: DictConfig, run_dir: str | Path) -> dict[str, Any]:
     params = dict(OmegaConf.to_container(algo.params, resolve=True))  # type: ignore[arg-type]
     learner = make_learner(str(algo.kind), params, dims, device, int(cfg.seed))
     state = TrainState()
+    mode = str(tc.get("mode", "serial"))
+    if mode not in TRAIN_MODES:
+        raise ValueError(f"train.mode={mode!r}: one of {', '.join(TRAIN_MODES)}")
+    overlap = mode == "overlap"
+    resumed_behaviour: dict[str, np.ndarray] | None = None
     meta: dict[str, Any] = {
         "algorithm": {"name": str(algo.name), "kind": str(algo.kind), "label": str(algo.get("label", algo.name)),
                       "params": params},
@@ -229,6 +252,8 @@ def run_training(cfg: DictConfig, run_dir: str | Path) -> dict[str, Any]:
         learner.load_state_dict(ckpt["learner"])
         torch.set_rng_state(ckpt["torch_rng"])
         state = TrainState(**ckpt["state"])
+        if overlap and "behaviour_weights" in ckpt:  # the weights the next iteration was to be played with
+            resumed_behaviour = {k: v.numpy() for k, v in ckpt["behaviour_weights"].items()}
         src_run = Path(ckpt["run_dir"])
         if src_run.resolve() != run_dir.resolve():
             copy_curve(src_run / "learning_curve.csv", run_dir / "learning_curve.csv", state.iteration)
@@ -244,13 +269,14 @@ def run_training(cfg: DictConfig, run_dir: str | Path) -> dict[str, Any]:
     epw = int(tc.episodes_per_worker)
     max_iter = tc.iterations
     hours = tc.hours
-    if max_iter is None and hours is None:
+    budget = tc.get("aircraft_states")  # stop once this many aircraft-states were collected (equal budgets)
+    if max_iter is None and hours is None and budget is None:
         max_iter = 100
     curve = CurveWriter(run_dir / "learning_curve.csv")
     actors = {"policy": learner.actor_spec(str(algo.kind)), "unequipped": {"kind": "unequipped"}}
     log.info("training %s on %s with %s, device %s; output in %s", algo.name, Path(env.scenario).name,
              f"{n_workers} Ray workers" if n_workers else "an in-process worker", device, run_dir)
-    pool = make_pool(n_workers, env, actors, cfg.ray, int(tc.torch_threads))
+    pool = make_pool(n_workers, env, actors, cfg.ray, 1)  # one PyTorch thread per worker (one CPU each)
     t_start = time.perf_counter()
     wall0 = state.wall_s
     reason = "iterations"
@@ -265,22 +291,42 @@ def run_training(cfg: DictConfig, run_dir: str | Path) -> dict[str, Any]:
             log.info("unequipped baseline: reward/aircraft %.4f, NMAC/aircraft %.4f over %d episodes",
                      base_summary["reward_mean"], base_summary["nmac_per_aircraft"], len(base))
         t_train = time.perf_counter()  # throughput clock: iterations only (not Ray start-up nor baseline)
-        while True:
-            if max_iter is not None and state.iteration >= int(max_iter):
-                reason = "iterations"
-                break
+
+        def may_start(done_iterations: int, collected: int) -> str | None:
+            """None if iteration ``done_iterations + 1`` may start, else why the run stops."""
+            if max_iter is not None and done_iterations >= int(max_iter):
+                return "iterations"
+            if budget is not None and collected >= int(budget):
+                return "aircraft_states"
             if hours is not None and time.perf_counter() - t_start >= float(hours) * 3600.0:
-                reason = "hours"
-                break
-            it = state.iteration + 1
-            t0 = time.perf_counter()
+                return "hours"
+            return None
+
+        def submit(it: int, weights: Any, collected: int) -> Any:
             lists = [[episode_seed(int(cfg.seed), it, w, e) for e in range(epw)] for w in range(slots)]
-            results = pool.collect(lists, "policy", learner.weights(), learner.explore(state.transitions))
+            return pool.submit(lists, "policy", weights, learner.explore(collected), lockstep=overlap)
+
+        # overlap: the weights the in-flight iteration plays with (one update behind the learner's).
+        behaviour = resumed_behaviour if resumed_behaviour is not None else learner.weights()
+        stop = may_start(state.iteration, state.transitions)
+        pending = None if stop else submit(state.iteration + 1, behaviour, state.transitions)
+        t0 = time.perf_counter()
+        while pending is not None:
+            it = state.iteration + 1
+            results = pool.wait(pending)
             batches: list[EpisodeBatch] = [b for part in results for b in part]
             t1 = time.perf_counter()
+            ep = summarize_episodes([b.stats for b in batches])
+            pending = None
+            if overlap:
+                # The workers play the next iteration with the weights before this update while the
+                # learner updates: the episodes of iteration k come from the policy of update k - 2.
+                behaviour = learner.weights()
+                stop = may_start(it, state.transitions + ep["aircraft_states"])
+                if not stop:
+                    pending = submit(it + 1, behaviour, state.transitions + ep["aircraft_states"])
             lstats = learner.update(batches)
             t2 = time.perf_counter()
-            ep = summarize_episodes([b.stats for b in batches])
             state.iteration = it
             state.transitions += ep["aircraft_states"]
             state.episodes += len(batches)
@@ -300,21 +346,30 @@ def run_training(cfg: DictConfig, run_dir: str | Path) -> dict[str, Any]:
                    "update_s": _fmt(t2 - t1)}
             row.update({k: _fmt(v) for k, v in lstats.items() if k in LEARNER_STATS})
             curve.write(row)
+            extra = {"behaviour_weights": behaviour} if overlap else {}
             window = int(tc.best_window)
             roll = float(rolling_mean(state.rewards, window)[-1])
             improved = len(state.rewards) >= window and roll > state.best
             if improved:
                 state.best, state.best_iteration = roll, it
-                save_checkpoint(ckpt_dir / "best.pt", learner, state, meta)
+                save_checkpoint(ckpt_dir / "best.pt", learner, state, {**meta, **extra})
             log.info("it %d | episodes %d | reward/ac %.4f | NMAC/ac %.4f | LoWC/ac %.4f | states %d | %.0f states/s"
                      " | rollout %.1fs update %.1fs | rolling(%d) %.4f%s", it, state.episodes, ep["reward_mean"],
                      ep["nmac_per_aircraft"], ep["lowc_per_aircraft"], ep["aircraft_states"],
                      ep["aircraft_states"] / max(t2 - t0, 1e-9), t1 - t0, t2 - t1, window, roll,
                      " *best*" if improved else "")
             if int(tc.checkpoint_every) > 0 and it % int(tc.checkpoint_every) == 0:
-                save_checkpoint(ckpt_dir / "last.pt", learner, state, meta)
+                save_checkpoint(ckpt_dir / "last.pt", learner, state, {**meta, **extra})
+            if not overlap:
+                stop = may_start(it, state.transitions)
+                if not stop:
+                    pending = submit(it + 1, learner.weights(), state.transitions)
+            t0 = t2 if overlap else time.perf_counter()
+        reason = stop or "iterations"
     finally:
         pool.shutdown()
+    if overlap:
+        meta["behaviour_weights"] = behaviour
     save_checkpoint(ckpt_dir / "last.pt", learner, state, meta)
     if not (ckpt_dir / "best.pt").exists():
         # Fewer iterations than the rolling window: the final weights stand in for the best.

@@ -29,11 +29,20 @@ class InProcessPool:
         self.size = 1
 
     def collect(self, seed_lists: list[list[int]], actor: str = "policy", weights: Any = None,
-                explore: dict[str, Any] | None = None, record: bool = True) -> list[list[Any]]:
+                explore: dict[str, Any] | None = None, record: bool = True,
+                lockstep: bool = False) -> list[list[Any]]:
         """Episodes for each list of seeds (one list per logical worker), in order."""
         if weights is not None:
             self.worker.set_weights(weights, actor)
-        return [self.worker.collect(seeds, actor, None, explore, record) for seeds in seed_lists]
+        return [self.worker.collect(seeds, actor, None, explore, record, lockstep) for seeds in seed_lists]
+
+    def submit(self, seed_lists: list[list[int]], actor: str = "policy", weights: Any = None,
+               explore: dict[str, Any] | None = None, record: bool = True, lockstep: bool = False) -> Any:
+        """:meth:`collect` started now, its result taken by :meth:`wait` (in process: played right away)."""
+        return self.collect(seed_lists, actor, weights, explore, record, lockstep)
+
+    def wait(self, handle: Any) -> list[list[Any]]:
+        return list(handle)
 
     def map_episodes(self, seeds: list[int], actor: str, weights: Any = None, explore: dict[str, Any] | None = None,
                      record: bool = False) -> Iterator[Any]:
@@ -79,13 +88,23 @@ class RayPool:
         self.size = size
 
     def collect(self, seed_lists: list[list[int]], actor: str = "policy", weights: Any = None,
-                explore: dict[str, Any] | None = None, record: bool = True) -> list[list[Any]]:
+                explore: dict[str, Any] | None = None, record: bool = True,
+                lockstep: bool = False) -> list[list[Any]]:
         """Worker k runs ``seed_lists[k]`` (k < size), all in parallel; results in worker order."""
+        return self.wait(self.submit(seed_lists, actor, weights, explore, record, lockstep))
+
+    def submit(self, seed_lists: list[list[int]], actor: str = "policy", weights: Any = None,
+               explore: dict[str, Any] | None = None, record: bool = True, lockstep: bool = False) -> Any:
+        """Start :meth:`collect` on the workers and return at once (the workers play while the caller
+        computes); :meth:`wait` takes the episodes."""
         if len(seed_lists) > self.size:
             raise ValueError(f"{len(seed_lists)} seed lists for {self.size} workers")
         ref = self._ray.put(weights) if weights is not None else None
-        futures = [a.collect.remote(seeds, actor, ref, explore, record) for a, seeds in zip(self.actors, seed_lists)]
-        return list(self._ray.get(futures))
+        return [a.collect.remote(seeds, actor, ref, explore, record, lockstep)
+                for a, seeds in zip(self.actors, seed_lists)]
+
+    def wait(self, handle: Any) -> list[list[Any]]:
+        return list(self._ray.get(handle))
 
     def map_episodes(self, seeds: list[int], actor: str, weights: Any = None, explore: dict[str, Any] | None = None,
                      record: bool = False) -> Iterator[Any]:

@@ -11,7 +11,9 @@ bounded by the aircraft's envelope (an EC135 caps at 139.9 kt TAS). The reward
 is R = R(s, h) + R(a) - Omega with, for the distance d to the closest intruder,
 R(s, h) = -1 if d < NMAC, -alpha + delta d if NMAC <= d < d_max, else 0, and
 R(a) = -psi for any advisory but hold. All defaults are the paper's table
-(docs/usecase-corridor.md lists them with the feature scaling).
+(docs/usecase-corridor.md lists them with the feature scaling). ``variant="v1"``
+(off by default) adds -hover_cost for every decision an aircraft spends hovering,
+which the paper's reward leaves free.
 """
 
 from __future__ import annotations
@@ -33,6 +35,7 @@ if TYPE_CHECKING:
     from aamsim import Simulation
 
 DECELERATE, HOLD, ACCELERATE = 0, 1, 2
+VARIANTS = ("paper", "v1")
 ACTION_NAMES = ("decelerate", "hold", "accelerate")
 
 
@@ -61,6 +64,12 @@ class CorridorParams:
     # it re-drawn (the noise replaces the scenario's instead of adding to it); others get it added.
     alt_noise_lanes_ft: tuple[float, ...] = ()
     reward_interval_nmac: bool = True  # an NMAC during the interval counts even if over by the decision
+    # The configuration: "paper" (the paper's reward, in which hovering is free) or "v1" (a hover
+    # costs hover_cost per decision while the ground speed is under hover_speed_kts; docs/usecase-corridor.md,
+    # "Variant v1"). Reports keep the two apart.
+    variant: str = "paper"
+    hover_cost: float = 0.0
+    hover_speed_kts: float = 5.0
     # Extensions beyond the paper's state (off by default): horizontal vectors in the ownship's
     # track frame instead of east/north, and the intruders' velocity relative to the ownship.
     frame: str = "paper"  # "paper" (east, north) or "track" (along track, right of track)
@@ -77,6 +86,13 @@ class CorridorParams:
         object.__setattr__(self, "alt_noise_lanes_ft", tuple(float(x) for x in self.alt_noise_lanes_ft))
         if self.obs_format not in ("flat", "dict"):
             raise ValueError(f"obs_format must be 'flat' or 'dict', not {self.obs_format!r}")
+        if self.variant not in VARIANTS:
+            raise ValueError(f"variant must be one of {', '.join(map(repr, VARIANTS))}, not {self.variant!r}")
+        # The name says which reward it is: the paper's has no hover cost, v1 has one.
+        if self.variant == "paper" and self.hover_cost != 0.0:
+            raise ValueError("hover_cost is not part of the paper's reward: set variant='v1' to use it")
+        if self.variant == "v1" and not self.hover_cost > 0.0:
+            raise ValueError("variant 'v1' needs a positive hover_cost")
         if self.frame not in ("paper", "track"):
             raise ValueError(f"frame must be 'paper' or 'track', not {self.frame!r}")
         for name in ("nmac_m", "lowc_m", "d_max_m", "decision_interval_s", "intruder_range_m"):
@@ -262,7 +278,15 @@ class CorridorSA(UseCaseBase):
                     d[k] = min(d[k], interval_nmac_min_m[a])
         r_sh = np.where(d < p.nmac_m, -p.nmac_penalty, np.where(d < p.d_max_m, -p.alpha + p.delta * d, 0.0))
         r_a = np.array([0.0 if actions.get(a, HOLD) == HOLD else -p.psi for a in agents])
-        return r_sh + r_a - p.omega
+        r_hover = -p.hover_cost * self.hovering(sim, agents) if p.hover_cost > 0 else 0.0
+        return r_sh + r_a + r_hover - p.omega
+
+    def hovering(self, sim: Simulation, agents: list[str]) -> np.ndarray:
+        """1.0 for agents whose ground speed is under ``hover_speed_kts`` now (airborne and parked), else 0."""
+        if not agents:
+            return np.zeros(0)
+        slots = np.array([sim.traffic.index(a) for a in agents], dtype=np.int64)
+        return (np.abs(sim.view.gs[slots]) < self.params.hover_speed_kts * KTS).astype(float)
 
     # ----------------------------------------------------------------- action
     def speed_action_targets(self, sim: Simulation, slots: np.ndarray) -> np.ndarray:

@@ -1,0 +1,230 @@
+"""``aamgym study``: the paper's whole study (Tables II/III, learning curves) in one command.
+
+    aamgym study                               # the full study (days on a small machine: see --plan)
+    aamgym study --smoke                       # the same pipeline, tiny: minutes
+    aamgym study --plan                        # print what would run and the time it would take
+    scripts/reproduce_paper.sh [same options]  # the same command
+
+For every use-case configuration (the paper's ``corridor_sa`` and the corrected
+``corridor_sa_v1``; their tables are kept apart), every contender (D2MAV-A No Shared Layers,
+D2MAV-A Shared Layers, DDQN; the paper's hyper-parameters, ``rlbridge/conf/algorithm``) and
+every seed, it trains on the training scenario until the same budget of aircraft-states
+(``--budget``, 15 M by default), keeps the best weights by the 25-iteration rolling mean
+(``train.best_window``, the paper's), and evaluates them for 100 seeds on each evaluation
+scenario, greedy and with sampled actions, against the unequipped aircraft and the baselines
+(``--baselines``: ``mvp_speed`` and any other registered baseline, e.g. ``daa`` once it
+exists). Then ``aamgym report`` writes the tables and the learning curves (95 % bands across
+seeds) to ``--out`` (``docs/results/study``), with the resolved configuration of every run,
+the paper's published numbers (labelled as the paper's) and the study's plan.
+
+Finished runs are kept under ``--work`` and skipped when the study is started again, so an
+interrupted study resumes where it stopped. Nothing under ``--out`` names a path of the
+machine (paths are written relative to ``--work``).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import logging
+import time
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+from typing import Any
+
+log = logging.getLogger("aamgym.study")
+
+CONTENDERS = ("d2mava_a", "d2mava_a_shared", "ddqn")
+USECASES = ("corridor_sa", "corridor_sa_v1")
+# The paper's Tables II and III (risk and LoWC ratios, mean ± std over 100 evaluation episodes;
+# 100 training hours with 40 workers). Quoted, never measured here.
+PAPER_TABLES = {
+    "risk_ratio": {"D2MAV-A No Shared Layers": ("0.0107 ± 0.0343", "0.4875 ± 0.0303"),
+                   "D2MAV-A Shared Layers": ("0.2443 ± 0.146", "0.5926 ± 0.0648"),
+                   "DDQN": ("0.4706 ± 0.0", "0.5694 ± 0.0")},
+    "lowc_ratio": {"D2MAV-A No Shared Layers": ("0.5009 ± 0.0083", "0.7159 ± 0.0112"),
+                   "D2MAV-A Shared Layers": ("0.6722 ± 0.0807", "0.7808 ± 0.0266"),
+                   "DDQN": ("0.6667 ± 0.0", "0.8654 ± 0.0")},
+}
+# Whole-run aircraft-states per second on the 2-core development machine with train.mode=overlap
+# and one worker (bench/bench_train.py, docs/algorithms.md "Learning throughput"): the plan's
+# time estimate. Pass --rates to use a machine's own figures.
+DEFAULT_RATES = {"d2mava_a": 2000.0, "d2mava_a_shared": 2800.0, "ddqn": 700.0}
+
+
+@dataclass
+class StudyPlan:
+    """What the study runs (every field is a command-line option)."""
+
+    contenders: list[str] = field(default_factory=lambda: list(CONTENDERS))
+    usecases: list[str] = field(default_factory=lambda: list(USECASES))
+    seeds: list[int] = field(default_factory=lambda: [0, 1])
+    budget: int = 15_000_000  # aircraft-states per training run
+    train_scenario: str = "nyc_train_100"
+    eval_scenarios: list[str] = field(default_factory=lambda: ["nyc_train_100", "nyc_eval_678"])
+    episodes: int = 100  # evaluation episodes per policy and scenario
+    baselines: list[str] = field(default_factory=lambda: ["mvp_speed"])
+    actions: list[str] = field(default_factory=lambda: ["greedy", "sampled"])
+    workers: int = 1
+    mode: str = "overlap"
+    best_window: int = 25
+    smooth: int = 25  # rolling mean of the report's curves [iterations]
+    overrides: list[str] = field(default_factory=list)  # more Hydra overrides for every training run
+    smoke: bool = False
+
+    def runs(self) -> list[tuple[str, str, int]]:
+        return [(uc, algo, seed) for uc in self.usecases for algo in self.contenders for seed in self.seeds]
+
+
+def smoke_plan(plan: StudyPlan) -> StudyPlan:
+    """The same pipeline, tiny: a few thousand aircraft-states per run, two evaluation episodes."""
+    plan.budget = min(plan.budget, 2_000)
+    plan.episodes = min(plan.episodes, 2)
+    plan.best_window = 2
+    plan.smooth = 1
+    plan.smoke = True
+    return plan
+
+
+def estimate_hours(plan: StudyPlan, rates: dict[str, float]) -> dict[str, float]:
+    """Training wall-clock hours per contender (one run) and in all, from aircraft-states per second."""
+    per_run = {a: plan.budget / rates[a] / 3600.0 for a in plan.contenders}
+    total = sum(per_run[a] for _, a, _ in plan.runs())
+    return {**{f"{a} per run": h for a, h in per_run.items()}, "all training runs": total}
+
+
+def _compose(name: str, overrides: list[str]) -> Any:
+    from hydra import compose, initialize_config_module
+
+    with initialize_config_module("rlbridge.conf", version_base="1.3"):
+        return compose(name, overrides=overrides)
+
+
+def train_overrides(plan: StudyPlan, usecase: str, algo: str, seed: int) -> list[str]:
+    over = [f"algorithm={algo}", f"usecase={usecase}", f"scenario={plan.train_scenario}", f"seed={seed}",
+            f"workers={plan.workers}", f"train.mode={plan.mode}", f"train.aircraft_states={plan.budget}",
+            f"train.best_window={plan.best_window}", "train.torch_threads=auto"]
+    if plan.smoke:
+        over += ["train.baseline_episodes=1", "train.checkpoint_every=0"]
+    return over + list(plan.overrides)
+
+
+def eval_overrides(plan: StudyPlan, run: Path, scenario: str, actions: str, label: str) -> list[str]:
+    greedy = actions == "greedy"
+    # Baselines once per seed set (with the greedy evaluation); unequipped always (the ratios' reference).
+    baselines = plan.baselines if greedy else []
+    name = label if greedy else f"{label}, sampled actions"
+    return [f"run={run}", f"scenario={scenario}", f"episodes={plan.episodes}", f"workers={plan.workers}",
+            f"greedy={str(greedy).lower()}", f"baselines=[{','.join(baselines)}]", f"name='{name}'"]
+
+
+def run_study(plan: StudyPlan, work: Path, out: Path) -> dict[str, Any]:
+    """Train, evaluate, report (see the module docstring); returns the study's index."""
+    from rlbridge.experiment.evaluate import run_evaluation
+    from rlbridge.experiment.report import make_report
+    from rlbridge.experiment.train import run_training
+
+    work.mkdir(parents=True, exist_ok=True)
+    train_dirs: list[Path] = []
+    eval_dirs: list[Path] = []
+    t0 = time.perf_counter()
+    for uc, algo, seed in plan.runs():
+        run = work / "train" / uc / f"{algo}_s{seed}"
+        cfg = _compose("config", train_overrides(plan, uc, algo, seed))
+        if not (run / "training_summary.json").exists():
+            log.info("training %s on %s (%s), seed %d: %d aircraft-states", algo, plan.train_scenario, uc, seed,
+                     plan.budget)
+            run_training(cfg, run)
+        train_dirs.append(run)
+        label = str(cfg.algorithm.label)
+        for scen in plan.eval_scenarios:
+            for actions in plan.actions:
+                ev = work / "eval" / uc / f"{algo}_s{seed}" / f"{Path(scen).stem}_{actions}"
+                if not (ev / "evaluation.json").exists():
+                    log.info("evaluating %s seed %d on %s (%s actions)", algo, seed, scen, actions)
+                    run_evaluation(_compose("evaluate", eval_overrides(plan, run, scen, actions, label)), ev)
+                eval_dirs.append(ev)
+    out.mkdir(parents=True, exist_ok=True)
+    make_report(eval_dirs, train_dirs, out, plan.smooth)
+    copy_configs(work, train_dirs + eval_dirs, out / "configs")
+    (out / "paper.md").write_text(paper_tables_md())
+    index = {"plan": asdict(plan), "training_runs": [str(d.relative_to(work)) for d in train_dirs],
+             "evaluations": [str(d.relative_to(work)) for d in eval_dirs],
+             "wall_s_this_session": time.perf_counter() - t0}
+    (out / "study.json").write_text(json.dumps(index, indent=2) + "\n")
+    return index
+
+
+def copy_configs(work: Path, dirs: list[Path], dest: Path) -> None:
+    """Each run's resolved configuration, with the machine's paths written relative to the study."""
+    import os
+
+    roots = sorted({str(work.resolve()), str(work), str(Path.cwd().resolve()), os.path.expanduser("~")},
+                   key=len, reverse=True)
+    for d in dirs:
+        target = dest / d.relative_to(work) / "resolved_config.yaml"
+        target.parent.mkdir(parents=True, exist_ok=True)
+        text = (d / "resolved_config.yaml").read_text()
+        for root in roots:
+            text = text.replace(root + os.sep, "").replace(root, ".")
+        target.write_text(text)
+
+
+def paper_tables_md() -> str:
+    lines = ["# The paper's published numbers (quoted, not measured here)", "",
+             ("Brittain, Alvarez et al., *AAM-Gym: Artificial Intelligence Testbed for Advanced Air Mobility*, "
+              "Tables II and III: mean ± std over 100 evaluation episodes, after 100 training hours with 40 "
+              "workers; 100 = the training scenario (100 aircraft, 25 min), 678 = the evaluation scenario "
+              "(678 aircraft, 5 h). The tables beside this file are this repository's measurements; compare "
+              "them with these, never pool them."), ""]
+    for name, title in (("risk_ratio", "Risk ratio"), ("lowc_ratio", "LoWC ratio")):
+        lines += [f"### The paper's {title.lower()} (Table {'II' if name == 'risk_ratio' else 'III'})", "",
+                  f"| Algorithm | {title} - 100 (paper) | {title} - 678 (paper) |", "|---|---|---|"]
+        lines += [f"| {a} | {v[0]} | {v[1]} |" for a, v in PAPER_TABLES[name].items()]
+        lines.append("")
+    return "\n".join(lines)
+
+
+def main(argv: list[str] | None = None) -> None:
+    plan = StudyPlan()
+    ap = argparse.ArgumentParser(prog="aamgym study", description=__doc__.split("\n\n")[0],
+                                 formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--smoke", action="store_true", help="the whole pipeline, tiny (minutes)")
+    ap.add_argument("--plan", action="store_true", help="print the plan and its time estimate, run nothing")
+    ap.add_argument("--work", type=Path, default=Path("runs/study"), help="run directories (default runs/study)")
+    ap.add_argument("--out", type=Path, default=None,
+                    help="the report (default docs/results/study; with --smoke WORK/report)")
+    ap.add_argument("--contenders", nargs="+", default=plan.contenders)
+    ap.add_argument("--usecases", nargs="+", default=plan.usecases,
+                    help="use-case configurations (rlbridge/conf/usecase)")
+    ap.add_argument("--seeds", nargs="+", type=int, default=plan.seeds)
+    ap.add_argument("--budget", type=int, default=plan.budget, help="aircraft-states per training run")
+    ap.add_argument("--train-scenario", default=plan.train_scenario)
+    ap.add_argument("--eval-scenarios", nargs="+", default=plan.eval_scenarios)
+    ap.add_argument("--episodes", type=int, default=plan.episodes, help="evaluation episodes per policy")
+    ap.add_argument("--baselines", nargs="*", default=plan.baselines,
+                    help="baselines beside unequipped (mvp_speed, daa, ...)")
+    ap.add_argument("--workers", type=int, default=plan.workers, help="Ray workers per run (stated in the report)")
+    ap.add_argument("--mode", default=plan.mode, choices=("serial", "overlap"), help="train.mode")
+    ap.add_argument("--rates", type=json.loads, default=None,
+                    help='aircraft-states/s per contender for the estimate, e.g. \'{"ddqn": 900}\'')
+    ap.add_argument("overrides", nargs="*", help="more Hydra overrides for every training run")
+    args = ap.parse_args(argv)
+    plan = StudyPlan(contenders=args.contenders, usecases=args.usecases, seeds=args.seeds, budget=args.budget,
+                     train_scenario=args.train_scenario, eval_scenarios=args.eval_scenarios,
+                     episodes=args.episodes, baselines=args.baselines, workers=args.workers, mode=args.mode,
+                     overrides=list(args.overrides))
+    if args.smoke:
+        plan = smoke_plan(plan)
+    out = args.out or (args.work / "report" if args.smoke else Path("docs/results/study"))
+    rates = {**DEFAULT_RATES, **(args.rates or {})}
+    est = estimate_hours(plan, rates)
+    print(f"{len(plan.runs())} training runs of {plan.budget:,} aircraft-states "
+          f"({', '.join(plan.contenders)} x {', '.join(plan.usecases)} x seeds {plan.seeds}), "
+          f"{len(plan.runs()) * len(plan.eval_scenarios) * len(plan.actions)} evaluations of {plan.episodes} episodes")
+    print("estimated training time: " + ", ".join(f"{k} {v:.1f} h" for k, v in est.items()))
+    if args.plan:
+        return
+    logging.basicConfig(level=logging.INFO, format="[%(asctime)s][%(name)s][%(levelname)s] - %(message)s")
+    run_study(plan, args.work, out)
+    print(out)

@@ -1,0 +1,52 @@
+"""Reports never mix rows of two use-case configurations (the paper's reward and variant v1)."""
+
+from __future__ import annotations
+
+import csv
+import json
+from pathlib import Path
+
+from hydra import compose, initialize_config_module
+
+from rlbridge.experiment.evaluate import run_evaluation
+from rlbridge.experiment.report import make_report
+from rlbridge.experiment.train import run_training
+
+TINY = str(Path(__file__).parent / "data" / "tiny_conflict.scn")
+QUICK = [f"scenario={TINY}", "workers=0", "env.time_limit_s=600", "usecase.params.n_intruders=4",
+         "train.baseline_episodes=0", "train.iterations=1", "algorithm=d2mava_a"]
+
+
+def rows(path: Path) -> list[list[str]]:
+    with open(path, newline="") as fh:
+        return list(csv.reader(fh))
+
+
+def test_paper_and_v1_evaluations_get_separate_tables(tmp_path):
+    evals = []
+    for usecase in ("corridor_sa", "corridor_sa_v1"):
+        with initialize_config_module("rlbridge.conf", version_base="1.3"):
+            cfg = compose("config", overrides=[*QUICK, f"usecase={usecase}"])
+            ecfg = compose("evaluate", overrides=[f"run={tmp_path / usecase}", "workers=0", "episodes=2",
+                                                  "baselines=[mvp_speed]"])
+        run_training(cfg, tmp_path / usecase)
+        run_evaluation(ecfg, tmp_path / f"eval_{usecase}")
+        evals.append(tmp_path / f"eval_{usecase}")
+    assert json.loads((evals[1] / "evaluation.json").read_text())["usecase"] == {"name": "corridor_sa",
+                                                                                 "variant": "v1"}
+    out = tmp_path / "report"
+    make_report(evals, [tmp_path / "corridor_sa", tmp_path / "corridor_sa_v1"], out)
+    paper, v1 = rows(out / "risk_ratio.csv"), rows(out / "risk_ratio_v1.csv")
+    # The same algorithm in both tables, each over its own two seeds only (not pooled to four).
+    for table in (paper, v1):
+        labels = [r[0].split(" — ")[0] for r in table[1:]]
+        assert labels == ["D2MAV-A No Shared Layers", "MVP speed-only (rule-based)"]
+        assert all("(n=2)" in r[1] for r in table[1:])
+    assert rows(out / "operational.csv")[1][2] == "2" and rows(out / "operational_v1.csv")[1][2] == "2"
+    report = (out / "report.md").read_text()
+    assert "## Use case corridor_sa (the paper's reward)" in report
+    assert "## Use case corridor_sa variant v1" in report
+    assert report.index("variant v1") > report.index("the paper's reward")
+    # Learning curves of the two rewards are two curves, not one pooled curve.
+    training = rows(out / "training.csv")
+    assert {r[0] for r in training[1:]} == {"D2MAV-A No Shared Layers", "D2MAV-A No Shared Layers [v1]"}
