@@ -18,10 +18,15 @@ import hashlib
 import importlib.util
 import os
 import shutil
+import time
 from pathlib import Path
 
 _PACKAGES = ("aamsim", "rlbridge", "uamtoolkit_import")
-_KEEP = 3  # cache directories of earlier source versions kept (switching branches back and forth)
+# Cache directories of other source versions are kept while used in the last _KEEP_DAYS, up to
+# _KEEP of them: several checkouts (git worktrees, a CI clone) share this cache, and keeping only
+# the last three made them delete each other's directories, so every run compiled again (a minute).
+_KEEP = 32
+_KEEP_DAYS = 14
 
 
 def package_roots() -> list[Path]:
@@ -72,5 +77,7 @@ def _prune(base: Path, current: Path) -> None:
     current.touch()
     others = sorted((p for p in base.iterdir() if p.is_dir() and p != current), key=lambda p: p.stat().st_mtime,
                     reverse=True)
-    for old in others[_KEEP - 1:]:
-        shutil.rmtree(old, ignore_errors=True)
+    cutoff = time.time() - _KEEP_DAYS * 86400
+    for k, old in enumerate(others):
+        if k >= _KEEP - 1 or old.stat().st_mtime < cutoff:
+            shutil.rmtree(old, ignore_errors=True)

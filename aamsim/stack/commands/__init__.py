@@ -2,10 +2,18 @@
 
 from __future__ import annotations
 
-from aamsim.stack.commands import asas_cmds, display_cmds, plugin_cmds, route_cmds, sim_cmds, traffic_cmds
+from aamsim.stack.commands import (
+    area_cmds,
+    asas_cmds,
+    display_cmds,
+    plugin_cmds,
+    route_cmds,
+    sim_cmds,
+    traffic_cmds,
+)
 from aamsim.stack.registry import CommandRegistry
 
-MODULES = (traffic_cmds, route_cmds, sim_cmds, asas_cmds, plugin_cmds, display_cmds)
+MODULES = (traffic_cmds, route_cmds, sim_cmds, asas_cmds, plugin_cmds, area_cmds, display_cmds)
 
 
 def register_builtin_commands(registry: CommandRegistry) -> None:
