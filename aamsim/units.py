@@ -141,16 +141,16 @@ def parse_vspeed(text: str) -> float:
 
 
 def parse_heading(text: str) -> float:
-    """Read a heading in degrees (``090``, ``270T``); returns degrees in [0, 360).
+    """Read a heading in degrees (``090``, ``270T``, ``T270``); returns degrees in [0, 360).
 
     Magnetic headings (``M`` suffix) need a declination model; aamsim has
     none, so they are refused rather than silently treated as true.
     """
     t = text.strip().upper()
-    if t.endswith("M") and len(t) > 1:
+    if len(t) > 1 and "M" in (t[0], t[-1]):
         raise UnitParseError(f'"{text}": magnetic headings are not supported, give a true heading')
-    if t.endswith("T") and len(t) > 1:
-        t = t[:-1]
+    if len(t) > 1 and "T" in (t[0], t[-1]):  # BlueSky reads 270T and T270 alike
+        t = t[1:] if t[0] == "T" else t[:-1]
     try:
         value = float(t)
     except ValueError:
@@ -208,43 +208,74 @@ def parse_bool(text: str) -> bool:
     raise UnitParseError(f'"{text}" is not ON/OFF')
 
 
-def _dms_to_degrees(body: str, original: str) -> float:
-    """``52'14'13.5`` -> decimal degrees (sign handled by the caller)."""
-    fields = [f for f in body.replace('"', "'").replace("\u00b0", "'").split("'") if f]
+_DMS_MARKS = "'\"\u00b0"
+_DMS_FIELD = re.compile(r"[0-9]+(\.[0-9]*)?|\.[0-9]+")  # plain decimals: BlueSky's longitude drops every E
+
+
+def _dms_to_degrees(body: str, original: str, what: str) -> float:
+    """``52'14'13.5`` (degrees, minutes, seconds; ``'``, ``"`` or ``\u00b0`` marks) -> degrees, unsigned.
+
+    BlueSky's readers take every field as a magnitude and add them with divisors 1, 60 and 3600.
+    A sign inside a field (BlueSky makes the whole angle negative), a fourth field (BlueSky adds
+    it as 1/216000 deg) and an empty field between two others (BlueSky's latitude skips it, its
+    longitude counts it as zero) have no sure meaning: refused.
+    """
+    for mark in _DMS_MARKS[1:]:
+        body = body.replace(mark, "'")
+    fields = body.split("'")
+    while fields and fields[-1] == "":
+        fields.pop()
     if not fields or len(fields) > 3:
-        raise UnitParseError(f'"{original}" is not a latitude/longitude')
+        raise UnitParseError(f'"{original}" is not a {what}: expected degrees\'minutes\'seconds')
     value = 0.0
     scale = 1.0
     for field in fields:
-        try:
-            part = abs(float(field))
-        except ValueError:
-            raise UnitParseError(f'"{original}" is not a latitude/longitude') from None
-        value += part / scale
+        if not _DMS_FIELD.fullmatch(field):
+            raise UnitParseError(f'"{original}" is not a {what}: bad degrees\'minutes\'seconds field "{field}"')
+        value += float(field) / scale
         scale *= 60.0
     return value
 
 
 def _parse_angle(text: str, positive: str, negative: str, limit: float, what: str) -> float:
+    """A latitude or longitude as BlueSky's ``txt2lat``/``txt2lon`` read it, without their accidents.
+
+    Accepted: a number (decimal or exponent notation, ``-3.06e-17``) or degrees'minutes'seconds,
+    after at most one sign and at most one hemisphere letter in either order (``N52.5``,
+    ``-N52``, ``W074'00'36"``). Refused where BlueSky silently returns 0 or reads a number other
+    than the one written: two negations (``S-52``), signs inside the number, empty text.
+    """
     t = text.strip().upper()
-    sign = 1.0
-    if t[:1] in (positive, negative):
-        sign = -1.0 if t[0] == negative else 1.0
+    negations = 0
+    hemisphere = sign = False
+    while t and t[0] in ("+", "-", positive, negative):
+        c = t[0]
+        if c in "+-":
+            if sign:
+                raise UnitParseError(f'"{text}" is not a {what}: more than one sign')
+            sign = True
+        else:
+            if hemisphere:
+                raise UnitParseError(f'"{text}" is not a {what}: more than one hemisphere letter')
+            hemisphere = True
+        negations += c in ("-", negative)
         t = t[1:]
-    if t.startswith("-"):
-        sign, t = -sign, t[1:]
-    elif t.startswith("+"):
-        t = t[1:]
-    if not t:
+    plus = text.strip().startswith("+") or text.strip()[1:2] == "+"
+    if negations > 1 or (plus and negations):  # BlueSky: an error, or 0.0 after a printed "value error"
+        raise UnitParseError(f'"{text}" is not a {what}: contradictory signs')
+    if not t or t[0] in "+-":
         raise UnitParseError(f'"{text}" is not a {what}')
-    if any(c in t for c in "'\"\u00b0"):
-        value = _dms_to_degrees(t, text)
+    if any(c in t for c in _DMS_MARKS):
+        value = _dms_to_degrees(t, text, what)
     else:
+        if "_" in t:  # float() reads "5_2" as 52; BlueSky does too, but no one means it
+            raise UnitParseError(f'"{text}" is not a {what}')
         try:
             value = float(t)
         except ValueError:
             raise UnitParseError(f'"{text}" is not a {what}') from None
-    value *= sign
+    if negations:
+        value = -value
     if not math.isfinite(value) or abs(value) > limit:
         raise UnitParseError(f'"{text}" is not a {what} (|value| <= {limit:g})')
     return value
@@ -261,13 +292,18 @@ def parse_longitude(text: str) -> float:
 
 
 def looks_like_latitude(text: str) -> bool:
-    """True when the token reads as a latitude (so it pairs with the next token).
+    """True when the token reads as a latitude (so it pairs with the next token as lat, lon).
 
-    Mirrors BlueSky's test: strip one leading N/S and the DMS marks, and see
-    whether a number remains.
+    BlueSky's test (``islat``): strip signs from the ends, drop the DMS marks and dots and one
+    leading N/S, and see whether Python reads a number (so ``-3.06e-17`` is a latitude). Unlike
+    BlueSky, a token that is not a finite number (``INF``) is not a latitude: it can be a name.
     """
-    t = text.strip().upper().strip("+-").replace('"', "").replace("'", "").replace("\u00b0", "")
-    t = t.replace(".", "")
+    t = text.strip().upper().strip("-").strip("+").strip(",")
+    for mark in ('"', "'", ".", "\u00b0"):
+        t = t.replace(mark, "")
     if len(t) > 1 and t[0] in "NS":
         t = t[1:]
-    return t.isdigit()
+    try:
+        return math.isfinite(float(t))
+    except ValueError:
+        return False

@@ -75,8 +75,8 @@ def _run_bluesky(scenario: Path, workdir: Path, times: list[float]) -> dict:
     messages: list[str] = []
 
     def capture(topic, data=None, *args, **kwargs):
-        # Detached BlueSky drops ECHO text; keep it for the record.
-        if topic in ("ECHO", b"ECHO") and isinstance(data, dict):
+        # Detached BlueSky drops ECHO text; keep its errors (a non-zero flag) for the record.
+        if topic in ("ECHO", b"ECHO") and isinstance(data, dict) and data.get("flags", 0):
             messages.append(str(data.get("text", "")))
 
     bs.net.send = capture

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from aamsim.stack.commands import (
+    area_cmds,
     asas_cmds,
     daa_cmds,
     display_cmds,
@@ -15,7 +16,7 @@ from aamsim.stack.commands import (
 )
 from aamsim.stack.registry import CommandRegistry
 
-MODULES = (traffic_cmds, route_cmds, sim_cmds, asas_cmds, daa_cmds, plugin_cmds, display_cmds, wind_cmds,
+MODULES = (traffic_cmds, route_cmds, sim_cmds, asas_cmds, daa_cmds, plugin_cmds, area_cmds, display_cmds, wind_cmds,
            realtraffic_cmds)
 
 

@@ -6,6 +6,7 @@ import math
 from typing import TYPE_CHECKING
 
 from aamsim.errors import CommandError
+from aamsim.shapes import delete_shape
 from aamsim.stack.argtypes import (
     AcIndex,
     Altitude,
@@ -86,7 +87,8 @@ def mcre(
 
 @command("DEL", aliases=("DELETE",), group="traffic")
 def delete(sim: CommandContext, *targets: Word) -> None:
-    """DEL acid, [acid, ...]: delete aircraft. ``DEL *`` deletes all of them, ``DEL WIND`` the wind field."""
+    """DEL acid/shape, [acid/shape, ...]: delete aircraft or shapes. ``DEL *`` deletes all aircraft, ``DEL WIND``
+    the wind field."""
     if not targets:
         raise CommandError("DEL needs a callsign (or * for all aircraft)")
     names = [t.upper() for t in targets if t]
@@ -102,6 +104,8 @@ def delete(sim: CommandContext, *targets: Word) -> None:
         i = sim.view.find(name)
         if i is not None:
             sim.delete_aircraft(i)
+    # BlueSky's DEL also removes a shape (BOX, POLY, ...) of that name.
+    missing = [name for name in missing if not delete_shape(sim, name)]
     if missing:
         hint = " (DEL * deletes all aircraft)" if "ALL" in missing else ""
         raise CommandError(f"no aircraft {', '.join(missing)}{hint}")
