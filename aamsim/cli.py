@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import math
 import sys
 import time
 from pathlib import Path
@@ -44,6 +43,7 @@ class _Progress:
     def __init__(self, total_s: float | None, quiet: bool):
         self.quiet = quiet
         self.bar = None
+        self.previous: tuple[float, float] | None = None  # (sim s, wall s) at the last report
         self.last_line = time.perf_counter()
         if quiet:
             return
@@ -53,17 +53,26 @@ class _Progress:
             self.bar = tqdm(total=round(total_s) if total_s else None, unit="sim s", file=sys.stderr,
                             dynamic_ncols=True, leave=False)
 
+    def speedup_text(self, simt: float, wall_s: float) -> str:
+        """Sim seconds per wall second since the previous report; blank at the first report, whose
+        interval holds the start-up (compiling, reading the scenario) and would show as 0x."""
+        previous, self.previous = self.previous, (simt, wall_s)
+        if previous is None:
+            return ""
+        dsim, dwall = simt - previous[0], wall_s - previous[1]
+        return f"{dsim / dwall:.0f}x" if dwall > 0 else ""
+
     def __call__(self, sim: Any, wall_s: float) -> None:
         if self.quiet:
             return
-        speedup = sim.simt / wall_s if wall_s > 0 else math.inf
+        speedup = self.speedup_text(sim.simt, wall_s)
         if self.bar is not None:
             self.bar.n = round(sim.simt)
-            self.bar.set_postfix(airborne=sim.traffic.n, speedup=f"{speedup:.0f}x", refresh=False)
+            self.bar.set_postfix(airborne=sim.traffic.n, speedup=speedup, refresh=False)
             self.bar.refresh()
         elif time.perf_counter() - self.last_line >= 10.0:
             self.last_line = time.perf_counter()
-            click.echo(f"  sim {sim.simt:9.0f} s  airborne {sim.traffic.n:5d}  speed-up {speedup:7.0f}x", err=True)
+            click.echo(f"  sim {sim.simt:9.0f} s  airborne {sim.traffic.n:5d}  speed-up {speedup:>7}", err=True)
 
     def close(self) -> None:
         if self.bar is not None:

@@ -173,3 +173,13 @@ def test_compare_many_runs_mean_and_std(tmp_path):
     assert cmp.risk_ratio.std == pytest.approx(0.2041241, rel=1e-6)
     assert cmp.risk_ratio.pooled == pytest.approx(3 / 10)
     assert cmp.lowc_ratio.mean == pytest.approx(0.5)
+
+
+def test_progress_speed_up_is_blank_for_the_first_interval_then_per_interval() -> None:
+    from aamsim.cli import _Progress
+
+    progress = _Progress(None, quiet=True)
+    # The first interval holds the start-up: 10 sim s in 40 wall s would read "0x".
+    assert progress.speedup_text(10.0, 40.0) == ""
+    assert progress.speedup_text(1010.0, 41.0) == "1000x"  # 1,000 sim s in the next wall second
+    assert progress.speedup_text(1010.0, 41.0) == ""  # no wall time passed: nothing to divide
