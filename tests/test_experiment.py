@@ -184,7 +184,8 @@ def test_evaluate_compare_and_report(tmp_path, trained_run):
                         "airborne holding [s] - tiny_conflict", "flights holding [%] - tiny_conflict",
                         "parked at time limit - tiny_conflict", "mean delay [s] - tiny_conflict",
                         "advisories / flight hour - tiny_conflict"]
-    assert [r[0].split(" — ")[0] for r in table[1:]] == ["D2MAV-A No Shared Layers", "MVP speed-only (rule-based)"]
+    assert [r[0].split(" — ")[0] for r in table[1:]] == ["D2MAV-A No Shared Layers", "MVP speed-only (rule-based)",
+                                                        "DAA speed-only (DO-365/DAIDALUS)"]
     assert "±" in table[1][1]
     episodes = {p: [json.loads(f.read_text()) for f in sorted((ev_dir / "episodes" / p).glob("seed-*/summary.json"))]
                 for p in ("d2mava_a", "mvp_speed")}
@@ -281,7 +282,7 @@ def test_checkpoint_is_plain_data_loadable_with_weights_only(tmp_path):
 @pytest.mark.bluesky
 def test_evaluate_on_bluesky_agrees_with_aamsim_and_the_report_shows_both(tmp_path, trained_run):
     """``aamgym evaluate backend=bluesky``: BlueSky flies the aircraft; the report puts its columns beside aamsim's."""
-    pytest.importorskip("bluesky")
+    common = [f"run={trained_run}", "episodes=2", "workers=0", "env.time_limit_s=600", "baselines=[unequipped,mvp_speed]"]
     common = [f"run={trained_run}", "episodes=2", "workers=0", "env.time_limit_s=600"]
     cli(["evaluate", *common, "hydra.run.dir=eval_local"], tmp_path)
     cli(["evaluate", *common, "backend=bluesky", "hydra.run.dir=eval_bluesky"], tmp_path)

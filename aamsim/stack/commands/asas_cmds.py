@@ -114,7 +114,7 @@ def _accepted_setting(name: str):
         sim.note_once(name, f"{name} is accepted and ignored: aamsim's built-in resolution is RESO DAA",
                       sim.current_source)
 
-    handler.__doc__ = f"{name} ...: BlueSky resolution setting, accepted and ignored (no built-in resolution)."
+    handler.__doc__ = f"{name} ...: BlueSky resolution setting, accepted and ignored (built in: RESO DAA, DAA)."
     return handler
 
 

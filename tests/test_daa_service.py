@@ -1,0 +1,169 @@
+"""The detect-and-avoid service (RESO DAA, the DAA command) and the daa baseline policy, end to end."""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from aamsim import Simulation
+from aamsim.units import KTS
+
+ROOT = Path(__file__).resolve().parents[1]
+DATA = Path(__file__).parent / "data"
+ENCOUNTERS = DATA / "daa_encounters.scn"
+ENV = dict(os.environ, PYTHONPATH=str(ROOT))
+
+
+def run_cli(args: list[str], cwd: Path, timeout: float = 600) -> subprocess.CompletedProcess:
+    return subprocess.run([sys.executable, *args], cwd=cwd, env=ENV, capture_output=True, text=True,
+                          timeout=timeout, check=False)
+
+
+def test_aamsim_run_with_reso_daa_has_fewer_losses_of_well_clear(tmp_path):
+    on = tmp_path / "daa_on.scn"
+    on.write_text("00:00:00.00>RESO DAA\n" + ENCOUNTERS.read_text())
+    summaries = {}
+    for name, scn in (("off", ENCOUNTERS), ("on", on)):
+        proc = run_cli(["-m", "aamsim", "run", str(scn), "--until", "300", "--out", name, "--quiet"], tmp_path)
+        assert proc.returncode == 0, proc.stderr
+        summaries[name] = json.loads((tmp_path / name / "summary.json").read_text())
+    off, daa = summaries["off"], summaries["on"]
+    # Unequipped: the overtake, the crossing and the merge each lose well clear (two are NMACs).
+    assert off["safety"]["lowc_events"] == 3 and off["safety"]["nmac_events"] == 2
+    assert "daa" not in off and off["operational"]["advisories"] == 0
+    # With the speed-band resolutions none does, and the advisories are counted.
+    assert daa["safety"]["lowc_events"] == 0 and daa["safety"]["min_separation_m"] > 450
+    assert daa["daa"]["advisories_issued"] == daa["operational"]["advisories"] > 0
+    assert daa["daa"]["alerts"]["corrective"] + daa["daa"]["alerts"]["warning"] >= 3
+
+
+def crossing_sim(reso: str) -> Simulation:
+    sim = Simulation(seed=0)
+    sim.require_services()
+    sim.stack("CRE C1 EC35 40.700000 -74.100000 0 1000 100")
+    sim.stack("CRE C2 EC35 40.720000 -74.085000 270 1000 60")
+    sim.stack(f"RESO {reso}")
+    return sim
+
+
+def test_advisory_is_held_until_clear_then_the_own_speed_resumes():
+    sim = crossing_sim("DAA")
+    service = sim.services.daa
+    sim.run_until(3.0)
+    advised = set(service.advisories)
+    assert advised  # the crossing is alerted at once (a warning: 5 s to loss of well clear)
+    acid = next(iter(advised))
+    adv = service.advisories[acid]
+    slot = sim.view.slot(acid)
+    assert sim.view.selspd[slot] == pytest.approx(adv.cas_mps)  # flying the advised speed
+    # The advised ground speed is conflict-free for the look-ahead: outside every band.
+    bands = service.daa.gs_bands(sim, np.array([slot]))
+    assert not bands.conflicts(slot, adv.gs_mps)
+    sim.run_until(120.0)  # well past the crossing
+    assert service.advisories == {}
+    own = {"C1": 100 * KTS, "C2": 60 * KTS}
+    for a, cas in own.items():
+        assert sim.view.selspd[sim.view.slot(a)] == pytest.approx(cas)  # resumed
+    assert sim.services.conflicts.count("lowc") == 0
+
+
+def test_reso_off_releases_the_advisories_and_other_methods_are_stored_only():
+    sim = crossing_sim("DAA")
+    sim.run_until(3.0)
+    assert sim.services.daa.advisories
+    sim.stack("RESO OFF")
+    sim.run_until(5.0)
+    assert sim.services.daa.advisories == {}
+    assert sim.view.selspd[sim.view.slot("C1")] == pytest.approx(100 * KTS)
+    unequipped = crossing_sim("MVP")  # stored, noted; no resolution
+    unequipped.run_until(60.0)
+    assert unequipped.services.daa.issued == 0 and unequipped.services.conflicts.count("lowc") == 1
+
+
+def test_daa_command_sets_lists_and_rejects():
+    sim = Simulation(seed=0)
+    sim.require_services()
+    params = sim.services.daa.daa.params
+    assert (params.dmod_m, params.hmd_m, params.taumod_s) == (450.0, 450.0, 35.0)
+    sim.stack("DAA DMOD 600; DAA TAUMOD 20; DAA LEVEL 3; DAA SPDMAX 120")
+    params = sim.services.daa.daa.params
+    assert (params.dmod_m, params.taumod_s, params.resolve_level, params.speed_max_kts) == (600.0, 20.0, 3, 120.0)
+    for line in ("DAA FOO 1", "DAA DMOD -5", "DAA LEVEL 7", "DAA SPDMIN 200"):
+        assert not sim.stack(line), line
+    # Rejected settings leave the parameters as they were; the errors say why.
+    assert sim.services.daa.daa.params == params
+    errors = [m.text for m in sim.reporter.errors()]
+    assert len(errors) == 4
+    assert "unknown DAA setting FOO; known: DMOD, HMD, TAUMOD, ZTHR, TCOA" in errors[0]
+    assert "dmod_m must be a finite number >= 0" in errors[1]
+    assert "resolve_level must be 1" in errors[2] and "speed_min_kts is above speed_max_kts" in errors[3]
+    # A thinner well-clear volume changes what is alerted.
+    crossing = crossing_sim("DAA")
+    crossing.stack("DAA TAUMOD 0")
+    crossing.run_until(1.0)
+    t0 = crossing.services.daa.daa.alerts(crossing).time_to_lowc_s
+    assert np.all(t0 > 30.0)  # only the DMOD circle: entered about 34.7 s from the start
+
+
+def test_aamsim_commands_documents_reso_daa_and_the_settings(tmp_path):
+    proc = run_cli(["-m", "aamsim", "commands", "--group", "conflicts"], tmp_path)
+    assert proc.returncode == 0, proc.stderr
+    lines = proc.stdout.splitlines()
+    reso = next(k for k, line in enumerate(lines) if line.startswith("RESO"))
+    assert "DAA" in lines[reso + 1]
+    daa = next(k for k, line in enumerate(lines) if line.startswith("DAA"))
+    assert "detect-and-avoid threshold" in lines[daa + 1]
+
+
+# ---------------------------------------------------------------------------- the baseline policy
+def test_aamgym_evaluate_baseline_daa_on_a_small_scenario(tmp_path):
+    proc = run_cli(["-m", "rlbridge.experiment", "evaluate", "baseline=daa", f"scenario={DATA / 'tiny_conflict.scn'}",
+                    "episodes=2", "workers=0", "env.time_limit_s=600", "hydra.run.dir=eval"], tmp_path)
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    ev = json.loads((tmp_path / "eval" / "evaluation.json").read_text())
+    assert set(ev["policies"]) == {"daa", "unequipped", "mvp_speed"} and ev["algorithm"] == "daa"
+    daa, unequipped = ev["policies"]["daa"], ev["policies"]["unequipped"]
+    assert not daa["learned"] and daa["label"].startswith("DAA")
+    # tiny_conflict: unequipped, the pair collides at the merge; DAA sequences them, both arrive.
+    assert unequipped["nmac_events"]["mean"] == 1.0
+    assert daa["nmac_events"]["mean"] == 0.0 and daa["lowc_events"]["mean"] == 0.0
+    assert daa["operational"]["flights_completed"]["mean"] == 2.0
+    assert daa["operational"]["alert_rate_per_flight_hour"]["mean"] > 0
+    assert daa["risk_ratio"]["mean"] == 0.0
+
+
+def test_aamgym_evaluate_unknown_baseline_lists_the_known_ones(tmp_path):
+    proc = run_cli(["-m", "rlbridge.experiment", "evaluate", "baseline=acas_sxu",
+                    f"scenario={DATA / 'tiny_conflict.scn'}", "episodes=1", "workers=0", "hydra.run.dir=eval"],
+                   tmp_path, timeout=120)
+    assert proc.returncode != 0
+    assert "unknown baseline(s) acas_sxu; known: unequipped, mvp_speed, daa" in proc.stderr
+    proc = run_cli(["-m", "rlbridge.experiment", "evaluate", "episodes=1", "hydra.run.dir=eval"], tmp_path,
+                   timeout=120)
+    assert proc.returncode != 0 and "give run=<training run>" in proc.stderr
+
+
+def test_daa_policy_acts_on_any_use_case_with_speed_actions():
+    from rlbridge.agents import make_actor
+    from rlbridge.agents.rollout import EnvSpec
+
+    core = EnvSpec(str(DATA / "tiny_conflict.scn"), "reach_destination", {}, 300.0).make(None)
+    actor = make_actor({"kind": "daa", "config": {"daa": {"taumod_s": 20.0}}})
+    assert actor.daa.params.taumod_s == 20.0
+    result = core.reset(0)
+    rng = np.random.default_rng(0)
+    advised = 0
+    while not result.done:
+        out = actor.act(result, core, rng, {})
+        acts = {a: int(x) for a, x, g in zip(result.agents, out.actions, out.advise) if g}
+        assert all(0 <= x < 3 for x in acts.values())  # reach_destination's three speeds
+        advised += len(acts)
+        result = core.step(acts)
+    assert advised > 0
+    assert core.metrics(("safety",))["safety"]["nmac_events"] == 0
