@@ -39,21 +39,26 @@ class Intent:
     t_rel: np.ndarray  # [s] from departure, increasing, t_rel[0] = 0
     lat: np.ndarray
     lon: np.ndarray
-    alt_m: float  # altitude at creation (the filed layer, with the scenario's noise)
+    alt_m: float  # altitude flown from creation [m] (its layer, with the scenario's noise)
     origin: str
     destination: str
+    filed_alt_m: float = math.nan  # altitude the scenario creates it at [m]
 
     @property
     def duration_s(self) -> float:
         return float(self.t_rel[-1])
 
 
-def probe_intents(sim: Simulation, schedule: Schedule, sample_s: float, limit_s: float) -> dict[str, Intent]:
+def probe_intents(sim: Simulation, schedule: Schedule, sample_s: float, limit_s: float,
+                  layers_m: np.ndarray | None = None, layer: int | None = None) -> dict[str, Intent]:
     """Fly the scenario as filed in a fresh simulation and sample each request's flight.
 
     ``sim`` lends its time step and scenario files (PCALL search path); the
-    probe has no services and nothing acting on the traffic. A request whose
-    aircraft is never created (a bad CRE line) has no intent.
+    probe has no services and nothing acting on the traffic. With ``layer``,
+    every request's aircraft moves at creation from its nearest layer of
+    ``layers_m`` to that one (its noise kept): a layer changes the true
+    airspeed a selected CAS gives, hence the timing along the route. A request
+    whose aircraft is never created (a bad CRE line) has no intent.
     """
     from aamsim import Simulation  # the probe is a simulation of its own
 
@@ -66,6 +71,7 @@ def probe_intents(sim: Simulation, schedule: Schedule, sample_s: float, limit_s:
         probe.queue.extend(list(r.commands))
     live: dict[str, tuple[str, list[tuple[float, float, float, float]]]] = {}  # acid -> (key, samples)
     done: dict[str, tuple[list[tuple[float, float, float, float]], str, str]] = {}
+    filed: dict[str, float] = {}
 
     def sample(s: Simulation, acid: str, samples: list[tuple[float, float, float, float]]) -> None:
         i = s.view.slot(acid)
@@ -75,6 +81,11 @@ def probe_intents(sim: Simulation, schedule: Schedule, sample_s: float, limit_s:
         acid = s.view.ids[slot]
         mine = [r for r in by_acid.get(acid, ()) if r.request_s <= s.simt + 1e-6 and r.key not in done]
         if mine:
+            filed[mine[-1].key] = float(s.view.alt[slot])
+            if layers_m is not None and layer is not None and len(layers_m):
+                near = int(np.argmin(np.abs(layers_m - s.view.alt[slot])))
+                if near != layer:
+                    s.offset_altitude(slot, float(layers_m[layer] - layers_m[near]))
             live[acid] = (mine[-1].key, [])
             sample(s, acid, live[acid][1])
 
@@ -104,7 +115,7 @@ def probe_intents(sim: Simulation, schedule: Schedule, sample_s: float, limit_s:
         arr = np.array(samples)
         keep = np.concatenate([[True], np.diff(arr[:, 0]) > 1e-9])  # creation/deletion on a sample instant
         arr = arr[keep]
-        out[key] = Intent(arr[:, 0] - arr[0, 0], arr[:, 1], arr[:, 2], float(arr[0, 3]), orig, dest)
+        out[key] = Intent(arr[:, 0] - arr[0, 0], arr[:, 1], arr[:, 2], float(arr[0, 3]), orig, dest, filed[key])
     return out
 
 
@@ -155,10 +166,15 @@ class IntentTable:
         return got[1], got[2]
 
     def on_grid(self, intent: Intent, depart_s: float) -> tuple[int, np.ndarray, np.ndarray]:
-        """First grid index and east/north positions at the grid instants the flight spans."""
+        """First grid index and east/north positions at the grid instants the flight spans.
+
+        One instant more at each end, holding the first and last positions: the
+        flight then covers its whole time (it departs and ends between grid
+        instants), as if it occupied its vertiports up to a grid step longer.
+        """
         g = self.grid_s
-        k0 = math.ceil(depart_s / g - 1e-9)
-        k1 = math.floor((depart_s + intent.duration_s) / g + 1e-9)
+        k0 = math.ceil(depart_s / g - 1e-9) - 1
+        k1 = math.floor((depart_s + intent.duration_s) / g + 1e-9) + 1
         t = np.arange(k0, max(k1, k0 - 1) + 1) * g - depart_s
         x, y = self.local(intent)
         return k0, np.interp(t, intent.t_rel, x), np.interp(t, intent.t_rel, y)
@@ -209,17 +225,15 @@ class IntentTable:
 
 
 def _segment_min_sq(dx: np.ndarray, dy: np.ndarray) -> np.ndarray:
-    """Smallest squared horizontal distance on each grid interval (linear relative motion), axis 1.
-
-    With a single sample the sample itself; an interval where either flight
-    is absent at one end is NaN.
-    """
+    """Smallest squared horizontal distance on each grid interval (linear relative motion), and at each
+    grid instant, along axis 1; NaN where a flight is absent."""
+    points = dx ** 2 + dy ** 2
     if dx.shape[1] < 2:
-        return dx ** 2 + dy ** 2
+        return points
     ax, ay = dx[:, :-1], dy[:, :-1]
     ux, uy = dx[:, 1:] - ax, dy[:, 1:] - ay
     uu = ux * ux + uy * uy
     with np.errstate(invalid="ignore", divide="ignore"):
         s = np.clip(-(ax * ux + ay * uy) / np.where(uu > 0, uu, 1.0), 0.0, 1.0)
     cx, cy = ax + s * ux, ay + s * uy
-    return cx * cx + cy * cy
+    return np.concatenate([cx * cx + cy * cy, points], axis=1)
