@@ -208,3 +208,18 @@ def test_the_planner_is_the_only_agent():
         assert set(obs) == {"planner"}
         steps += 1
     assert env.possible_agents == ["planner"] and steps == 4  # one step per request
+
+
+def test_fcfs_keeps_the_new_york_training_scenario_clear():
+    # The planned intents are the flights as flown: FCFS leaves no NMAC and no LoWC event
+    # (no planning: 11 NMAC and 139 LoWC, the scenario as filed), at the cost of delays and rejections.
+    runs = {}
+    for kind in ("no_planning", "fcfs"):
+        core = EpisodeCore("nyc_train_100.scn", "strategic_planning", {})
+        play(core, kind)
+        runs[kind] = core.metrics()
+    assert (runs["no_planning"]["safety"]["nmac_events"], runs["no_planning"]["safety"]["lowc_events"]) == (11, 139)
+    assert (runs["fcfs"]["safety"]["nmac_events"], runs["fcfs"]["safety"]["lowc_events"]) == (0, 0)
+    sp = runs["fcfs"]["strategic_planning"]
+    assert sp["flights_planned"] + sp["unplaced"] == 100 and sp["intent_conflicts"] == 0
+    assert sp["unplaced"] == len(sp["unplaced_flights"]) > 0 and sp["mean_delay_s"] > 0
