@@ -23,7 +23,7 @@ def test_perpendicular_crossing_closest_approach_is_v_delta_over_root_two():
     north, east = straight(-0.01, 0, 0.01, 0, 100.0), straight(0, -0.01, 0, 0.01, 100.0)
     table = IntentTable(Frame(0.0, 0.0), grid_s=5.0, separation_m=450.0)
     table.reserve("A", north, 0.0, 100.0)
-    conflicts, closest = table.candidates(east, 0.0, 8, 1, np.array([100.0, 100.0 + 300.0]))
+    conflicts, closest = table.candidates([east, east], 0.0, 8, 1, np.array([100.0, 100.0 + 300.0]))
     delays = np.arange(8) * 5.0
     expected = v * delays / math.sqrt(2)
     assert closest[:, 0] == pytest.approx(expected, abs=1e-6)
@@ -38,6 +38,6 @@ def test_a_flight_is_held_a_grid_step_around_its_ends():
     b = straight(0.0, 0, 0.0, 0.01, 50.0)
     table = IntentTable(Frame(0.0, 0.0), grid_s=5.0, separation_m=450.0)
     table.reserve("A", a, 0.0, 0.0)
-    conflicts, closest = table.candidates(b, 53.0, 3, 1, np.array([0.0]))
+    conflicts, closest = table.candidates([b], 53.0, 3, 1, np.array([0.0]))
     assert conflicts[:, 0].tolist() == [1, 1, 0]  # at 53 s and 58 s; at 63 s A is gone
     assert closest[0, 0] == pytest.approx(0.0, abs=1e-6)

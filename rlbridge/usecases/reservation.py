@@ -19,6 +19,7 @@ negotiation makes before it accepts a flight.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
@@ -183,20 +184,21 @@ class IntentTable:
         k0, x, y = self.on_grid(intent, depart_s)
         self.reserved.append(Reservation(key, depart_s, alt_m, k0, x, y))
 
-    def candidates(self, intent: Intent, request_s: float, shifts: int, step: int,
+    def candidates(self, intents: Sequence[Intent], request_s: float, shifts: int, step: int,
                    alts_m: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Conflicts of departing at ``request_s + d * step * grid_s`` (d < shifts) at each of ``alts_m``.
+        """Conflicts of departing at ``request_s + d * step * grid_s`` (d < shifts) on each layer.
 
-        Returns ``(conflicts, closest)``, both ``(shifts, len(alts_m))``: the
-        number of reserved flights the candidate would conflict with, and the
-        smallest predicted 3-D distance to any of them [m] (inf when none
-        shares its time).
+        ``intents[l]`` is the flight as flown at ``alts_m[l]``. Returns
+        ``(conflicts, closest)``, both ``(shifts, len(alts_m))``: the number of
+        reserved flights the candidate would conflict with, and the smallest
+        predicted 3-D distance to any of them [m] (inf when none shares its time).
         """
         nl = len(alts_m)
         conflicts = np.zeros((shifts, nl), np.int64)
         closest = np.full((shifts, nl), np.inf)
-        k0, px, py = self.on_grid(intent, request_s)
-        m = len(px)
+        grids = [self.on_grid(i, request_s) for i in intents]
+        k0 = grids[0][0]  # the same for every layer: it depends on the departure time only
+        m = max(len(g[1]) for g in grids)
         if m == 0 or not self.reserved:
             return conflicts, closest
         lo, hi = k0, k0 + (shifts - 1) * step + m - 1  # grid window every candidate lies in
@@ -211,16 +213,13 @@ class IntentTable:
             rx[a - lo: b - lo + 1, j] = r.x[a - r.k0: b - r.k0 + 1]
             ry[a - lo: b - lo + 1, j] = r.y[a - r.k0: b - r.k0 + 1]
         ralt = np.array([r.alt_m for r in near])
-        rows = (np.arange(shifts) * step)[:, None] + np.arange(m)[None, :]  # (shifts, m) window rows
-        dx = px[None, :, None] - rx[rows]  # (shifts, m, J): other -> candidate
-        dy = py[None, :, None] - ry[rows]
-        h2 = _segment_min_sq(dx, dy)  # (shifts, m or m-1, J), NaN where either is not flying
-        dz2 = (alts_m[:, None] - ralt[None, :]) ** 2  # (L, J)
-        d2 = h2[:, :, None, :] + dz2[None, None, :, :]  # (shifts, seg, L, J)
-        with np.errstate(invalid="ignore"):
-            d2min = np.nanmin(np.where(np.isnan(d2), np.inf, d2), axis=1)  # (shifts, L, J)
-        conflicts[:] = (d2min < self.separation_m ** 2).sum(axis=2)
-        closest[:] = np.sqrt(d2min.min(axis=2))
+        for layer, (_, px, py) in enumerate(grids):
+            rows = (np.arange(shifts) * step)[:, None] + np.arange(len(px))[None, :]  # (shifts, m) window rows
+            h2 = _segment_min_sq(px[None, :, None] - rx[rows], py[None, :, None] - ry[rows])  # (shifts, seg, J)
+            h2min = np.where(np.isnan(h2), np.inf, h2).min(axis=1)  # (shifts, J); the altitudes are constant
+            d2 = h2min + (alts_m[layer] - ralt[None, :]) ** 2
+            conflicts[:, layer] = (d2 < self.separation_m ** 2).sum(axis=1)
+            closest[:, layer] = np.sqrt(d2.min(axis=1))
         return conflicts, closest
 
 

@@ -291,10 +291,8 @@ class StrategicPlanning(UseCaseBase):
         if self.ep.candidates is None or self.ep.candidates[0] != self.ep.next:
             step = round(self.params.slot_s / self.params.intent_grid_s)
             alts = self._alts(req)
-            per_layer = [self.ep.table.candidates(self.plan.layer_intents[k][req.key], req.request_s, self.n_delays,
-                                                  step, alts[k: k + 1]) for k in range(self.n_layers)]
-            conf = np.concatenate([c for c, _ in per_layer], axis=1)
-            closest = np.concatenate([d for _, d in per_layer], axis=1)
+            flown = [self.plan.layer_intents[k][req.key] for k in range(self.n_layers)]
+            conf, closest = self.ep.table.candidates(flown, req.request_s, self.n_delays, step, alts)
             self.ep.candidates = (self.ep.next, conf, closest)
         return self.ep.candidates[1], self.ep.candidates[2]
 
