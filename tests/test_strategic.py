@@ -223,3 +223,21 @@ def test_fcfs_keeps_the_new_york_training_scenario_clear():
     sp = runs["fcfs"]["strategic_planning"]
     assert sp["flights_planned"] + sp["unplaced"] == 100 and sp["intent_conflicts"] == 0
     assert sp["unplaced"] == len(sp["unplaced_flights"]) > 0 and sp["mean_delay_s"] > 0
+
+
+def test_hierarchical_over_zmq_is_the_local_episode():
+    from bridge_util import thread_server
+
+    params = {"train": "tactical", "planner": "fcfs", "planning": NO_LAYERS}
+    with thread_server(scenario_roots=(Path(CROSS).parent,)) as server:
+        runs = []
+        for backend, address in (("local", None), ("zmq", server.endpoint)):
+            env = rlbridge.parallel_env(CROSS, usecase="hierarchical", backend=backend, address=address, **params)
+            env.reset(seed=2)
+            trace = []
+            while env.agents:
+                trace.append(env.step({a: 2 for a in env.agents})[1])
+            runs.append((trace, env.metrics()))
+            env.close()
+    assert runs[0] == runs[1]
+    assert runs[0][1]["hierarchical"]["unplaced_flights"] == ["N3"]
