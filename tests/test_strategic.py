@@ -241,3 +241,18 @@ def test_hierarchical_over_zmq_is_the_local_episode():
             env.close()
     assert runs[0] == runs[1]
     assert runs[0][1]["hierarchical"]["unplaced_flights"] == ["N3"]
+
+
+def test_the_server_loads_no_policy_file_a_client_names(tmp_path):
+    from bridge_util import thread_server
+
+    from rlbridge.client import RemoteError
+
+    from rlbridge.client import RemoteEpisode
+
+    (tmp_path / "best.pt").write_bytes(b"not a checkpoint")
+    with thread_server(scenario_roots=(Path(CROSS).parent,)) as server:
+        for usecase, params in (("strategic_planning", {"tactical": str(tmp_path / "best.pt")}),
+                                ("hierarchical", {"train": "tactical", "planner": str(tmp_path)})):
+            with pytest.raises(RemoteError, match="=.*the server loads no policy file a client names"):
+                RemoteEpisode(server.endpoint, CROSS, usecase, params).reset(seed=0)

@@ -136,6 +136,7 @@ class StrategicPlanning(UseCaseBase):
     params_class = StrategicParams
     standing_agents = (PLANNER,)
     aircraft_agents = False
+    policy_params: ClassVar[tuple[str, ...]] = ("tactical",)  # frozen policies: baseline names or run paths
     plans_departures: ClassVar[bool] = True  # holds the scenario's departures back (not on BlueSky's reader)
     baselines: ClassVar[tuple[str, ...]] = ("no_planning", "fcfs")
     info_fields = {"delay_s": np.float64, "unplaced": np.bool_, "intent_conflicts": np.int64,  # noqa: RUF012
