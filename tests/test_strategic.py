@@ -246,9 +246,7 @@ def test_hierarchical_over_zmq_is_the_local_episode():
 def test_the_server_loads_no_policy_file_a_client_names(tmp_path):
     from bridge_util import thread_server
 
-    from rlbridge.client import RemoteError
-
-    from rlbridge.client import RemoteEpisode
+    from rlbridge.client import RemoteEpisode, RemoteError
 
     (tmp_path / "best.pt").write_bytes(b"not a checkpoint")
     with thread_server(scenario_roots=(Path(CROSS).parent,)) as server:
