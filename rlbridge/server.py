@@ -73,6 +73,26 @@ class Session:
     requests: int = 0
 
 
+def _refuse_policy_files(usecase: str, params: dict[str, Any]) -> None:
+    """A client names frozen policies by baseline name only: the server loads no file a client names."""
+    from rlbridge.usecases.registry import usecase_class
+
+    try:
+        names = tuple(getattr(usecase_class(usecase), "policy_params", ()))
+    except KeyError:
+        return  # the use case's own error comes with the episode
+    if not names:
+        return
+    from rlbridge.agents import BASELINE_KINDS
+
+    for name in names:
+        value = params.get(name)
+        if isinstance(value, str) and value not in BASELINE_KINDS:
+            raise RequestError("forbidden", f"{usecase}: {name}={value!r}: over the bridge a frozen policy is a "
+                               f"baseline ({', '.join(BASELINE_KINDS)}); the server loads no policy file a client "
+                               "names")
+
+
 class RequestError(Exception):
     """A request the server understood but cannot carry out (error reply with ``code``)."""
 
@@ -331,6 +351,7 @@ class SimulationServer:
         if session is None and len(self.sessions) >= self.options.max_sessions:
             raise RequestError("busy", f"the server already serves {self.options.max_sessions} sessions")
         path = self.roots.resolve(message["scenario"])
+        _refuse_policy_files(message.get("usecase", "corridor_sa"), message.get("params") or {})
         dt = float(message.get("dt", 0.05))  # within FIELD_BOUNDS (check_bounds)
         core = EpisodeCore(path, message.get("usecase", "corridor_sa"), message.get("params") or {},
                            time_limit_s=message.get("time_limit_s"), dt=dt, plugins=self.options.plugins,

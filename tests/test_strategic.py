@@ -208,3 +208,49 @@ def test_the_planner_is_the_only_agent():
         assert set(obs) == {"planner"}
         steps += 1
     assert env.possible_agents == ["planner"] and steps == 4  # one step per request
+
+
+def test_fcfs_keeps_the_new_york_training_scenario_clear():
+    # The planned intents are the flights as flown: FCFS leaves no NMAC and no LoWC event
+    # (no planning: 11 NMAC and 139 LoWC, the scenario as filed), at the cost of delays and rejections.
+    runs = {}
+    for kind in ("no_planning", "fcfs"):
+        core = EpisodeCore("nyc_train_100.scn", "strategic_planning", {})
+        play(core, kind)
+        runs[kind] = core.metrics()
+    assert (runs["no_planning"]["safety"]["nmac_events"], runs["no_planning"]["safety"]["lowc_events"]) == (11, 139)
+    assert (runs["fcfs"]["safety"]["nmac_events"], runs["fcfs"]["safety"]["lowc_events"]) == (0, 0)
+    sp = runs["fcfs"]["strategic_planning"]
+    assert sp["flights_planned"] + sp["unplaced"] == 100 and sp["intent_conflicts"] == 0
+    assert sp["unplaced"] == len(sp["unplaced_flights"]) > 0 and sp["mean_delay_s"] > 0
+
+
+def test_hierarchical_over_zmq_is_the_local_episode():
+    from bridge_util import thread_server
+
+    params = {"train": "tactical", "planner": "fcfs", "planning": NO_LAYERS}
+    with thread_server(scenario_roots=(Path(CROSS).parent,)) as server:
+        runs = []
+        for backend, address in (("local", None), ("zmq", server.endpoint)):
+            env = rlbridge.parallel_env(CROSS, usecase="hierarchical", backend=backend, address=address, **params)
+            env.reset(seed=2)
+            trace = []
+            while env.agents:
+                trace.append(env.step({a: 2 for a in env.agents})[1])
+            runs.append((trace, env.metrics()))
+            env.close()
+    assert runs[0] == runs[1]
+    assert runs[0][1]["hierarchical"]["unplaced_flights"] == ["N3"]
+
+
+def test_the_server_loads_no_policy_file_a_client_names(tmp_path):
+    from bridge_util import thread_server
+
+    from rlbridge.client import RemoteEpisode, RemoteError
+
+    (tmp_path / "best.pt").write_bytes(b"not a checkpoint")
+    with thread_server(scenario_roots=(Path(CROSS).parent,)) as server:
+        for usecase, params in (("strategic_planning", {"tactical": str(tmp_path / "best.pt")}),
+                                ("hierarchical", {"train": "tactical", "planner": str(tmp_path)})):
+            with pytest.raises(RemoteError, match="=.*the server loads no policy file a client names"):
+                RemoteEpisode(server.endpoint, CROSS, usecase, params).reset(seed=0)

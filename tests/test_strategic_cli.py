@@ -9,6 +9,8 @@ import subprocess
 import sys
 from pathlib import Path
 
+import pytest
+
 ROOT = Path(__file__).resolve().parent.parent
 CROSS = str(Path(__file__).parent / "data" / "strategic_cross.scn")
 SMALL = ["usecase=strategic_planning", f"scenario={CROSS}", "workers=0", "usecase.params.layers_ft=[]",
@@ -74,3 +76,21 @@ def test_unknown_use_case_and_parameter_from_the_cli(tmp_path):
     proc = aamgym(["train", *SMALL, "+usecase.params.slots_s=30", "algorithm=ddqn", "train.iterations=1",
                    "train.baseline_episodes=0", "hydra.run.dir=t"], tmp_path, ok=False)
     assert "unknown use-case parameter(s) slots_s; known:" in proc.stderr and "slot_s" in proc.stderr
+
+
+def test_evaluation_baselines_per_use_case():
+    from omegaconf import OmegaConf
+
+    from rlbridge.agents.rollout import EnvSpec
+    from rlbridge.experiment.evaluate import evaluation_baselines
+
+    def pick(usecase: str, baselines: list[str] | None) -> list[str]:
+        return evaluation_baselines(OmegaConf.create({"baselines": baselines}), EnvSpec(CROSS, usecase, {}))
+
+    assert pick("corridor_sa", None) == ["mvp_speed"]
+    assert pick("strategic_planning", None) == ["no_planning", "fcfs"]
+    assert pick("hierarchical", None) == ["no_planning", "fcfs"]
+    assert pick("corridor_sa", ["unequipped", "mvp_speed"]) == ["unequipped", "mvp_speed"]
+    with pytest.raises(ValueError, match="baseline 'fcfs' does not apply to use case corridor_sa; its baselines: "
+                                         "unequipped, mvp_speed"):
+        pick("corridor_sa", ["fcfs"])

@@ -39,7 +39,8 @@ def test_blocks_from_cre_schedule_delay_and_acid_first_form():
     # Nothing lost, nothing invented: every command is in one place exactly once.
     n_blocks = sum(len(r.commands) for r in s.requests)
     assert n_blocks + len(s.other) == len(cmds)
-    assert [(x.time_s, str(x.command)) for x in a.shifted(120.0)][0] == (130.0, "CRE A EC35 0 0 0 500 0")
+    first = a.shifted(120.0)[0]
+    assert (first.time_s, str(first.command)) == (130.0, "CRE A EC35 0 0 0 500 0")
 
 
 def test_a_callsign_created_twice_is_two_requests():
@@ -50,7 +51,7 @@ def test_a_callsign_created_twice_is_two_requests():
 
 def test_the_shipped_new_york_schedule_has_one_block_per_flight():
     path = resolve_scenario("nyc_train_100.scn")
-    cmds, s = _split(path.read_text())
+    _, s = _split(path.read_text())
     assert len(s.requests) == 100
     assert all(len(r.commands) >= 7 and r.commands[0].command.name == "CRE" for r in s.requests)
     assert {c.command.name for c in s.other} == {"DEFWPT"}

@@ -118,16 +118,21 @@ def evaluation_baselines(cfg: DictConfig, env: EnvSpec) -> list[str]:
     """The baselines to evaluate: ``cfg.baselines``, or (null) the use case's own; each must be one it can use."""
     from rlbridge.agents import BASELINE_KINDS
     from rlbridge.usecases.registry import make_usecase
+    from rlbridge.usecases.tactical import tactical_baselines
 
     usecase = make_usecase(env.usecase, **env.params)
-    own = tuple(getattr(usecase, "baselines", ("mvp_speed", "daa")))  # speed-advising use cases: both
-    names = [str(b) for b in cfg.baselines] if cfg.baselines is not None else list(own)
+    own = getattr(usecase, "baselines", None)
+    # A use case that names no baselines has aircraft as agents: every speed-advisory baseline applies
+    # (mvp_speed and daa by default).
+    default = list(own) if own is not None else ["mvp_speed", "daa"]
+    applies = set(own) if own is not None else set(tactical_baselines())
+    names = [str(b) for b in cfg.baselines] if cfg.baselines is not None else default
     for b in names:
         if b not in BASELINE_KINDS:
             raise ValueError(f"unknown baseline {b!r}; known: {', '.join(BASELINE_KINDS)}")
-        if b != "unequipped" and b not in own:
+        if b != "unequipped" and b not in applies:
             raise ValueError(f"baseline {b!r} does not apply to use case {env.usecase}; its baselines: unequipped, "
-                             f"{', '.join(own)}")
+                             f"{', '.join(b for b in BASELINE_KINDS if b in applies and b != 'unequipped')}")
     return names
 
 

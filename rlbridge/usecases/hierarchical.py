@@ -23,7 +23,7 @@ requests, throughput) under ``hierarchical``.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, ClassVar
 
 import gymnasium as gym
 import numpy as np
@@ -65,6 +65,7 @@ class Hierarchical(UseCaseBase):
     env_name = "Hierarchical"
     params_class = HierarchicalParams
     plans_departures = True
+    policy_params: ClassVar[tuple[str, ...]] = ("tactical", "planner")  # frozen policies: baseline names or run paths
 
     def __init__(self, **params: Any):
         self.params: HierarchicalParams = make_params(HierarchicalParams, params)

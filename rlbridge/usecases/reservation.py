@@ -19,6 +19,7 @@ negotiation makes before it accepts a flight.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
@@ -39,21 +40,26 @@ class Intent:
     t_rel: np.ndarray  # [s] from departure, increasing, t_rel[0] = 0
     lat: np.ndarray
     lon: np.ndarray
-    alt_m: float  # altitude at creation (the filed layer, with the scenario's noise)
+    alt_m: float  # altitude flown from creation [m] (its layer, with the scenario's noise)
     origin: str
     destination: str
+    filed_alt_m: float = math.nan  # altitude the scenario creates it at [m]
 
     @property
     def duration_s(self) -> float:
         return float(self.t_rel[-1])
 
 
-def probe_intents(sim: Simulation, schedule: Schedule, sample_s: float, limit_s: float) -> dict[str, Intent]:
+def probe_intents(sim: Simulation, schedule: Schedule, sample_s: float, limit_s: float,
+                  layers_m: np.ndarray | None = None, layer: int | None = None) -> dict[str, Intent]:
     """Fly the scenario as filed in a fresh simulation and sample each request's flight.
 
     ``sim`` lends its time step and scenario files (PCALL search path); the
-    probe has no services and nothing acting on the traffic. A request whose
-    aircraft is never created (a bad CRE line) has no intent.
+    probe has no services and nothing acting on the traffic. With ``layer``,
+    every request's aircraft moves at creation from its nearest layer of
+    ``layers_m`` to that one (its noise kept): a layer changes the true
+    airspeed a selected CAS gives, hence the timing along the route. A request
+    whose aircraft is never created (a bad CRE line) has no intent.
     """
     from aamsim import Simulation  # the probe is a simulation of its own
 
@@ -66,6 +72,7 @@ def probe_intents(sim: Simulation, schedule: Schedule, sample_s: float, limit_s:
         probe.queue.extend(list(r.commands))
     live: dict[str, tuple[str, list[tuple[float, float, float, float]]]] = {}  # acid -> (key, samples)
     done: dict[str, tuple[list[tuple[float, float, float, float]], str, str]] = {}
+    filed: dict[str, float] = {}
 
     def sample(s: Simulation, acid: str, samples: list[tuple[float, float, float, float]]) -> None:
         i = s.view.slot(acid)
@@ -75,6 +82,11 @@ def probe_intents(sim: Simulation, schedule: Schedule, sample_s: float, limit_s:
         acid = s.view.ids[slot]
         mine = [r for r in by_acid.get(acid, ()) if r.request_s <= s.simt + 1e-6 and r.key not in done]
         if mine:
+            filed[mine[-1].key] = float(s.view.alt[slot])
+            if layers_m is not None and layer is not None and len(layers_m):
+                near = int(np.argmin(np.abs(layers_m - s.view.alt[slot])))
+                if near != layer:
+                    s.offset_altitude(slot, float(layers_m[layer] - layers_m[near]))
             live[acid] = (mine[-1].key, [])
             sample(s, acid, live[acid][1])
 
@@ -104,7 +116,7 @@ def probe_intents(sim: Simulation, schedule: Schedule, sample_s: float, limit_s:
         arr = np.array(samples)
         keep = np.concatenate([[True], np.diff(arr[:, 0]) > 1e-9])  # creation/deletion on a sample instant
         arr = arr[keep]
-        out[key] = Intent(arr[:, 0] - arr[0, 0], arr[:, 1], arr[:, 2], float(arr[0, 3]), orig, dest)
+        out[key] = Intent(arr[:, 0] - arr[0, 0], arr[:, 1], arr[:, 2], float(arr[0, 3]), orig, dest, filed[key])
     return out
 
 
@@ -155,10 +167,15 @@ class IntentTable:
         return got[1], got[2]
 
     def on_grid(self, intent: Intent, depart_s: float) -> tuple[int, np.ndarray, np.ndarray]:
-        """First grid index and east/north positions at the grid instants the flight spans."""
+        """First grid index and east/north positions at the grid instants the flight spans.
+
+        One instant more at each end, holding the first and last positions: the
+        flight then covers its whole time (it departs and ends between grid
+        instants), as if it occupied its vertiports up to a grid step longer.
+        """
         g = self.grid_s
-        k0 = math.ceil(depart_s / g - 1e-9)
-        k1 = math.floor((depart_s + intent.duration_s) / g + 1e-9)
+        k0 = math.ceil(depart_s / g - 1e-9) - 1
+        k1 = math.floor((depart_s + intent.duration_s) / g + 1e-9) + 1
         t = np.arange(k0, max(k1, k0 - 1) + 1) * g - depart_s
         x, y = self.local(intent)
         return k0, np.interp(t, intent.t_rel, x), np.interp(t, intent.t_rel, y)
@@ -167,20 +184,21 @@ class IntentTable:
         k0, x, y = self.on_grid(intent, depart_s)
         self.reserved.append(Reservation(key, depart_s, alt_m, k0, x, y))
 
-    def candidates(self, intent: Intent, request_s: float, shifts: int, step: int,
+    def candidates(self, intents: Sequence[Intent], request_s: float, shifts: int, step: int,
                    alts_m: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Conflicts of departing at ``request_s + d * step * grid_s`` (d < shifts) at each of ``alts_m``.
+        """Conflicts of departing at ``request_s + d * step * grid_s`` (d < shifts) on each layer.
 
-        Returns ``(conflicts, closest)``, both ``(shifts, len(alts_m))``: the
-        number of reserved flights the candidate would conflict with, and the
-        smallest predicted 3-D distance to any of them [m] (inf when none
-        shares its time).
+        ``intents[l]`` is the flight as flown at ``alts_m[l]``. Returns
+        ``(conflicts, closest)``, both ``(shifts, len(alts_m))``: the number of
+        reserved flights the candidate would conflict with, and the smallest
+        predicted 3-D distance to any of them [m] (inf when none shares its time).
         """
         nl = len(alts_m)
         conflicts = np.zeros((shifts, nl), np.int64)
         closest = np.full((shifts, nl), np.inf)
-        k0, px, py = self.on_grid(intent, request_s)
-        m = len(px)
+        grids = [self.on_grid(i, request_s) for i in intents]
+        k0 = grids[0][0]  # the same for every layer: it depends on the departure time only
+        m = max(len(g[1]) for g in grids)
         if m == 0 or not self.reserved:
             return conflicts, closest
         lo, hi = k0, k0 + (shifts - 1) * step + m - 1  # grid window every candidate lies in
@@ -195,31 +213,26 @@ class IntentTable:
             rx[a - lo: b - lo + 1, j] = r.x[a - r.k0: b - r.k0 + 1]
             ry[a - lo: b - lo + 1, j] = r.y[a - r.k0: b - r.k0 + 1]
         ralt = np.array([r.alt_m for r in near])
-        rows = (np.arange(shifts) * step)[:, None] + np.arange(m)[None, :]  # (shifts, m) window rows
-        dx = px[None, :, None] - rx[rows]  # (shifts, m, J): other -> candidate
-        dy = py[None, :, None] - ry[rows]
-        h2 = _segment_min_sq(dx, dy)  # (shifts, m or m-1, J), NaN where either is not flying
-        dz2 = (alts_m[:, None] - ralt[None, :]) ** 2  # (L, J)
-        d2 = h2[:, :, None, :] + dz2[None, None, :, :]  # (shifts, seg, L, J)
-        with np.errstate(invalid="ignore"):
-            d2min = np.nanmin(np.where(np.isnan(d2), np.inf, d2), axis=1)  # (shifts, L, J)
-        conflicts[:] = (d2min < self.separation_m ** 2).sum(axis=2)
-        closest[:] = np.sqrt(d2min.min(axis=2))
+        for layer, (_, px, py) in enumerate(grids):
+            rows = (np.arange(shifts) * step)[:, None] + np.arange(len(px))[None, :]  # (shifts, m) window rows
+            h2 = _segment_min_sq(px[None, :, None] - rx[rows], py[None, :, None] - ry[rows])  # (shifts, seg, J)
+            h2min = np.where(np.isnan(h2), np.inf, h2).min(axis=1)  # (shifts, J); the altitudes are constant
+            d2 = h2min + (alts_m[layer] - ralt[None, :]) ** 2
+            conflicts[:, layer] = (d2 < self.separation_m ** 2).sum(axis=1)
+            closest[:, layer] = np.sqrt(d2.min(axis=1))
         return conflicts, closest
 
 
 def _segment_min_sq(dx: np.ndarray, dy: np.ndarray) -> np.ndarray:
-    """Smallest squared horizontal distance on each grid interval (linear relative motion), axis 1.
-
-    With a single sample the sample itself; an interval where either flight
-    is absent at one end is NaN.
-    """
+    """Smallest squared horizontal distance on each grid interval (linear relative motion), and at each
+    grid instant, along axis 1; NaN where a flight is absent."""
+    points = dx ** 2 + dy ** 2
     if dx.shape[1] < 2:
-        return dx ** 2 + dy ** 2
+        return points
     ax, ay = dx[:, :-1], dy[:, :-1]
     ux, uy = dx[:, 1:] - ax, dy[:, 1:] - ay
     uu = ux * ux + uy * uy
     with np.errstate(invalid="ignore", divide="ignore"):
         s = np.clip(-(ax * ux + ay * uy) / np.where(uu > 0, uu, 1.0), 0.0, 1.0)
     cx, cy = ax + s * ux, ay + s * uy
-    return cx * cx + cy * cy
+    return np.concatenate([cx * cx + cy * cy, points], axis=1)

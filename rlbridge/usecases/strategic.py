@@ -107,7 +107,8 @@ class PlanData:
     """What one scenario gives the planner (computed once per scenario and time step)."""
 
     schedule: Schedule
-    intents: dict[str, Intent]
+    intents: dict[str, Intent]  # request key -> its intent on its filed layer
+    layer_intents: list[dict[str, Intent]]  # per layer index: the intents flown on that layer ([intents] without)
     frame: Frame
     filed_layer: dict[str, int]  # request key -> nearest layer index (-1 without layers)
     ends: dict[str, tuple[float, float, float, float]] = field(default_factory=dict)  # key -> origin, dest x/y [m]
@@ -135,6 +136,7 @@ class StrategicPlanning(UseCaseBase):
     params_class = StrategicParams
     standing_agents = (PLANNER,)
     aircraft_agents = False
+    policy_params: ClassVar[tuple[str, ...]] = ("tactical",)  # frozen policies: baseline names or run paths
     plans_departures: ClassVar[bool] = True  # holds the scenario's departures back (not on BlueSky's reader)
     baselines: ClassVar[tuple[str, ...]] = ("no_planning", "fcfs")
     info_fields = {"delay_s": np.float64, "unplaced": np.bool_, "intent_conflicts": np.int64,  # noqa: RUF012
@@ -204,20 +206,27 @@ class StrategicPlanning(UseCaseBase):
     def _make_plan(self, sim: Simulation, commands: list[TimedCommand]) -> PlanData:
         schedule = split_schedule(commands, sim.commands.__contains__)
         last = max((r.request_s for r in schedule.requests), default=0.0)
-        intents = probe_intents(sim, schedule, self.params.intent_grid_s, last + PROBE_LIMIT_S)
+        grid, limit = self.params.intent_grid_s, last + PROBE_LIMIT_S
+        layers_m = np.array(self.params.layers_ft) * FT
+        if len(layers_m):
+            per_layer = [probe_intents(sim, schedule, grid, limit, layers_m, k) for k in range(len(layers_m))]
+            nearest = {k: int(np.argmin(np.abs(layers_m - i.filed_alt_m))) for k, i in per_layer[0].items()}
+            intents = {k: per_layer[layer][k] for k, layer in nearest.items()}
+        else:
+            intents = probe_intents(sim, schedule, grid, limit)
+            per_layer = [intents]
         if intents:
             lat0 = float(np.mean([i.lat[0] for i in intents.values()]))
             lon0 = float(np.mean([i.lon[0] for i in intents.values()]))
         else:
             lat0 = lon0 = 0.0
-        layers_m = np.array(self.params.layers_ft) * FT
         filed = {k: int(np.argmin(np.abs(layers_m - i.alt_m))) if len(layers_m) else -1 for k, i in intents.items()}
         frame = Frame(lat0, lon0)
         ends = {}
         for k, i in intents.items():
             x, y = frame.xy(i.lat[[0, -1]], i.lon[[0, -1]])
             ends[k] = (float(x[0]), float(y[0]), float(x[1]), float(y[1]))
-        return PlanData(schedule, intents, frame, filed, ends)
+        return PlanData(schedule, intents, per_layer, frame, filed, ends)
 
     def _on_created(self, sim: Simulation, slot: int) -> None:
         """A planned flight takes off on its planned layer (its filed noise about it kept)."""
@@ -281,9 +290,10 @@ class StrategicPlanning(UseCaseBase):
         if req is None:
             return np.zeros((self.n_delays, self.n_layers), np.int64), np.full((self.n_delays, self.n_layers), np.inf)
         if self.ep.candidates is None or self.ep.candidates[0] != self.ep.next:
-            intent = self.plan.intents[req.key]
             step = round(self.params.slot_s / self.params.intent_grid_s)
-            conf, closest = self.ep.table.candidates(intent, req.request_s, self.n_delays, step, self._alts(req))
+            alts = self._alts(req)
+            flown = [self.plan.layer_intents[k][req.key] for k in range(self.n_layers)]
+            conf, closest = self.ep.table.candidates(flown, req.request_s, self.n_delays, step, alts)
             self.ep.candidates = (self.ep.next, conf, closest)
         return self.ep.candidates[1], self.ep.candidates[2]
 
@@ -342,7 +352,8 @@ class StrategicPlanning(UseCaseBase):
         delay = slot * self.params.slot_s
         intent = self.plan.intents[req.key]
         dz = float(self._layer_offsets(req)[max(layer, 0)])
-        self.ep.table.reserve(req.key, intent, req.request_s + delay, intent.alt_m + dz)
+        flown = self.plan.layer_intents[max(layer, 0)][req.key]
+        self.ep.table.reserve(req.key, flown, req.request_s + delay, intent.alt_m + dz)
         self.ep.layer_dz.setdefault(req.acid, []).append(dz)
         # A decision can come a step after its request (the engine advances by at least one step):
         # commands already due run at once.
