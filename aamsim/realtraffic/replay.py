@@ -378,3 +378,21 @@ def start_recording(sim: CommandContext, path_text: str, offset: str = "", area:
     replay.attach(sim)
     return replay
 
+
+
+def start_overlay(sim: CommandContext, spec: str, offset: str = "", area: BBox | None = None,
+                  name: str | None = None) -> Replay:
+    """Overlay real traffic: ``spec`` a recording file (a path here, or one the scenario's search path
+    finds) or ``opensky:LAT0,LON0,LAT1,LON1`` (live OpenSky state vectors, paced to real time)."""
+    if spec.lower().startswith("opensky:"):
+        from aamsim.realtraffic.live import start_live
+
+        try:
+            box = parse_area([float(x) for x in spec.split(":", 1)[1].split(",") if x.strip()])
+        except ValueError:
+            box = None
+        if box is None:
+            raise CommandError(f'"{spec}": live OpenSky needs an area, opensky:LAT0,LON0,LAT1,LON1 in degrees')
+        return start_live(sim, box)
+    path = Path(spec)
+    return start_recording(sim, str(path.resolve()) if path.is_file() else spec, offset, area, name=name or spec)
