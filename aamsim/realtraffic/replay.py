@@ -198,6 +198,9 @@ class Replay:
         if math.isnan(self.t0_s):
             return
         t = self.recording_time(sim.simt)
+        live_time = getattr(self.feed, "live_time", None)
+        if live_time is not None:
+            t = live_time(t)
         try:
             tracks = self.feed.tracks_at(t)
         except RecordingError as err:
