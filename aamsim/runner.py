@@ -172,22 +172,12 @@ class OverlayError(Exception):
 def start_overlays(sim: Simulation, cfg: RunConfig) -> None:
     """Start the run's real-traffic overlays at time 0; raises :class:`OverlayError` naming the overlay."""
     from aamsim.errors import CommandError
-    from aamsim.realtraffic.replay import parse_area, start_recording
+    from aamsim.realtraffic.replay import parse_area, start_overlay
 
     try:
         area = parse_area(list(cfg.overlay_area))
         for spec in cfg.overlays:
-            if spec.lower().startswith("opensky:"):
-                from aamsim.realtraffic.live import start_live
-
-                box = parse_area([float(x) for x in spec.split(":", 1)[1].split(",") if x.strip()])
-                if box is None:
-                    raise CommandError("opensky: needs an area, opensky:LAT0,LON0,LAT1,LON1")
-                start_live(sim, box)
-            else:
-                path = Path(spec)
-                start_recording(sim, str(path.resolve()) if path.is_file() else spec, cfg.overlay_offset, area,
-                                name=spec)
+            start_overlay(sim, spec, cfg.overlay_offset, area)
     except (CommandError, ValueError) as err:
         raise OverlayError(f"--overlay: {err}") from None
 

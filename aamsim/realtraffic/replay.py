@@ -26,7 +26,7 @@ from typing import TYPE_CHECKING, Protocol
 import numpy as np
 
 from aamsim.errors import CommandError
-from aamsim.realtraffic.readers import RecordingReader
+from aamsim.realtraffic.readers import DEFAULT_CHUNK_ROWS, RecordingReader
 from aamsim.realtraffic.reports import RecordingError, SkipLog
 from aamsim.realtraffic.tracks import TrackSet, TrackStates
 from aamsim.realtraffic.window import READ_AHEAD_S, STREAM_ABOVE_BYTES, TrackWindow
@@ -132,7 +132,7 @@ class RecordingFeed(TrackWindow):
     def __init__(self, path: Path, *, area: BBox | None = None, max_gap_s: float = 60.0,
                  stream_above_bytes: int = STREAM_ABOVE_BYTES, chunk_rows: int | None = None):
         streaming = path.stat().st_size > stream_above_bytes
-        self.reader = RecordingReader(path, bbox=area, **({"chunk_rows": chunk_rows} if chunk_rows else {}))
+        self.reader = RecordingReader(path, bbox=area, chunk_rows=chunk_rows or DEFAULT_CHUNK_ROWS)
         super().__init__(self.reader, max_gap_s=max_gap_s, read_ahead_s=READ_AHEAD_S if streaming else math.inf)
         self.path = path
 
@@ -198,6 +198,9 @@ class Replay:
         if math.isnan(self.t0_s):
             return
         t = self.recording_time(sim.simt)
+        live_time = getattr(self.feed, "live_time", None)
+        if live_time is not None:
+            t = live_time(t)
         try:
             tracks = self.feed.tracks_at(t)
         except RecordingError as err:
@@ -378,3 +381,21 @@ def start_recording(sim: CommandContext, path_text: str, offset: str = "", area:
     replay.attach(sim)
     return replay
 
+
+
+def start_overlay(sim: CommandContext, spec: str, offset: str = "", area: BBox | None = None,
+                  name: str | None = None) -> Replay:
+    """Overlay real traffic: ``spec`` a recording file (a path here, or one the scenario's search path
+    finds) or ``opensky:LAT0,LON0,LAT1,LON1`` (live OpenSky state vectors, paced to real time)."""
+    if spec.lower().startswith("opensky:"):
+        from aamsim.realtraffic.live import start_live
+
+        try:
+            box = parse_area([float(x) for x in spec.split(":", 1)[1].split(",") if x.strip()])
+        except ValueError:
+            box = None
+        if box is None:
+            raise CommandError(f'"{spec}": live OpenSky needs an area, opensky:LAT0,LON0,LAT1,LON1 in degrees')
+        return start_live(sim, box)
+    path = Path(spec)
+    return start_recording(sim, str(path.resolve()) if path.is_file() else spec, offset, area, name=name or spec)

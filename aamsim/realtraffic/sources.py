@@ -286,3 +286,11 @@ def _arrow_values(pa: Any, column: Any) -> Any:
     if pa.types.is_floating(kind) or pa.types.is_integer(kind):
         return column.to_numpy(zero_copy_only=False)
     return column.to_pylist()
+
+
+def rest_response_chunks(
+    path: str, response: Mapping[str, Any], number: int, plan_for: PlanFor, skips: SkipLog
+) -> Iterator[RawChunk]:
+    """One decoded ``states/all`` response (a live poll: ``path`` names its source, ``number`` the poll)."""
+    batcher = _RecordBatcher(path, plan_for, 1 << 30, skips)
+    yield from batcher.add_all(rest_states(path, response, number, skips))

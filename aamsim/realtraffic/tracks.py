@@ -178,7 +178,8 @@ def build_tracks(
     no_altitude = ~rows.on_ground & ~np.isfinite(rows.alt_m)
     keep = ~rows.on_ground & ~no_altitude
     rows, landings = rows.take(keep), landings[keep]
-    later_same = np.concatenate([(rows.icao24[:-1] == rows.icao24[1:]) & (rows.t_s[:-1] == rows.t_s[1:]), [False]])
+    later_same = np.zeros(len(rows), dtype=bool)  # (no reports at all is a valid, empty set of tracks)
+    later_same[:-1] = (rows.icao24[:-1] == rows.icao24[1:]) & (rows.t_s[:-1] == rows.t_s[1:])
     rows, landings = rows.take(~later_same), landings[~later_same]
     n = len(rows)
     same_aircraft = np.concatenate([[False], rows.icao24[1:] == rows.icao24[:-1]]) if n else np.zeros(0, dtype=bool)

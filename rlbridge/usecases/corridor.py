@@ -29,7 +29,7 @@ from aamsim.conflicts import SeparationVolume, conflicts_of, pairs_within
 from aamsim.metrics import record_advisory
 from aamsim.units import FT, KTS
 from rlbridge.observe import corridor_features, nearest_neighbours
-from rlbridge.usecases.protocol import Feedback, Observations, UseCaseBase, make_params
+from rlbridge.usecases.protocol import Feedback, Observations, UseCaseBase, make_params, start_overlay
 
 if TYPE_CHECKING:
     from aamsim import Simulation
@@ -81,9 +81,17 @@ class CorridorParams:
     scale_spd: float = 100.0
     scale_pos: float = 5000.0
     scale_dalt: float = 100.0
+    # Real traffic as non-cooperative intruders (docs/real-traffic.md): a recording file or
+    # opensky:LAT0,LON0,LAT1,LON1; its offset ([-][[HH:]MM:]SS or @UTC-TIME) and area (LAT0, LON0, LAT1, LON1).
+    overlay: str = ""
+    overlay_offset: str = ""
+    overlay_area: tuple[float, ...] = ()
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "alt_noise_lanes_ft", tuple(float(x) for x in self.alt_noise_lanes_ft))
+        object.__setattr__(self, "overlay_area", tuple(float(x) for x in self.overlay_area))
+        if len(self.overlay_area) not in (0, 4):
+            raise ValueError("overlay_area is 4 numbers LAT0, LON0, LAT1, LON1 (or empty)")
         if self.obs_format not in ("flat", "dict"):
             raise ValueError(f"obs_format must be 'flat' or 'dict', not {self.obs_format!r}")
         if self.variant not in VARIANTS:
@@ -158,6 +166,8 @@ class CorridorSA(UseCaseBase):
             lanes_m = np.array(p.alt_noise_lanes_ft) * FT
 
             def jitter(sim: Simulation, i: int) -> None:
+                if sim.view.noncooperative[i]:
+                    return  # real traffic flies where it was recorded
                 noise = float(sim.rng.uniform(-p.alt_noise_ft, p.alt_noise_ft)) * FT
                 alt = sim.view.alt[i]
                 off = lanes_m - alt
@@ -169,6 +179,7 @@ class CorridorSA(UseCaseBase):
                     dz = noise
                 sim.offset_altitude(i, dz)
             sim.hooks.created.add(jitter, name="corridor.alt_noise")
+        start_overlay(sim, p.overlay, p.overlay_offset, p.overlay_area)
 
     # ------------------------------------------------------------ observation
     def _route_arrays(self, sim: Simulation) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:

@@ -125,7 +125,8 @@ class UseCaseBase:
         return None
 
     def agent_of(self, sim: Simulation, slot: int) -> str | None:
-        return sim.view.ids[slot]
+        # Replayed real traffic (an overlay) is an intruder, never an agent.
+        return None if sim.view.noncooperative[slot] else sim.view.callsign(slot)
 
     def next_decision_s(self, sim: Simulation) -> float:
         return sim.simt + self.decision_interval_s
@@ -172,3 +173,14 @@ def check_feedback(usecase: UseCase, feedback: Feedback, n: int) -> None:
         if col is None or col.shape != (n,) or col.dtype != np.dtype(dtype):
             raise ValueError(f"use case {usecase.name}: info column {name!r} must be a {np.dtype(dtype).name} "
                              f"array of {n} values")
+
+
+def start_overlay(sim: Simulation, overlay: str, offset: str = "", area: tuple[float, ...] = ()) -> None:
+    """Real traffic as intruders from the episode's start (a use case's ``overlay`` parameters): a
+    recording file, or ``opensky:LAT0,LON0,LAT1,LON1``; see docs/real-traffic.md. Nothing when empty."""
+    if not overlay:
+        return
+    from aamsim.realtraffic.replay import parse_area
+    from aamsim.realtraffic.replay import start_overlay as start
+
+    start(sim, overlay, offset, parse_area(list(area)))

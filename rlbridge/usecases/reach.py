@@ -21,7 +21,7 @@ import gymnasium as gym
 import numpy as np
 
 from aamsim.units import KTS
-from rlbridge.usecases.protocol import Feedback, Observations, UseCaseBase, make_params
+from rlbridge.usecases.protocol import Feedback, Observations, UseCaseBase, make_params, start_overlay
 
 if TYPE_CHECKING:
     from aamsim import Simulation
@@ -37,8 +37,15 @@ class ReachParams:
     decision_interval_s: float = 10.0
     scale_dist_m: float = 10000.0
     scale_spd_mps: float = 50.0
+    # Real traffic as non-cooperative intruders (docs/real-traffic.md), as in corridor_sa.
+    overlay: str = ""
+    overlay_offset: str = ""
+    overlay_area: tuple[float, ...] = ()
 
     def __post_init__(self) -> None:
+        object.__setattr__(self, "overlay_area", tuple(float(x) for x in self.overlay_area))
+        if len(self.overlay_area) not in (0, 4):
+            raise ValueError("overlay_area is 4 numbers LAT0, LON0, LAT1, LON1 (or empty)")
         if not self.speeds_kts or min(self.speeds_kts) < 0:
             raise ValueError("speeds_kts must list at least one speed >= 0")
         if not self.decision_interval_s > 0:
@@ -64,6 +71,10 @@ class ReachDestination(UseCaseBase):
     @property
     def decision_interval_s(self) -> float:
         return self.params.decision_interval_s
+
+    def attach(self, sim: Simulation) -> None:
+        p = self.params
+        start_overlay(sim, p.overlay, p.overlay_offset, p.overlay_area)
 
     def observation_space(self) -> gym.Space:
         return self._obs_space
@@ -123,5 +134,5 @@ class ReachDestination(UseCaseBase):
         return Feedback(rewards.astype(np.float64), {"arrived": arrived.astype(np.bool_), "dist_m": dist})
 
     def extra_metrics(self, sim: Simulation) -> dict[str, Any]:
-        done = [r for r in sim.flight_log]
+        done = [r for r in sim.flight_log if not r.real_traffic]
         return {"arrivals": sum(r.arrived for r in done), "flights_ended": len(done)}

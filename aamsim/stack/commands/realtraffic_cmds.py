@@ -24,7 +24,7 @@ def replay(sim: CommandContext, source: Word = "", offset: Word = "", *area: Num
     that box [deg]. ``source`` may be ``OPENSKY`` (live, needs the area). Without arguments: the
     replays running.
     """
-    from aamsim.realtraffic.replay import parse_area, replays_of, start_recording
+    from aamsim.realtraffic.replay import parse_area, replays_of, start_overlay
 
     if not source:
         replays = replays_of(sim)
@@ -32,16 +32,11 @@ def replay(sim: CommandContext, source: Word = "", offset: Word = "", *area: Num
             return "no replay running"
         return "\n".join(r.describe() for r in replays)
     box = parse_area(list(area))
-    if source.upper() == "OPENSKY" or source.lower().startswith("opensky:"):
-        from aamsim.realtraffic.live import start_live
-
-        if box is None and ":" in source:
-            box = parse_area([float(x) for x in source.split(":", 1)[1].split(",") if x.strip()])
+    if source.upper() == "OPENSKY":
         if box is None:
             raise CommandError("REPLAY OPENSKY needs an area: REPLAY OPENSKY,,LAT0,LON0,LAT1,LON1")
-        start_live(sim, box)
-        return None
-    start_recording(sim, source, offset, box)
+        source = "opensky:" + ",".join(f"{v:g}" for v in box)
+    start_overlay(sim, source, offset, box)
     return None
 
 
