@@ -394,7 +394,8 @@ class Simulation(SimulationAPI):
                 self.settings.airborne_alt_m,
                 self._scratch,
                 cond,
-                self.wind.arrays(),
+                self.wind.arrays() if self.wind.active else None,
+                () if traffic.turn_speeds_used else None,
                 *extra,
             )
             done += k

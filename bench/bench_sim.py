@@ -16,6 +16,7 @@ path with trajectory logging off (``--log-period 0``).
     python bench/bench_sim.py                          # N = 100, 1000, 10000 + the day
     python bench/bench_sim.py --sizes 100,1000 --no-day --repeat 3
     python bench/bench_sim.py --threads 1,2            # also the multi-threaded kernel
+    python bench/bench_sim.py --wind 4 --no-day        # in a wind field of 4 points (both simulators)
 
 Numbers are medians over ``--repeat`` runs (the machine is shared and noisy).
 """
@@ -67,10 +68,15 @@ def flight_lines(acid: str, rng: np.random.Generator, time_text: str = "00:00:00
     return lines
 
 
-def make_scenario(n: int, seed: int = 0, box_km: float = BOX_KM, waypoints: int = 3) -> str:
-    """Scenario text: ``n`` EC35 on random routes, all created at t = 0."""
+def make_scenario(n: int, seed: int = 0, box_km: float = BOX_KM, waypoints: int = 3, wind_points: int = 0) -> str:
+    """Scenario text: ``n`` EC35 on random routes, all created at t = 0 (in a wind field of ``wind_points``)."""
     rng = np.random.default_rng(seed)
     lines = [f"# bench_sim: {n} EC35 on {waypoints}-waypoint routes in a {box_km:g} km box, seed {seed}"]
+    wind_rng = np.random.default_rng(seed + 1)  # its own draws: the same aircraft with and without wind
+    for _ in range(wind_points):
+        lat, lon = _box_point(wind_rng, box_km)
+        lines.append(f"00:00:00.00>WIND {lat:.6f} {lon:.6f} {wind_rng.uniform(0, 360):.0f} "
+                     f"{wind_rng.uniform(5, 30):.0f}")
     for k in range(n):
         lines.extend(flight_lines(f"AC{k:05d}", rng, box_km=box_km, waypoints=waypoints))
     return "\n".join(lines) + "\n"
@@ -226,6 +232,8 @@ def main(argv: list[str] | None = None) -> int:
                         help="BlueSky's sim time for N >= 10000 (it is slow there; rates are compared)")
     parser.add_argument("--day", action=argparse.BooleanOptionalAction, default=True,
                         help="also run the day case (100 aircraft, 24 h)")
+    parser.add_argument("--wind", type=int, default=0, metavar="POINTS",
+                        help="wind points (no altitude profile) in the box, in both simulators (default: no wind)")
     parser.add_argument("--day-duration", type=float, default=86400.0, help="sim time of the day case [s]")
     args = parser.parse_args(argv)
     sizes = [int(s) for s in args.sizes.split(",") if s]
@@ -238,14 +246,14 @@ def main(argv: list[str] | None = None) -> int:
 
     _warm_up(tuple(threads))
     print(f"aamsim bench: EC35 on 3-waypoint routes, {BOX_KM:g} km box, dt {args.dt:g} s, "
-          f"{args.sim_time:g} s sim time, median of {args.repeat}, cpu count {os.cpu_count()}, "
+          f"{args.sim_time:g} s sim time, {args.wind} wind points, median of {args.repeat}, cpu count {os.cpu_count()}, "
           f"numba {numba.__version__}")
     header = f"{'N':>6} {'threads':>7} {'aamsim ac-steps/s':>18} {'x realtime':>10} " \
              f"{'BlueSky ac-steps/s':>19} {'BS sim s':>8} {'ratio':>7}"
     print(header)
     print("-" * len(header))
     for n in sizes:
-        text = make_scenario(n)
+        text = make_scenario(n, wind_points=args.wind)
         bs_sim = args.sim_time if n < 10000 else min(args.sim_time, args.bluesky_large_sim_time)
         # Runs alternate between the simulators, so that a change in the
         # machine's load hits both alike.

@@ -195,6 +195,7 @@ def _find_next_turn(traffic: Traffic, i: int) -> None:
     B[f.B_HAS_NEXTTURN, i] = k >= 0
     if k < 0:
         return
+    traffic.turn_speeds_used = True
     wp = route.waypoints[k]
     turn = plan_turn(F[f.TAS, i], F[f.ALT, i], F[f.BANKDEF, i], 0.0, 0.0, False, wp.turn)
     F[f.WP_NEXTTURNLAT, i] = wp.lat

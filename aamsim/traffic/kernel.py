@@ -210,6 +210,21 @@ def _reached(F: np.ndarray, B: np.ndarray, i: int, qdr: float, dist: float) -> b
 
 
 @njit(cache=True, error_model="numpy")
+def _wind_here(wind: tuple[np.ndarray, ...], lat: float, lon: float, alt: float) -> tuple[float, float]:
+    """The wind field at a position (not inlined: keeps the step's code small)."""
+    return wind_at(wind, lat, lon, alt)
+
+
+@njit(cache=True, error_model="numpy")
+def _wind_correction(des_trk: float, wind_n: float, wind_e: float, tas: float) -> float:
+    """The heading [deg] that makes good the track ``des_trk`` at ``tas`` in the wind (BlueSky's APorASAS)."""
+    wind_speed = math.sqrt(wind_n * wind_n + wind_e * wind_e)
+    drift = math.radians(des_trk) - math.atan2(wind_e, wind_n)
+    steer = math.asin(min(1.0, max(-1.0, wind_speed * math.sin(drift) / max(0.001, tas))))
+    return des_trk + math.degrees(steer)
+
+
+@njit(cache=True, error_model="numpy")
 def _turn_speed(F: np.ndarray, B: np.ndarray, i: int, tas: float, rho: float, p: float, use_next: bool) -> None:
     """Speed selection of an aircraft with fly-turn waypoints (BlueSky's FMS speed guidance).
 
@@ -280,7 +295,8 @@ def _step_aircraft(
     have_qdr: bool,
     hold_speed: float,
     airborne_alt: float,
-    wind: tuple[np.ndarray, ...],
+    wind: tuple[np.ndarray, ...] | None,
+    turns: tuple[()] | None,
 ) -> None:
     if B[B_NONCOOP, i]:
         _step_noncooperative(F, i, dt, airborne_alt)
@@ -291,11 +307,15 @@ def _step_aircraft(
     swvnav = B[B_SWVNAV, i]
     rho, p, a = _atmosphere(F, i, alt)
     # Wind at the aircraft, where it is at the start of the step (BlueSky reads its field
-    # there for the autopilot's wind correction and for the ground speed alike).
-    windy = wind[4][0] > 0
+    # there for the autopilot's wind correction and for the ground speed alike). ``wind``
+    # and ``turns`` are None when there is no wind field / no fly-turn waypoint: Numba
+    # then compiles a kernel without these parts. (Present but unused, the two branches
+    # and their calls cost 8 % of the step: measured with bench/bench_sim.py.)
+    windy = False
     wind_n = wind_e = 0.0
-    if windy:
-        wind_n, wind_e = wind_at(wind, F[LAT, i], F[LON, i], alt)
+    if wind is not None:
+        windy = True
+        wind_n, wind_e = _wind_here(wind, F[LAT, i], F[LON, i], alt)
 
     # ---------------------------------------------------------------- autopilot
     if swlnav or swvnav:
@@ -337,7 +357,7 @@ def _step_aircraft(
         nexttas = _cas2tas(nextspd, rho, p)
         dx_accel = 0.5 * abs(nexttas * nexttas - tas * tas) / max(0.001, abs(F[AXMAX, i]))
         use_next = dist2wp < dx_accel
-    if B[B_HAS_NEXTTURN, i] or F[WP_OLDTURNSPD, i] > 0.0 or B[B_INTURN, i]:
+    if turns is not None and (B[B_HAS_NEXTTURN, i] or F[WP_OLDTURNSPD, i] > 0.0 or B[B_INTURN, i]):
         _turn_speed(F, B, i, tas, rho, p, use_next)
     elif use_next:
         F[SELSPD, i] = nextspd
@@ -361,10 +381,7 @@ def _step_aircraft(
     # The heading that makes good the desired track (BlueSky's APorASAS wind correction).
     des_trk = F[AP_TRK, i]
     if windy:
-        wind_speed = math.sqrt(wind_n * wind_n + wind_e * wind_e)
-        drift = math.radians(des_trk) - math.atan2(wind_e, wind_n)
-        steer = math.asin(min(1.0, max(-1.0, wind_speed * math.sin(drift) / max(0.001, tas))))
-        des_trk = des_trk + math.degrees(steer)
+        des_trk = _wind_correction(des_trk, wind_n, wind_e, tas)
 
     # ------------------------------------------------------ performance limits
     des_hdg = wrap360(des_trk)
@@ -531,7 +548,8 @@ def _step_range(
     scratch_dist: np.ndarray,
     fresh: np.ndarray,
     reached: np.ndarray,
-    wind: tuple[np.ndarray, ...],
+    wind: tuple[np.ndarray, ...] | None,
+    turns: tuple[()] | None,
 ) -> int:
     """One step of aircraft ``lo..hi-1``; returns how many reached their waypoint.
 
@@ -548,7 +566,8 @@ def _step_range(
     # twelve state rows cost the kernel 10 %).
     state_sum = 0.0
     for i in range(lo, hi):
-        _step_aircraft(F, B, i, dt, scratch_qdr[i], scratch_dist[i], fresh[i], hold_speed, airborne_alt, wind)
+        _step_aircraft(F, B, i, dt, scratch_qdr[i], scratch_dist[i], fresh[i], hold_speed, airborne_alt, wind,
+                       turns)
         state_sum += (F[LAT, i] + F[LON, i]) + (F[ALT, i] + F[TAS, i])
         if test_next:
             nreached += _check_waypoint(F, B, i, scratch_qdr, scratch_dist, fresh, reached)
@@ -582,7 +601,8 @@ def _advance(
     airborne_alt: float,
     scratch: tuple[np.ndarray, ...],
     cond: tuple[np.ndarray, ...],
-    wind: tuple[np.ndarray, ...],
+    wind: tuple[np.ndarray, ...] | None,
+    turns: tuple[()] | None,
     nblocks: int,
 ) -> tuple[int, int]:
     scratch_qdr, scratch_dist, fresh, reached = scratch
@@ -603,7 +623,7 @@ def _advance(
         test_next = k + 1 < nsteps
         for b in prange(nblocks):
             counts[b] = _step_range(F, B, b * n // nblocks, (b + 1) * n // nblocks, dt, test_next, hold_speed,
-                                    airborne_alt, scratch_qdr, scratch_dist, fresh, reached, wind)
+                                    airborne_alt, scratch_qdr, scratch_dist, fresh, reached, wind, turns)
         k += 1
         total = counts.sum()
         if total >= _NONFINITE_MARK:
@@ -619,7 +639,7 @@ def _advance(
 def advance(
     F: np.ndarray, B: np.ndarray, n: int, dt: float, nsteps: int, check_first: bool, hold_speed: float,
     airborne_alt: float, scratch: tuple[np.ndarray, ...], cond: tuple[np.ndarray, ...],
-    wind: tuple[np.ndarray, ...],
+    wind: tuple[np.ndarray, ...] | None, turns: tuple[()] | None,
 ) -> tuple[int, int]:
     """Advance all ``n`` aircraft by up to ``nsteps`` steps of ``dt`` seconds.
 
@@ -630,19 +650,20 @@ def advance(
             whose leg it changed before resuming), ``reached[i]`` that the
             aircraft is at its waypoint.
         cond: the conditional commands' arrays (:meth:`Conditions.arrays`).
-        wind: the wind field's arrays (:meth:`aamsim.traffic.wind.WindField.arrays`).
+        wind: the wind field's arrays (:meth:`aamsim.traffic.wind.WindField.arrays`), None without wind.
+        turns: ``()`` when some aircraft may fly at a turn speed (fly-turn waypoints), else None.
 
     Returns:
         ``(steps_done, status)``, status one of ``STATUS_*``.
     """
-    return _advance(F, B, n, dt, nsteps, check_first, hold_speed, airborne_alt, scratch, cond, wind, 1)
+    return _advance(F, B, n, dt, nsteps, check_first, hold_speed, airborne_alt, scratch, cond, wind, turns, 1)
 
 
 @njit(cache=True, parallel=True, error_model="numpy")
 def advance_parallel(
     F: np.ndarray, B: np.ndarray, n: int, dt: float, nsteps: int, check_first: bool, hold_speed: float,
     airborne_alt: float, scratch: tuple[np.ndarray, ...], cond: tuple[np.ndarray, ...],
-    wind: tuple[np.ndarray, ...], nblocks: int,
+    wind: tuple[np.ndarray, ...] | None, turns: tuple[()] | None, nblocks: int,
 ) -> tuple[int, int]:
     """:func:`advance` with the aircraft in ``nblocks`` blocks over Numba's threads (same results, bit for bit)."""
-    return _advance(F, B, n, dt, nsteps, check_first, hold_speed, airborne_alt, scratch, cond, wind, nblocks)
+    return _advance(F, B, n, dt, nsteps, check_first, hold_speed, airborne_alt, scratch, cond, wind, turns, nblocks)

@@ -66,6 +66,7 @@ class Traffic:
     capacity: int = 64
     n: int = 0
     layout_version: int = 0  # changes whenever an aircraft is created or deleted (slots move) or the arrays grow
+    turn_speeds_used: bool = False  # some route has had a fly-turn waypoint (the kernel's turn-speed part runs)
     F: np.ndarray = field(init=False, repr=False)
     B: np.ndarray = field(init=False, repr=False)
     ids: list[str] = field(default_factory=list)

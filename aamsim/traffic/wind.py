@@ -117,8 +117,6 @@ class WindField:
         return wind_at(self.arrays(), float(lat), float(lon), float(alt_m))
 
 
-NO_WIND = WindField().arrays()
-
 
 @njit(cache=True, inline="always")
 def wind_at(w: tuple[np.ndarray, ...], lat: float, lon: float, alt: float) -> tuple[float, float]:
@@ -129,12 +127,6 @@ def wind_at(w: tuple[np.ndarray, ...], lat: float, lon: float, alt: float) -> tu
         return 0.0, 0.0
     if dim == 1:
         return wvn[0, 0], wve[0, 0]
-    n = wlat.shape[0]
-    total = 0.0
-    for k in range(n):
-        dy = lat - wlat[k]
-        dx = math.cos(math.radians(0.5 * (lat + wlat[k]))) * (lon - wlon[k])
-        total += 1.0 / (_EPS_D2 + dx * dx + dy * dy)
     if dim == 2:
         row0, row1, frac = 0, 0, 0.0
     else:
@@ -143,15 +135,19 @@ def wind_at(w: tuple[np.ndarray, ...], lat: float, lon: float, alt: float) -> tu
         frac = pos - row0
         # At the top of the table BlueSky reads one row past its end; the top row holds.
         row1 = min(row0 + 1, N_ALT - 1)
-    vn0 = ve0 = vn1 = ve1 = 0.0
-    for k in range(n):
+    # One pass: the weights' sum divides at the end (BlueSky normalises each weight
+    # first; the two differ in the last bit).
+    total = vn0 = ve0 = vn1 = ve1 = 0.0
+    for k in range(wlat.shape[0]):
         dy = lat - wlat[k]
         dx = math.cos(math.radians(0.5 * (lat + wlat[k]))) * (lon - wlon[k])
-        weight = 1.0 / (_EPS_D2 + dx * dx + dy * dy) / total
+        weight = 1.0 / (_EPS_D2 + dx * dx + dy * dy)
+        total += weight
         vn0 += wvn[row0, k] * weight
         ve0 += wve[row0, k] * weight
-        vn1 += wvn[row1, k] * weight
-        ve1 += wve[row1, k] * weight
+        if dim == 3:
+            vn1 += wvn[row1, k] * weight
+            ve1 += wve[row1, k] * weight
     if dim == 2:
-        return vn0, ve0
-    return (1.0 - frac) * vn0 + frac * vn1, (1.0 - frac) * ve0 + frac * ve1
+        return vn0 / total, ve0 / total
+    return ((1.0 - frac) * vn0 + frac * vn1) / total, ((1.0 - frac) * ve0 + frac * ve1) / total
