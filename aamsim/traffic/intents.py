@@ -17,6 +17,7 @@ from aamsim import aero
 from aamsim.traffic import fields as f
 from aamsim.traffic.autopilot import activate_waypoint, compute_vnav, nearest_active_index
 from aamsim.traffic.traffic import Traffic
+from aamsim.units import R_EARTH
 
 Slots = int | np.ndarray
 
@@ -152,4 +153,20 @@ def set_kinematic_state(traffic: Traffic, slots: np.ndarray, values: dict[str, n
     F[f.COSLAT, slots] = np.cos(np.radians(values["lat"]))
     F[f.MACH, slots] = aero.tas2mach(values["tas"], values["alt"])
     for row in (f.C_ALT, f.C_HDG, f.C_TAS_IN, f.C_SPD_IN, f.C_LAT, f.C_LA0, f.C_Q0, f.C_Q0COS, f.C_Q0SIN):
+        F[row, slots] = math.nan
+
+
+def displace(traffic: Traffic, slots: Slots, dnorth_m: np.ndarray, deast_m: np.ndarray, dalt_m: np.ndarray) -> None:
+    """Move aircraft by small offsets [m] without touching their speeds (turbulence).
+
+    As BlueSky's turbulence: latitude by ``dnorth / R``, longitude by
+    ``deast / (R cos lat)`` with R = 6371 km. The guidance caches that depend
+    on the position are invalidated.
+    """
+    F = traffic.F
+    F[f.ALT, slots] += dalt_m
+    F[f.LAT, slots] += np.degrees(dnorth_m / R_EARTH)
+    F[f.LON, slots] += np.degrees(deast_m / R_EARTH / F[f.COSLAT, slots])
+    F[f.COSLAT, slots] = np.cos(np.radians(F[f.LAT, slots]))
+    for row in (f.C_ALT, f.C_LAT, f.C_LA0, f.C_Q0, f.C_Q0COS, f.C_Q0SIN):
         F[row, slots] = math.nan

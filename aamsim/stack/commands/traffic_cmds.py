@@ -7,6 +7,7 @@ from typing import TYPE_CHECKING
 
 from aamsim.errors import CommandError
 from aamsim.shapes import delete_shape
+from aamsim.turbulence import noise_on, set_noise
 from aamsim.stack.argtypes import (
     AcIndex,
     Altitude,
@@ -193,11 +194,12 @@ def casmachthr(sim: CommandContext, threshold: Number | None = None) -> str:
 
 
 @command("NOISE", group="traffic")
-def noise(sim: CommandContext, on: OnOff | None = None) -> str:
-    """NOISE [ON/OFF]: turbulence and surveillance noise (aamsim has none; ON is refused)."""
-    if on:
-        raise CommandError("NOISE ON is not supported: aamsim models no turbulence or ADS-B noise")
-    return "NOISE is OFF"
+def noise(sim: CommandContext, on: OnOff | None = None) -> str | None:
+    """NOISE [ON/OFF]: turbulence, BlueSky's random walk of the positions (seeded by SEED)."""
+    if on is None:
+        return f"Noise is currently {'on' if noise_on(sim) else 'off'}"
+    set_noise(sim, on)
+    return None
 
 
 COMMANDS = (cre, mcre, delete, move, spd, alt, vs, hdg, bank, pos, casmachthr, noise)
