@@ -117,11 +117,11 @@ def test_short_lines_and_unknown_commands_are_not_dropped_silently(sim):
 
 
 def test_unsupported_features_are_refused_not_ignored(sim):
-    """No wind or turbulence, no FLYTURN-family waypoints: an error, never a silent approximation."""
+    """No FLYTURN-family waypoints: an error, never a silent approximation (NOISE ON works: tests/test_noise.py)."""
     sim.stack("CRE A EC35 40.70 -74.00 0 1500 100")
-    for text in ("NOISE ON", "ADDWPT A FLYTURN", "ADDWPT A TURNRAD 0.5", "ADDWPT A TURNSPD 30", "ADDWPT A TAKEOFF"):
+    for text in ("ADDWPT A FLYTURN", "ADDWPT A TURNRAD 0.5", "ADDWPT A TURNSPD 30", "ADDWPT A TAKEOFF"):
         assert not sim.stack(text), text
-    assert len(errors(sim)) == 5
+    assert len(errors(sim)) == 4
 
 
 def test_flat_earth_position_update_error_against_wgs84():

@@ -40,10 +40,12 @@ def cre(
 ) -> None:
     """CRE acid, type, lat, lon, [hdg, alt, spd]: create an aircraft.
 
-    Heading in degrees (default 0), altitude in ft or FLnnn (default 0),
+    Heading in degrees (default 0, or the runway's at ``APT/RWxx``), altitude in ft or FLnnn (default 0),
     speed in kts CAS or Mach (default 0). An existing callsign is an error.
     """
-    sim.create_aircraft(acid, actype, pos.lat, pos.lon, 0.0 if hdg is None else hdg, alt, spd or Speed(0.0))
+    if hdg is None:  # BlueSky: the heading of a runway position, else 0
+        hdg = pos.heading if pos.heading is not None else 0.0
+    sim.create_aircraft(acid, actype, pos.lat, pos.lon, hdg, alt, spd or Speed(0.0))
 
 
 @command("MCRE", group="traffic")
