@@ -49,7 +49,7 @@ def before(sim: CommandContext, argtext: RestOfLine) -> None:
     _insert(sim, argtext, "BEFORE")
 
 
-@command("CALC", group="simulation")
+@command("CALC", aliases=("DEBUG",), group="simulation")
 @raw_arguments
 def calc(sim: CommandContext, argtext: RestOfLine) -> str | None:
     """CALC expression: evaluate arithmetic (math functions, ^ for power); no effect on the simulation.
