@@ -164,6 +164,10 @@ class SimulationAPI:
         intents.move(self.traffic, self._intent_slot(target), lat, lon, alt_m, hdg_deg,
                      None if speed is None else speed.value, bool(speed and speed.is_mach), vs_mps)
 
+    def displace(self, targets: Target, dnorth_m: np.ndarray, deast_m: np.ndarray, dalt_m: np.ndarray) -> None:
+        """Move aircraft by small offsets [m] north, east and up, speeds unchanged (turbulence)."""
+        intents.displace(self.traffic, self.slots(targets), dnorth_m, deast_m, dalt_m)
+
     def offset_altitude(self, targets: Target, dz_m: float | np.ndarray) -> None:
         """Shift aircraft and their selected altitude by ``dz_m`` [m]."""
         intents.offset_altitude(self.traffic, self._intent_slots(targets), dz_m)

@@ -15,6 +15,9 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 NamedPlaces = dict[str, list[tuple[float, float]]]
+# Airport -> runway -> (threshold lat [deg], lon [deg], runway bearing [deg]).
+Runways = dict[str, dict[str, tuple[float, float, float]]]
+_EARTH_RADIUS_INV = 1.56961231e-7  # 1/m: BlueSky's constant for the displaced thresholds (1 / 6371 km)
 
 
 @dataclass
@@ -49,7 +52,20 @@ class NavDatabase:
 
     def known(self, name: str) -> bool:
         name = name.upper()
+        if "/RW" in name:
+            return self.runway(name) is not None
         return name in self.user or (self.use_bluesky_data and name in bluesky_navdata())
+
+    def is_airport(self, name: str) -> bool:
+        """Whether ``name`` is an airport of the navigation data (``EHAM RW18C`` is then a runway)."""
+        return self.use_bluesky_data and name.upper() in bluesky_airports()
+
+    def runway(self, name: str) -> tuple[float, float, float] | None:
+        """Threshold of ``APT/RWxx`` (or ``APT/RWYxx``): lat, lon [deg] and runway bearing [deg], or None."""
+        if not self.use_bluesky_data or "/RW" not in name.upper():
+            return None
+        airport, runway = name.upper().split("/RW", 1)
+        return bluesky_runways().get(airport, {}).get(runway.lstrip("Y"))
 
 
 def _navdata_dir() -> Path | None:
@@ -103,3 +119,64 @@ def bluesky_navdata() -> NamedPlaces:
             except ValueError:
                 continue
     return places
+
+
+@functools.lru_cache(maxsize=1)
+def bluesky_airports() -> frozenset[str]:
+    """Codes of the airports in BlueSky's airports.dat."""
+    folder = _navdata_dir()
+    if folder is None or not (folder / "airports.dat").exists():
+        return frozenset()
+    codes = set()
+    for line in (folder / "airports.dat").read_text(errors="replace").splitlines():
+        if line.strip() and not line.startswith("#"):
+            codes.add(line.split(",", 1)[0].strip().upper())
+    return frozenset(codes)
+
+
+@functools.lru_cache(maxsize=1)
+def bluesky_runways() -> Runways:
+    """Runway thresholds from BlueSky's apt.zip (X-Plane apt.dat), read on first use (about 2 s of CPU).
+
+    As BlueSky reads them: land runways (row code 100) with a hard surface (code 1 or 2);
+    each row gives both ends. The threshold is the runway end moved along the runway by its
+    displaced-threshold length, on a sphere; the bearing is the initial great-circle course
+    from this end to the other.
+    """
+    runways: Runways = {}
+    folder = _navdata_dir()
+    if folder is None or not (folder / "apt.zip").exists():
+        return runways
+    import zipfile
+
+    current: dict[str, tuple[float, float, float]] | None = None
+    with zipfile.ZipFile(folder / "apt.zip") as archive, archive.open("apt.dat") as fh:
+        for raw in fh:
+            if raw[:2] == b"1 ":
+                elems = raw.decode("ascii", errors="ignore").split()
+                current = runways.setdefault(elems[4].upper(), {}) if len(elems) > 4 else None
+            elif raw[:4] == b"100 " and current is not None:
+                elems = raw.decode("ascii", errors="ignore").split()
+                try:
+                    if int(elems[2]) > 2:
+                        continue
+                    lat0, lon0, off0 = float(elems[9]), float(elems[10]), float(elems[11])
+                    lat1, lon1, off1 = float(elems[18]), float(elems[19]), float(elems[20])
+                except (IndexError, ValueError):
+                    continue
+                current[elems[8].upper()] = _threshold(lat0, lon0, lat1, lon1, off0)
+                current[elems[17].upper()] = _threshold(lat1, lon1, lat0, lon0, off1)
+    return runways
+
+
+def _threshold(lat1: float, lon1: float, lat2: float, lon2: float, offset_m: float) -> tuple[float, float, float]:
+    """Runway end 1 moved ``offset_m`` towards end 2 on the sphere; (lat, lon, bearing) in degrees."""
+    p1, p2, dl = math.radians(lat1), math.radians(lat2), math.radians(lon2 - lon1)
+    bearing = math.atan2(math.sin(dl) * math.cos(p2), math.cos(p1) * math.sin(p2) - math.sin(p1) * math.cos(p2) *
+                         math.cos(dl))
+    bearing = math.radians((math.degrees(bearing) + 360.0) % 360.0)
+    d = offset_m * _EARTH_RADIUS_INV
+    lat = math.asin(math.sin(p1) * math.cos(d) + math.cos(p1) * math.sin(d) * math.cos(bearing))
+    lon = math.radians(lon1) + math.atan2(math.sin(bearing) * math.sin(d) * math.cos(p1),
+                                          math.cos(d) - math.sin(p1) * math.sin(lat))
+    return math.degrees(lat), math.degrees(lon), math.degrees(bearing)

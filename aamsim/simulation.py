@@ -191,7 +191,12 @@ class Simulation(SimulationAPI):
 
     def parse(self, text: str, path: str = "<scenario>", **kwargs: Any) -> ParsedScenario:
         """Parse scenario text against this simulation's command table."""
-        return parse_scenario(text, path, is_command=self.commands.__contains__, **kwargs)
+        from aamsim.plugins import plugin_providing
+
+        def is_command(name: str) -> bool:
+            return name in self.commands or plugin_providing(name) is not None
+
+        return parse_scenario(text, path, is_command=is_command, **kwargs)
 
     def load_scenario(self, path: str | Path, *, text: str | None = None) -> ParsedScenario:
         """Queue a scenario file's commands (times are absolute). Errors are reported."""

@@ -127,8 +127,7 @@ def gui_commands() -> set[str]:
                         if kw.arg == "aliases" and isinstance(kw.value, (ast.Tuple, ast.List)):
                             names.update(str(e.value).upper() for e in kw.value.elts if isinstance(e, ast.Constant))
                 names.add(name)
-    # The client stack's own words (clientstack.py handles these before any command table).
-    names.update({"ZOOM", "PAN", "++", "--"})
+    names.update({"ZOOM", "PAN"})
     return names
 
 
@@ -168,7 +167,8 @@ def _bluesky_files(corpus: Path, names: list[str], until: float, timeout_s: floa
         elif topic == "STACK" and isinstance(data, str):
             for line in data.split(";"):
                 word = line.strip().split(" ")[0].split(",")[0].upper()
-                if word and word not in gui and line.strip() not in current.unknown_forwarded:
+                zoom_keys = word[:1] in ("+", "=", "-")  # the client reads ++/-- as ZOOM
+                if word and word not in gui and not zoom_keys and line.strip() not in current.unknown_forwarded:
                     current.unknown_forwarded.append(line.strip()[:200])
 
     bs.net.send = send

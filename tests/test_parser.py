@@ -91,3 +91,12 @@ def test_parse_scenario_never_crashes_and_errors_carry_lines(lines):
         assert str(err).startswith(f"f.scn:{err.source.line}: ")
     times = [c.time_s for c in parsed.commands]
     assert times == sorted(times)
+
+
+def test_comment_lines_inside_a_continued_command():
+    # BlueSky's Sectors/NL/*.scn: comments between the continued lines of a POLYALT.
+    text = "00:00:00.00>POLY A 1 1 \\\n   # along the border\n   2 2 \\\n\n   3 1\n00:00:01.00>ECHO next\n"
+    parsed = parse_scenario(text)
+    assert not parsed.errors
+    assert [str(c.command) for c in parsed.commands] == ["POLY A 1 1 2 2 3 1", "ECHO next"]
+    assert parsed.commands[0].source.line == 1 and parsed.commands[1].source.line == 6

@@ -35,8 +35,22 @@ if TYPE_CHECKING:
 
 BUILTIN_PLUGINS: dict[str, str] = {
     "EXAMPLE": "aamsim.plugins.example",
+    "GEOVECTOR": "aamsim.plugins.geovector",  # BlueSky's geovector plugin
     "BRIDGE": "rlbridge.plugin",  # the RL bridge; provides serve() for `aamsim serve`
 }
+
+
+# Stack commands of the built-in plugins, so that a scenario that loads a plugin may use its
+# commands further down (the file is parsed before PLUGINS LOAD runs).
+PLUGIN_COMMANDS: dict[str, tuple[str, ...]] = {
+    "GEOVECTOR": ("GEOVECTOR", "DELGEOVECTOR"),
+}
+
+
+def plugin_providing(command: str) -> str | None:
+    """The built-in plugin that provides a stack command, or None."""
+    name = command.upper()
+    return next((plugin for plugin, names in PLUGIN_COMMANDS.items() if name in names), None)
 
 
 def _entry_point_plugins() -> dict[str, Any]:

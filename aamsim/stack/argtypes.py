@@ -39,7 +39,8 @@ class Position:
     lat: float
     lon: float
     name: str = ""
-    kind: str = "latlon"  # latlon | waypoint | aircraft
+    kind: str = "latlon"  # latlon | waypoint | aircraft | runway
+    heading: float | None = None  # a runway's bearing [deg]: CRE's default heading there, as in BlueSky
 
 
 class ParseContext(Protocol):
@@ -163,11 +164,19 @@ class PositionArg(ArgType):
                 raise ArgumentError(str(exc)) from None
             ctx.note_reference(pos.lat, pos.lon)
             return pos, rest
-        found = ctx.named_position(token.upper())
+        name = token.upper()
+        following, after = next_arg(rest)
+        if following[:2].upper() == "RW" and getattr(ctx, "is_airport", _never)(name):
+            name, rest = f"{name}/{following.upper()}", after  # BlueSky's "EHAM RW18C" is EHAM/RW18C
+        found = ctx.named_position(name)
         if found is None:
-            raise ArgumentError(f'"{token}" is not a position, known waypoint or callsign')
+            raise ArgumentError(f'"{name}" is not a position, known waypoint, runway or callsign')
         ctx.note_reference(found.lat, found.lon)
         return found, rest
+
+
+def _never(name: str) -> bool:
+    return False
 
 
 class WaypointInRouteArg(ArgType):

@@ -53,10 +53,16 @@ class LiveContext:
         i = view.find(name)
         if i is not None:
             return Position(float(view.lat[i]), float(view.lon[i]), name, "aircraft")
+        runway = self.sim.navdb.runway(name)
+        if runway is not None:
+            return Position(runway[0], runway[1], name, "runway", runway[2])
         found = self.sim.navdb.lookup(name, self.ref_lat, self.ref_lon)
         if found is None:
             return None
         return Position(found[0], found[1], name, "waypoint")
+
+    def is_airport(self, name: str) -> bool:
+        return self.sim.navdb.is_airport(name)
 
     def route_has_waypoint(self, acidx: int, name: str) -> bool:
         if acidx < 0:
@@ -93,6 +99,11 @@ class StaticContext:
 
     def route_has_waypoint(self, acidx: int, name: str) -> bool:
         return True  # routes are built while simulating; checked then
+
+    def is_airport(self, name: str) -> bool:
+        """Whether ``name`` is an airport (so that ``EHAM RW18C`` reads as one runway position)."""
+        navdb = getattr(self.navdb_known, "__self__", None)  # navdb_known is a NavDatabase's bound known()
+        return bool(navdb is not None and getattr(navdb, "is_airport", None) and navdb.is_airport(name))
 
     def note_reference(self, lat: float, lon: float) -> None:
         pass
@@ -172,6 +183,7 @@ class CommandContext(Protocol):
     def set_cruise_speed(self, target: str | int, cas_mps: float) -> None: ...
     def move(self, target: str | int, lat: float, lon: float, alt_m: float | None = None,
              hdg_deg: float | None = None, speed: Speed | None = None, vs_mps: float | None = None) -> None: ...
+    def displace(self, targets: Any, dnorth_m: np.ndarray, deast_m: np.ndarray, dalt_m: np.ndarray) -> None: ...
     def direct_to(self, target: str | int, waypoint: str | int) -> None: ...
     def set_navigation(self, target: str | int, lnav: bool | None = None, vnav: bool | None = None,
                        vnav_speed: bool | None = None) -> None: ...

@@ -68,7 +68,11 @@ class CommandExecutor:
             command = Command("POS", command.name)
             spec = registry.get("POS")
         if spec is None:
-            self.report("error", f"unknown command {command.name}", source)
+            from aamsim.plugins import plugin_providing
+
+            plugin = plugin_providing(command.name)
+            hint = f" (the {plugin} plugin provides it: PLUGINS LOAD {plugin})" if plugin else ""
+            self.report("error", f"unknown command {command.name}{hint}", source)
             return False
         try:
             args = spec.bind(command.argtext, LiveContext(ctx))

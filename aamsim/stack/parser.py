@@ -156,7 +156,9 @@ def iter_logical_lines(text: str) -> Iterable[tuple[int, str]]:
     pending_line = 0
     for number, raw in enumerate(scenario_lines(text), start=1):
         line = raw.split("#", 1)[0].strip()
-        if not line and not pending:
+        if not line:
+            # Blank and comment lines are skipped, also inside a continued command (BlueSky's reader
+            # does the same: Sectors/NL/*.scn comment on the borders between continued lines).
             continue
         if not pending:
             pending_line = number

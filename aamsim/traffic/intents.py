@@ -18,6 +18,7 @@ from aamsim.traffic import fields as f
 from aamsim.traffic.autopilot import activate_waypoint, compute_vnav, nearest_active_index
 from aamsim.traffic.traffic import Traffic
 from aamsim.traffic.wind import APPLY_ABOVE_M, WindField
+from aamsim.units import R_EARTH
 
 Slots = int | np.ndarray
 
@@ -206,4 +207,20 @@ def set_replay_state(traffic: Traffic, slots: np.ndarray, lat: np.ndarray, lon: 
     F[f.AX, slots] = 0.0
     F[f.COSLAT, slots] = np.cos(np.radians(lat))
     for row in (f.C_ALT, f.C_HDG, f.C_TAS_IN, f.C_SPD_IN, f.C_LAT, f.C_LA0, f.C_Q0, f.C_Q0COS, f.C_Q0SIN):
+        F[row, slots] = math.nan
+
+
+def displace(traffic: Traffic, slots: Slots, dnorth_m: np.ndarray, deast_m: np.ndarray, dalt_m: np.ndarray) -> None:
+    """Move aircraft by small offsets [m] without touching their speeds (turbulence).
+
+    As BlueSky's turbulence: latitude by ``dnorth / R``, longitude by
+    ``deast / (R cos lat)`` with R = 6371 km. The guidance caches that depend
+    on the position are invalidated.
+    """
+    F = traffic.F
+    F[f.ALT, slots] += dalt_m
+    F[f.LAT, slots] += np.degrees(dnorth_m / R_EARTH)
+    F[f.LON, slots] += np.degrees(deast_m / R_EARTH / F[f.COSLAT, slots])
+    F[f.COSLAT, slots] = np.cos(np.radians(F[f.LAT, slots]))
+    for row in (f.C_ALT, f.C_LAT, f.C_LA0, f.C_Q0, f.C_Q0COS, f.C_Q0SIN):
         F[row, slots] = math.nan

@@ -5,6 +5,7 @@ from __future__ import annotations
 from aamsim.stack.commands import (
     area_cmds,
     asas_cmds,
+    compat_cmds,
     daa_cmds,
     display_cmds,
     plugin_cmds,
@@ -16,8 +17,8 @@ from aamsim.stack.commands import (
 )
 from aamsim.stack.registry import CommandRegistry
 
-MODULES = (traffic_cmds, route_cmds, sim_cmds, asas_cmds, daa_cmds, plugin_cmds, area_cmds, display_cmds, wind_cmds,
-           realtraffic_cmds)
+MODULES = (traffic_cmds, route_cmds, sim_cmds, asas_cmds, daa_cmds, plugin_cmds, area_cmds, compat_cmds,
+           display_cmds, wind_cmds, realtraffic_cmds)
 
 
 def register_builtin_commands(registry: CommandRegistry) -> None:

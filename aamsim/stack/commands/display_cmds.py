@@ -19,7 +19,7 @@ if TYPE_CHECKING:
 DISPLAY_COMMANDS = (
     "PAN", "ZOOM", "TRAIL", "TRAILS", "SWRAD", "DISP", "COLOUR", "COLOR", "COL", "SYMBOL", "LABEL",
     "FILTERALT", "SSD", "ND", "PLOT", "LEGEND", "INSEDIT", "DOC", "SCREENSHOT", "SHOWWPT", "MAP",
-    "DUMPRTE", "ATCMODE", "SHOWTRAF", "FIXDT", "DTMULT", "REALTIME", "RT", "TIME", "DATE", "MAGVAR",
+    "DUMPRTE", "ATCMODE", "SHOWTRAF", "FIXDT", "DTMULT", "RTF", "REALTIME", "RT", "TIME", "DATE", "MAGVAR",
 )
 
 
@@ -34,4 +34,7 @@ def _ignored(name: str) -> Callable[..., Any]:
     return handler
 
 
-COMMANDS = tuple(_ignored(name) for name in DISPLAY_COMMANDS)
+# BlueSky's console reads a command of + (or =) and - signs as ZOOM IN by sqrt(2) per + and out per -.
+ZOOM_KEYS = tuple(sign * count for sign in "+=-" for count in range(1, 7))
+
+COMMANDS = tuple(_ignored(name) for name in DISPLAY_COMMANDS + ZOOM_KEYS)

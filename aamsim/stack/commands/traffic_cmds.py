@@ -7,6 +7,7 @@ from typing import TYPE_CHECKING
 
 from aamsim.errors import CommandError
 from aamsim.shapes import delete_shape
+from aamsim.turbulence import noise_on, set_noise
 from aamsim.stack.argtypes import (
     AcIndex,
     Altitude,
@@ -39,10 +40,12 @@ def cre(
 ) -> None:
     """CRE acid, type, lat, lon, [hdg, alt, spd]: create an aircraft.
 
-    Heading in degrees (default 0), altitude in ft or FLnnn (default 0),
+    Heading in degrees (default 0, or the runway's at ``APT/RWxx``), altitude in ft or FLnnn (default 0),
     speed in kts CAS or Mach (default 0). An existing callsign is an error.
     """
-    sim.create_aircraft(acid, actype, pos.lat, pos.lon, 0.0 if hdg is None else hdg, alt, spd or Speed(0.0))
+    if hdg is None:  # BlueSky: the heading of a runway position, else 0
+        hdg = pos.heading if pos.heading is not None else 0.0
+    sim.create_aircraft(acid, actype, pos.lat, pos.lon, hdg, alt, spd or Speed(0.0))
 
 
 @command("MCRE", group="traffic")
@@ -197,11 +200,12 @@ def casmachthr(sim: CommandContext, threshold: Number | None = None) -> str:
 
 
 @command("NOISE", group="traffic")
-def noise(sim: CommandContext, on: OnOff | None = None) -> str:
-    """NOISE [ON/OFF]: turbulence and surveillance noise (aamsim has none; ON is refused)."""
-    if on:
-        raise CommandError("NOISE ON is not supported: aamsim models no turbulence or ADS-B noise")
-    return "NOISE is OFF"
+def noise(sim: CommandContext, on: OnOff | None = None) -> str | None:
+    """NOISE [ON/OFF]: turbulence, BlueSky's random walk of the positions (seeded by SEED)."""
+    if on is None:
+        return f"Noise is currently {'on' if noise_on(sim) else 'off'}"
+    set_noise(sim, on)
+    return None
 
 
 COMMANDS = (cre, mcre, delete, move, spd, alt, vs, hdg, bank, pos, casmachthr, noise)
