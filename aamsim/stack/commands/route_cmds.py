@@ -53,7 +53,7 @@ def parse_turn_value(word: str, token: str) -> tuple[str, float]:
     if token.upper() == "OFF":
         return name, math.nan
     try:
-        value: float = FLOAT.convert(token, None)
+        value: float = FLOAT.convert(token, None)  # type: ignore[arg-type]  # a plain number needs no context
     except ArgumentError as exc:
         raise ArgumentError(f"{word} needs a number or OFF: {exc.message}") from None
     if name == "bank":

@@ -4,6 +4,8 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING, Any
 
+import numpy as np
+
 from aamsim.errors import ArgumentError
 from aamsim.stack.argtypes import FLOAT, LATLON, Altitude, PositionValue, RestOfLine
 from aamsim.stack.context import LiveContext
@@ -74,7 +76,8 @@ def wind(sim: CommandContext, argtext: RestOfLine) -> None:
         sim.wind.add_point(lat, lon, direction, speed)
     else:
         alts, dirs, spds = zip(*profile)
-        sim.wind.add_profile(lat, lon, list(alts), list(dirs), list(spds))
+        sim.wind.add_profile(lat, lon, np.asarray(alts, dtype=float), np.asarray(dirs, dtype=float),
+                             np.asarray(spds, dtype=float))
 
 
 @command("GETWIND", group="simulation")
