@@ -282,14 +282,13 @@ def test_checkpoint_is_plain_data_loadable_with_weights_only(tmp_path):
 @pytest.mark.bluesky
 def test_evaluate_on_bluesky_agrees_with_aamsim_and_the_report_shows_both(tmp_path, trained_run):
     """``aamgym evaluate backend=bluesky``: BlueSky flies the aircraft; the report puts its columns beside aamsim's."""
-    common = [f"run={trained_run}", "episodes=2", "workers=0", "env.time_limit_s=600", "baselines=[unequipped,mvp_speed]"]
     common = [f"run={trained_run}", "episodes=2", "workers=0", "env.time_limit_s=600"]
     cli(["evaluate", *common, "hydra.run.dir=eval_local"], tmp_path)
     cli(["evaluate", *common, "backend=bluesky", "hydra.run.dir=eval_bluesky"], tmp_path)
     local = json.loads((tmp_path / "eval_local" / "evaluation.json").read_text())
     blue = json.loads((tmp_path / "eval_bluesky" / "evaluation.json").read_text())
     assert (local["backend"], blue["backend"]) == ("local", "bluesky")
-    assert set(blue["policies"]) == {"d2mava_a", "unequipped", "mvp_speed"}
+    assert set(blue["policies"]) == {"d2mava_a", "unequipped", "mvp_speed", "daa"}
     for policy, p in local["policies"].items():
         q = blue["policies"][policy]
         # The same events, and rewards within 1e-6: the kinematics agree to millimetres, and the
