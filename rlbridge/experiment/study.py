@@ -103,7 +103,8 @@ def _compose(name: str, overrides: list[str]) -> Any:
 def train_overrides(plan: StudyPlan, usecase: str, algo: str, seed: int) -> list[str]:
     over = [f"algorithm={algo}", f"usecase={usecase}", f"scenario={plan.train_scenario}", f"seed={seed}",
             f"workers={plan.workers}", f"train.mode={plan.mode}", f"train.aircraft_states={plan.budget}",
-            f"train.best_window={plan.best_window}", "train.torch_threads=auto"]
+            f"train.best_window={plan.best_window}", "train.torch_threads=auto",
+            "device=auto"]  # the learner on a GPU when there is one
     if plan.smoke:
         over += ["train.baseline_episodes=1", "train.checkpoint_every=0"]
     return over + list(plan.overrides)
