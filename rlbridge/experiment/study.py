@@ -46,10 +46,10 @@ PAPER_TABLES = {
                    "D2MAV-A Shared Layers": ("0.6722 ± 0.0807", "0.7808 ± 0.0266"),
                    "DDQN": ("0.6667 ± 0.0", "0.8654 ± 0.0")},
 }
-# Whole-run aircraft-states per second on the 2-core development machine with train.mode=overlap
-# and one worker (bench/bench_train.py, docs/algorithms.md "Learning throughput"): the plan's
-# time estimate. Pass --rates to use a machine's own figures.
-DEFAULT_RATES = {"d2mava_a": 2000.0, "d2mava_a_shared": 2800.0, "ddqn": 700.0}
+# Aircraft-states per second after the first iteration on the 2-core development machine with
+# train.mode=overlap and one worker, load average 2-4 (bench/bench_train.py, docs/algorithms.md
+# "Learning throughput"): the plan's time estimate. Pass --rates to use a machine's own figures.
+DEFAULT_RATES = {"d2mava_a": 5678.0, "d2mava_a_shared": 5691.0, "ddqn": 1024.0}
 
 
 @dataclass

@@ -2,7 +2,10 @@
 
 One iteration = every worker returns ``train.episodes_per_worker`` episodes played with the
 current weights (the paper: "each training iteration is composed of N_workers simulation
-returns"), then the learner updates on them. The run directory receives:
+returns"), then the learner updates on them (``train.mode=serial``). With
+``train.mode=overlap`` the workers play iteration k+1 while the learner updates on iteration
+k, so iteration k is played with the weights after update k-2 (a policy lag of exactly one
+update; docs/algorithms.md, "Training loop"). The run directory receives:
 
 * ``resolved_config.yaml`` — the full configuration of the run;
 * ``learning_curve.csv`` — one row per iteration (:data:`CURVE_COLUMNS`);
