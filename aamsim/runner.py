@@ -172,7 +172,8 @@ class OverlayError(Exception):
 def start_overlays(sim: Simulation, cfg: RunConfig) -> None:
     """Start the run's real-traffic overlays at time 0; raises :class:`OverlayError` naming the overlay."""
     from aamsim.errors import CommandError
-    from aamsim.realtraffic.replay import parse_area, start_overlay
+    from aamsim.realtraffic.overlay import start_overlay
+    from aamsim.realtraffic.replay import parse_area
 
     try:
         area = parse_area(list(cfg.overlay_area))

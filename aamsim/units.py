@@ -183,7 +183,7 @@ def checked_time(seconds: float, minutes: int = 0, hours: int = 0, text: str = "
         raise UnitParseError(f'"{shown}" is not a time: negative or not finite')
     if hours * 3600 + minutes * 60 > MAX_TIME_S or seconds > MAX_TIME_S:
         raise UnitParseError(f'"{shown}" is beyond the longest simulated time (100 years)')
-    total = hours * 3600.0 + minutes * 60.0 + seconds
+    total = (seconds + 60.0 * minutes) + 3600.0 * hours  # BlueSky's order (txt2tim): the same float, bit for bit
     if total > MAX_TIME_S:
         raise UnitParseError(f'"{shown}" is beyond the longest simulated time (100 years)')
     return total

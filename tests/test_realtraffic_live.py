@@ -230,7 +230,9 @@ def test_run_overlay_opensky_live_on_loopback(tmp_path, hover_scenario):
     assert summary["real_traffic"][0]["aircraft_replayed"] == 1
     rows = (out / "trajectories.csv").read_text().splitlines()
     assert any("RT4B43AC" in r for r in rows)
-    assert len(server.requests) >= 10
+    # Polling went on after the 500 (how many polls fit in 8 s depends on the machine's load and
+    # on the back-off after the error; the three scripted answers must all have been asked for).
+    assert len(server.requests) >= 3
 
 
 def test_run_overlay_opensky_unreachable(tmp_path, hover_scenario):

@@ -143,10 +143,16 @@ def test_periodic_hooks_catch_up_in_one_call_not_one_per_missed_period() -> None
 def test_sigterm_stops_the_server_in_the_middle_of_a_long_step(scn_dir: Path) -> None:
     """The heaviest step a client may ask for (dt 0.1 ms, an hour between decisions): SIGTERM still ends
     the server within seconds, and the client gets a reply saying so."""
+    # Two aircraft on a 400 km route keep the scenario going for the whole hour (an episode's step ends
+    # early once the scenario is over, and the conflict scenario's aircraft are done in minutes).
+    write_scenario(scn_dir, "long.scn", "00:00:00.00>CRE L1 EC35 40.70 -74.00 90 1500 100\n"
+                                         "00:00:00.00>ADDWPT L1 40.70 -69.00\n"
+                                         "00:00:00.00>CRE L2 EC35 40.71 -74.00 90 1500 100\n"
+                                         "00:00:00.00>ADDWPT L2 40.71 -69.00\n")
     proc, endpoint = spawn_server(cwd=scn_dir)
     try:
         with raw_socket(endpoint, timeout_ms=60_000) as sock:
-            opened = ask(sock, request("reset", 1, scenario="conflicts.scn", dt=DT_MIN_S,
+            opened = ask(sock, request("reset", 1, scenario="long.scn", dt=DT_MIN_S,
                                        params={"decision_interval_s": 3600.0}))
             assert opened["ok"] is True
             sock.send_multipart(request("step", 2, actions={a: 1 for a in opened.get("agents", [])}))

@@ -61,7 +61,7 @@ def test_ddqn_planner_train_evaluate_report(tmp_path):
     proc = aamgym(["evaluate", f"run={run}", "episodes=1", "workers=0", "baselines=[dax]", "hydra.run.dir=e2"],
                   tmp_path, ok=False)
     assert proc.returncode != 0
-    assert "unknown baseline 'dax'; known: unequipped, mvp_speed, no_planning, fcfs" in proc.stderr
+    assert "unknown baseline(s) dax; known: unequipped, mvp_speed, daa, no_planning, fcfs" in proc.stderr
     proc = aamgym(["evaluate", f"run={run}", "episodes=1", "workers=0", "baselines=[mvp_speed]",
                    "hydra.run.dir=e3"], tmp_path, ok=False)
     assert "baseline 'mvp_speed' does not apply to use case strategic_planning; its baselines: unequipped, " \
@@ -87,10 +87,10 @@ def test_evaluation_baselines_per_use_case():
     def pick(usecase: str, baselines: list[str] | None) -> list[str]:
         return evaluation_baselines(OmegaConf.create({"baselines": baselines}), EnvSpec(CROSS, usecase, {}))
 
-    assert pick("corridor_sa", None) == ["mvp_speed"]
+    assert pick("corridor_sa", None) == ["mvp_speed", "daa"]
     assert pick("strategic_planning", None) == ["no_planning", "fcfs"]
     assert pick("hierarchical", None) == ["no_planning", "fcfs"]
     assert pick("corridor_sa", ["unequipped", "mvp_speed"]) == ["unequipped", "mvp_speed"]
     with pytest.raises(ValueError, match="baseline 'fcfs' does not apply to use case corridor_sa; its baselines: "
-                                         "unequipped, mvp_speed"):
+                                         "unequipped, mvp_speed, daa"):
         pick("corridor_sa", ["fcfs"])

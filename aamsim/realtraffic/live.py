@@ -21,7 +21,6 @@ from __future__ import annotations
 import json
 import math
 import os
-import socket
 import time
 import urllib.error
 import urllib.parse
@@ -147,7 +146,7 @@ class OpenSkyClient:
             if err.code == 429:
                 return PollResult(None, "rate limit reached (HTTP 429)", float(retry) if retry else None)
             return PollResult(None, f"HTTP {err.code} {err.reason}")
-        except (TimeoutError, socket.timeout):
+        except TimeoutError:
             return PollResult(None, f"no answer within {self.settings.timeout_s:g} s")
         except (urllib.error.URLError, OSError) as err:
             reason = getattr(err, "reason", err)

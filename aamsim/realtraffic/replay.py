@@ -19,7 +19,7 @@ from __future__ import annotations
 import csv
 import math
 from dataclasses import dataclass
-from datetime import datetime, timezone
+from datetime import UTC, datetime
 from pathlib import Path
 from typing import TYPE_CHECKING, Protocol
 
@@ -98,7 +98,7 @@ def parse_utc(text: str) -> float:
     except ValueError:
         raise CommandError(f'"{text}" is not a UTC time (ISO 8601 or seconds since 1970)') from None
     if moment.tzinfo is None:
-        moment = moment.replace(tzinfo=timezone.utc)
+        moment = moment.replace(tzinfo=UTC)
     return moment.timestamp()
 
 
@@ -350,7 +350,7 @@ def write_run_outputs(sim: CommandContext, out_dir: Path, summary: dict[str, obj
 def _utc(t: float) -> str:
     if not math.isfinite(t):
         return ""
-    return datetime.fromtimestamp(t, tz=timezone.utc).isoformat().replace("+00:00", "Z")
+    return datetime.fromtimestamp(t, tz=UTC).isoformat().replace("+00:00", "Z")
 
 
 def replays_of(sim: CommandContext) -> list[Replay]:
@@ -380,22 +380,3 @@ def start_recording(sim: CommandContext, path_text: str, offset: str = "", area:
                     interval_s=interval_s)
     replay.attach(sim)
     return replay
-
-
-
-def start_overlay(sim: CommandContext, spec: str, offset: str = "", area: BBox | None = None,
-                  name: str | None = None) -> Replay:
-    """Overlay real traffic: ``spec`` a recording file (a path here, or one the scenario's search path
-    finds) or ``opensky:LAT0,LON0,LAT1,LON1`` (live OpenSky state vectors, paced to real time)."""
-    if spec.lower().startswith("opensky:"):
-        from aamsim.realtraffic.live import start_live
-
-        try:
-            box = parse_area([float(x) for x in spec.split(":", 1)[1].split(",") if x.strip()])
-        except ValueError:
-            box = None
-        if box is None:
-            raise CommandError(f'"{spec}": live OpenSky needs an area, opensky:LAT0,LON0,LAT1,LON1 in degrees')
-        return start_live(sim, box)
-    path = Path(spec)
-    return start_recording(sim, str(path.resolve()) if path.is_file() else spec, offset, area, name=name or spec)

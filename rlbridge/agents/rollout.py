@@ -272,13 +272,16 @@ def time_limit_counts(core: EpisodeCore, result: StepResult) -> dict[str, int | 
     the air rather than resolve a conflict leaves them there (the corridor use case's "hold"
     keeps 0 kt for free). None where the engine does not expose aamsim's traffic (BlueSky).
     """
-    cut = [a for a, t in zip(result.agents, result.truncated) if t]
     sim = getattr(core, "sim", None)
     view = getattr(sim, "view", None)
+    cut = [a for a, t in zip(result.agents, result.truncated) if t]
     if sim is None or view is None or not hasattr(sim, "settings"):
         return {"airborne_at_time_limit": len(cut), "parked_at_time_limit": None}
+    # Only agents that are aircraft: a planner (strategic planning) is an agent with no aircraft.
+    slots = [slot for slot in (view.find(a) for a in cut) if slot is not None]
+    cut = cut if len(slots) == len(cut) else [a for a in cut if view.find(a) is not None]
     threshold = float(sim.settings.hold_speed_mps)
-    parked = sum(1 for a in cut if abs(float(view.gs[sim.traffic.index(a)])) < threshold)
+    parked = sum(1 for slot in slots if abs(float(view.gs[slot])) < threshold)
     return {"airborne_at_time_limit": len(cut), "parked_at_time_limit": parked}
 
 

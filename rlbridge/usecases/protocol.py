@@ -180,7 +180,7 @@ def start_overlay(sim: Simulation, overlay: str, offset: str = "", area: tuple[f
     recording file, or ``opensky:LAT0,LON0,LAT1,LON1``; see docs/real-traffic.md. Nothing when empty."""
     if not overlay:
         return
+    from aamsim.realtraffic.overlay import start_overlay as start
     from aamsim.realtraffic.replay import parse_area
-    from aamsim.realtraffic.replay import start_overlay as start
 
     start(sim, overlay, offset, parse_area(list(area)))

@@ -24,7 +24,8 @@ def replay(sim: CommandContext, source: Word = "", offset: Word = "", *area: Num
     that box [deg]. ``source`` may be ``OPENSKY`` (live, needs the area). Without arguments: the
     replays running.
     """
-    from aamsim.realtraffic.replay import parse_area, replays_of, start_overlay
+    from aamsim.realtraffic.overlay import start_overlay
+    from aamsim.realtraffic.replay import parse_area, replays_of
 
     if not source:
         replays = replays_of(sim)
