@@ -22,6 +22,28 @@ def _time_option(value: str | None) -> float | None:
         raise click.BadParameter(str(exc)) from None
 
 
+def _viewer_options(fn: Any) -> Any:
+    """--host/--port/--open of every command that shows the web viewer."""
+    fn = click.option("--open", "open_browser", is_flag=True, help="Open the viewer in the default browser.")(fn)
+    fn = click.option("--port", type=click.IntRange(0, 65535), default=8750, show_default=True,
+                      help="Viewer port (0: any free port).")(fn)
+    fn = click.option("--host", default="127.0.0.1", show_default=True,
+                      help="Viewer address; loopback unless you ask (0.0.0.0 serves every interface).")(fn)
+    return fn
+
+
+def _announce_viewer(url: str, host: str, open_browser: bool) -> None:
+    from aamsim.viewer.server import is_loopback
+
+    click.echo(f"viewer: {url}", err=True)
+    if not is_loopback(host):
+        click.echo(f"warning: the viewer is reachable from other machines on {host}", err=True)
+    if open_browser:
+        import webbrowser
+
+        webbrowser.open(url)
+
+
 def _volume(name: str, text: str) -> Any:
     from aamsim.conflicts.service import SeparationVolume
 
@@ -114,15 +136,26 @@ def main() -> None:
                    "moment played at time 0.")
 @click.option("--overlay-area", default="", metavar="LAT0,LON0,LAT1,LON1",
               help="Replay only the recordings' reports inside this box [deg].")
+@click.option("--view", "show_view", is_flag=True,
+              help="Show the simulation live in the web viewer (docs/viewer.md); it stays up after the run "
+                   "until Ctrl-C.")
+@_viewer_options
+@click.option("--pace", type=click.FloatRange(min=0, min_open=True), default=None,
+              help="With --view: run at most this many times faster than real time (e.g. 10), to watch it.")
+@click.option("--allow-commands", is_flag=True,
+              help="With --view: let the browser send stack commands to the simulation.")
 def run(scenario: str, until: str | None, out_dir: Path | None, dt: float, seed: int | None, strict: bool,
         quiet: bool, log_period: float, plugins: tuple[str, ...], delete_on_arrival: bool, metrics: str,
         nmac: str, lowc: str, threads: int, overlays: tuple[str, ...], overlay_offset: str,
-        overlay_area: str) -> None:
+        overlay_area: str, show_view: bool, host: str, port: int, open_browser: bool, pace: float | None,
+        allow_commands: bool) -> None:
     """Simulate SCENARIO headless, as fast as possible, and write a run directory.
 
     SCENARIO is a path, or the name of a scenario shipped with aamsim
-    (e.g. scn/nyc_day.scn).
+    (e.g. scn/nyc_day.scn). With --view, watch it in the web viewer.
     """
+    if not show_view and (pace is not None or allow_commands or open_browser):
+        raise click.UsageError("--pace, --allow-commands and --open go with --view")
     from aamsim.clock import TimeStepError, validate_dt
     from aamsim.runner import OverlayError, RunConfig, ScenarioNotFound, StrictValidationFailed, run_scenario
     from aamsim.scenarios import resolve_scenario
@@ -167,10 +200,25 @@ def run(scenario: str, until: str | None, out_dir: Path | None, dt: float, seed:
             click.echo(str(msg), err=True)
 
     path = resolve_scenario(scenario)
+    live = None
+    if show_view:
+        from aamsim.viewer.live import LiveViewer
+
+        live = LiveViewer(host, port, allow_commands=allow_commands, title=Path(scenario).stem)
+        try:
+            _announce_viewer(live.start(), host, open_browser)
+        except OSError as exc:
+            click.echo(f"error: {exc}", err=True)
+            sys.exit(2)
+
+    def setup(sim: Any, text: str) -> None:
+        if live is not None:
+            live.attach(sim, text, pace=pace)
+
     total = until_s
     progress = _Progress(total, quiet)
     try:
-        result = run_scenario(cfg, progress=progress, listener=listener)
+        result = run_scenario(cfg, progress=progress, listener=listener, setup=setup)
     except (ScenarioNotFound, OverlayError) as exc:
         progress.close()
         click.echo(f"error: {exc}", err=True)
@@ -213,6 +261,36 @@ def run(scenario: str, until: str | None, out_dir: Path | None, dt: float, seed:
                            f"{sf['nmac_events_aam_vs_aam']} NMAC, {sf['lowc_events_aam_vs_aam']} LoWC; "
                            f"AAM vs real traffic: {sf['nmac_events_aam_vs_real_traffic']} NMAC, "
                            f"{sf['lowc_events_aam_vs_real_traffic']} LoWC")
+    if live is not None:
+        live.finish()
+        click.echo(f"run finished; the viewer shows its last picture at {live.url} until Ctrl-C", err=True)
+        try:
+            while True:
+                time.sleep(3600)
+        except KeyboardInterrupt:
+            live.close()
+
+
+@main.command()
+@click.argument("run_dir", type=click.Path(path_type=Path))
+@_viewer_options
+def view(run_dir: Path, host: str, port: int, open_browser: bool) -> None:
+    """Replay RUN_DIR (an aamsim run directory) in the web viewer until Ctrl-C.
+
+    The page shows the traffic over the scenario's network with a time slider,
+    playback speed, zoom/pan, follow and filters (docs/viewer.md).
+    """
+    from aamsim.viewer.frames import ReplayError
+    from aamsim.viewer.server import serve_replay
+
+    try:
+        serve_replay(str(run_dir), host, port, lambda url: _announce_viewer(url, host, open_browser))
+    except ReplayError as exc:
+        click.echo(f"error: {exc}", err=True)
+        sys.exit(2)
+    except OSError as exc:
+        click.echo(f"error: cannot serve on {host}:{port}: {exc}", err=True)
+        sys.exit(2)
 
 
 @main.command()

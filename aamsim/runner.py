@@ -108,8 +108,12 @@ def run_scenario(
     cfg: RunConfig,
     progress: Callable[[Simulation, float], None] | None = None,
     listener: Callable[[Any], None] | None = None,
+    setup: Callable[[Simulation, str], None] | None = None,
 ) -> RunResult:
     """Simulate a scenario and write its run directory.
+
+    ``setup(sim, scenario_text)`` runs once the scenario is loaded, before the
+    first step (``aamsim run --view`` attaches the live viewer there).
 
     Raises:
         ScenarioNotFound: the scenario file does not exist (here or shipped).
@@ -138,6 +142,8 @@ def run_scenario(
         sim.stack(line)
     start_overlays(sim, cfg)
     sim.load_scenario(path, text=text)
+    if setup is not None:
+        setup(sim, text)
     wall0 = time.perf_counter()
     with StopOnSignal(sim) as stop:
         try:

@@ -314,6 +314,14 @@ class ConflictService:
         log = self.logs.get(volume)
         return log.open_callsigns() if log is not None else set()
 
+    def started_since(self, volume: str, t0: float) -> list[SeparationEvent]:
+        """Events of ``volume`` that began after ``t0`` (a viewer flashes them), by start time."""
+        log = self.logs.get(volume)
+        if log is None or log.n == 0:
+            return []
+        rows = np.flatnonzero(log.start[:log.n] > t0)  # rows of one check are not in start order
+        return sorted((log.event(r) for r in rows.tolist()), key=lambda e: (e.start_s, e.ac1, e.ac2))
+
     def involved_since(self, volume: str, t0: float) -> dict[str, float]:
         """Callsign -> smallest distance in ``volume`` events open at some time since ``t0``."""
         log = self.logs.get(volume)

@@ -1,0 +1,433 @@
+"""Pictures of the traffic: one :class:`TrafficFrame` per instant, one :class:`MapLayout` per scenario.
+
+A frame holds what a viewer draws at one sim time: the aircraft (position,
+altitude, track, airspeed), each one's state (normal, inside a LoWC or NMAC
+volume, holding below the holding speed), the separation events that began
+since the previous frame (they flash where they happened) and the running
+totals of the side panel. It comes from a live simulation
+(:func:`frame_from_sim`, through the simulator API and the conflict service)
+or from a run directory (:class:`RunReplay`, from ``trajectories.csv``,
+``conflicts.csv``, ``flights.csv`` and ``summary.json``). The web viewer and
+the matplotlib renderer draw the same frames, so a replay, a live run and an
+environment's ``render()`` look alike.
+
+The map (:class:`MapLayout`) is read from the scenario text: user waypoints
+(``DEFWPT``) named as an origin or destination are vertiports, and the legs of
+every route (``ORIG`` -> ``ADDWPT``... -> ``DEST``) are drawn once each.
+"""
+
+from __future__ import annotations
+
+import itertools
+import json
+import math
+import re
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+if TYPE_CHECKING:
+    from aamsim.simulation import Simulation
+
+STATUS_NORMAL, STATUS_LOWC, STATUS_NMAC, STATUS_HOLDING = 0, 1, 2, 3
+STATUS_NAMES = ("normal", "lowc", "nmac", "holding")
+# Blue for normal traffic, orange inside the LoWC volume, red inside the NMAC volume, purple when holding
+# (colour-blind safe against each other and against the dark map).
+STATUS_COLOURS = ("#4fa3e0", "#f39c12", "#e8253a", "#b07cdb")
+
+EARTH_RADIUS_M = 6_371_000.0
+DEFAULT_HOLD_SPEED_MPS = 5.0 * 1852.0 / 3600.0  # aamsim's default holding-speed threshold (5 kt)
+
+
+class ReplayError(ValueError):
+    """A run directory that cannot be replayed; the message names the file."""
+
+
+@dataclass(frozen=True)
+class ConflictEvent:
+    """An NMAC or LoWC that began at ``t`` between aircraft ``ids``, placed at their mid-point."""
+
+    kind: str  # "nmac" | "lowc"
+    t: float
+    ids: tuple[str, str]
+    lat: float
+    lon: float
+
+
+@dataclass(frozen=True)
+class TrafficFrame:
+    """The traffic at ``simt``: one entry per aircraft in every array (SI units, degrees)."""
+
+    simt: float
+    ids: tuple[str, ...]
+    lat: np.ndarray
+    lon: np.ndarray
+    alt: np.ndarray  # m
+    trk: np.ndarray  # deg
+    tas: np.ndarray  # m/s
+    status: np.ndarray  # int8, STATUS_*
+    events: tuple[ConflictEvent, ...] = ()
+    metrics: dict[str, float] = field(default_factory=dict)
+
+    def __len__(self) -> int:
+        return len(self.ids)
+
+    def to_json(self) -> dict[str, Any]:
+        """A JSON-ready dict, positions rounded to about 1 m (what the browser page reads)."""
+        return {
+            "simt": round(float(self.simt), 3),
+            "ids": list(self.ids),
+            "lat": np.round(self.lat, 5).tolist(),
+            "lon": np.round(self.lon, 5).tolist(),
+            "alt": np.round(self.alt, 1).tolist(),
+            "trk": np.round(self.trk, 1).tolist(),
+            "tas": np.round(self.tas, 1).tolist(),
+            "status": self.status.astype(int).tolist(),
+            "events": [{"kind": e.kind, "t": round(e.t, 2), "ids": list(e.ids), "lat": round(e.lat, 5),
+                        "lon": round(e.lon, 5)} for e in self.events],
+            "metrics": {k: (round(v, 3) if isinstance(v, float) else v) for k, v in self.metrics.items()},
+        }
+
+
+@dataclass(frozen=True)
+class MapLayout:
+    """The static map: vertiports, route legs, an optional outline, and the bounds to show."""
+
+    vertiports: tuple[tuple[str, float, float], ...]  # (name, lat, lon)
+    routes: tuple[np.ndarray, ...]  # polylines, each (k, 2) of (lat, lon)
+    outline: tuple[np.ndarray, ...]  # coastline/borough polylines (k, 2); none shipped yet
+    bounds: tuple[float, float, float, float]  # lat_min, lat_max, lon_min, lon_max
+
+    def to_json(self) -> dict[str, Any]:
+        return {
+            "vertiports": [[n, round(a, 6), round(o, 6)] for n, a, o in self.vertiports],
+            "routes": [np.round(r, 6).tolist() for r in self.routes],
+            "outline": [np.round(r, 6).tolist() for r in self.outline],
+            "bounds": [round(x, 6) for x in self.bounds],
+        }
+
+
+# ---------------------------------------------------------------- the map, from the scenario text
+_SPLIT = re.compile(r"[\s,]+")
+
+
+def _number(text: str) -> float | None:
+    try:
+        x = float(text)
+    except ValueError:
+        return None
+    return x if math.isfinite(x) else None
+
+
+def layout_from_scenario(text: str, extra_lat: np.ndarray | None = None,
+                         extra_lon: np.ndarray | None = None) -> MapLayout:
+    """The map of a scenario: vertiports and route legs (see the module docstring).
+
+    ``extra_lat``/``extra_lon`` (flown positions) widen the bounds beyond the network.
+    """
+    points: dict[str, tuple[float, float]] = {}
+    ends: set[str] = set()
+    routes: dict[str, list[tuple[float, float]]] = {}
+    dests: dict[str, tuple[float, float]] = {}
+    for raw in text.splitlines():
+        line = raw.split("#", 1)[0].strip()
+        if ">" in line:
+            line = line.split(">", 1)[1]
+        words = [w for w in _SPLIT.split(line.strip()) if w]
+        if len(words) < 3:
+            continue
+        cmd, acid = words[0].upper(), words[1].upper()
+        if cmd == "DEFWPT" and len(words) >= 4:
+            lat, lon = _number(words[2]), _number(words[3])
+            if lat is not None and lon is not None:
+                points[acid] = (lat, lon)
+        elif cmd == "CRE" and len(words) >= 5:
+            lat, lon = _number(words[3]), _number(words[4])
+            if lat is not None and lon is not None:
+                routes[acid] = [(lat, lon)]
+                dests.pop(acid, None)
+        elif cmd in ("ORIG", "DEST", "ADDWPT"):
+            name = words[2].upper()
+            pos = points.get(name)
+            if pos is None and len(words) >= 4:
+                lat, lon = _number(words[2]), _number(words[3])
+                pos = (lat, lon) if lat is not None and lon is not None else None
+            if pos is None:
+                continue
+            if cmd == "ADDWPT":
+                routes.setdefault(acid, []).append(pos)
+            else:
+                ends.add(name)
+                if cmd == "DEST":
+                    dests[acid] = pos
+    legs: set[tuple[float, float, float, float]] = set()
+    for acid, pts in routes.items():
+        if acid in dests:
+            pts = [*pts, dests[acid]]
+        for (a1, o1), (a2, o2) in itertools.pairwise(pts):
+            if (a1, o1) != (a2, o2):
+                legs.add((a1, o1, a2, o2) if (a1, o1) < (a2, o2) else (a2, o2, a1, o1))
+    vertiports = tuple(sorted((n, *points[n]) for n in ends if n in points))
+    route_lines = tuple(np.array([[a1, o1], [a2, o2]]) for a1, o1, a2, o2 in sorted(legs))
+    lats = [v[1] for v in vertiports] + [x for leg in legs for x in (leg[0], leg[2])]
+    lons = [v[2] for v in vertiports] + [x for leg in legs for x in (leg[1], leg[3])]
+    if extra_lat is not None and extra_lon is not None and len(extra_lat):
+        lats += [float(np.min(extra_lat)), float(np.max(extra_lat))]
+        lons += [float(np.min(extra_lon)), float(np.max(extra_lon))]
+    return MapLayout(vertiports, route_lines, (), _padded_bounds(lats, lons))
+
+
+def _padded_bounds(lats: list[float], lons: list[float]) -> tuple[float, float, float, float]:
+    if not lats:
+        return (-0.05, 0.05, -0.05, 0.05)
+    lat0, lat1, lon0, lon1 = min(lats), max(lats), min(lons), max(lons)
+    pad_lat = max(0.05 * (lat1 - lat0), 0.005)
+    pad_lon = max(0.05 * (lon1 - lon0), 0.005)
+    return (lat0 - pad_lat, lat1 + pad_lat, lon0 - pad_lon, lon1 + pad_lon)
+
+
+# ---------------------------------------------------------------- live: from a simulation
+def layout_from_sim(sim: Simulation, scenario_text: str | None = None) -> MapLayout:
+    """The map of a live simulation: its scenario's network, widened to the aircraft flying now."""
+    view = sim.view
+    return layout_from_scenario(scenario_text or "", np.asarray(view.lat), np.asarray(view.lon))
+
+
+def frame_from_sim(sim: Simulation, events_since: float | None = None) -> TrafficFrame:
+    """The traffic of a live simulation now, with the events that began after ``events_since``."""
+    from aamsim.conflicts.service import conflicts_of
+
+    view = sim.view
+    ids = tuple(view.ids)
+    lat, lon, alt = (np.array(x, dtype=np.float64) for x in (view.lat, view.lon, view.alt))
+    trk, tas = np.array(view.trk, dtype=np.float64), np.array(view.tas, dtype=np.float64)
+    hold = float(getattr(sim.settings, "hold_speed_mps", DEFAULT_HOLD_SPEED_MPS))
+    status = np.where(tas < hold, STATUS_HOLDING, STATUS_NORMAL).astype(np.int8)
+    service = conflicts_of(sim)  # type: ignore[arg-type]
+    slot = {a: i for i, a in enumerate(ids)}
+    for volume, code in (("lowc", STATUS_LOWC), ("nmac", STATUS_NMAC)):
+        for acid in service.in_volume_now(volume):
+            i = slot.get(acid)
+            if i is not None:
+                status[i] = code
+    events: list[ConflictEvent] = []
+    if events_since is not None:
+        for volume in ("nmac", "lowc"):
+            for ev in service.started_since(volume, events_since):
+                pos = [(lat[slot[a]], lon[slot[a]]) for a in (ev.ac1, ev.ac2) if a in slot]
+                if not pos:
+                    continue
+                events.append(ConflictEvent(volume, ev.start_s, (ev.ac1, ev.ac2),
+                                            float(np.mean([p[0] for p in pos])), float(np.mean([p[1] for p in pos]))))
+    metrics: dict[str, float] = {
+        "airborne": len(ids),
+        "nmac": service.count("nmac"),
+        "lowc": service.count("lowc"),
+        "completed": sum(1 for f in sim.flight_log if f.arrived),
+        "holding": int(np.count_nonzero(status == STATUS_HOLDING)),
+    }
+    return TrafficFrame(sim.simt, ids, lat, lon, alt, trk, tas, status, tuple(events), metrics)
+
+
+# ---------------------------------------------------------------- replay: from a run directory
+_TRAJ_COLUMNS = ("simt", "lat", "lon", "alt_m", "tas_mps", "gs_mps", "trk_deg")
+
+
+class RunReplay:
+    """A run directory, indexed once so that any instant is drawn in milliseconds.
+
+    ``trajectories.csv`` is required (a run with ``--log-period 0`` has none);
+    ``conflicts.csv``, ``flights.csv``, ``summary.json`` and ``scenario.scn``
+    add states, totals and the map when present. Samples are sorted by time,
+    so a frame is one block of rows found by bisection, dead-reckoned from
+    the sample to the frame's time along the track at the ground speed.
+    """
+
+    def __init__(self, run_dir: str | Path) -> None:
+        self.run_dir = Path(run_dir)
+        if not self.run_dir.is_dir():
+            raise ReplayError(f"{self.run_dir}: not a directory (expected an aamsim run directory)")
+        traj = self.run_dir / "trajectories.csv"
+        if not traj.is_file():
+            raise ReplayError(f"{traj}: missing; nothing to replay (the run was made with --log-period 0, "
+                              "or this is not a run directory)")
+        self.summary: dict[str, Any] = self._read_summary()
+        self._read_trajectories(traj)
+        self._read_conflicts(self.run_dir / "conflicts.csv")
+        self._read_flights(self.run_dir / "flights.csv")
+        hold = self.summary.get("operational", {}).get("holding_speed_threshold_mps")
+        self.hold_speed_mps = float(hold) if isinstance(hold, (int, float)) else DEFAULT_HOLD_SPEED_MPS
+        self._layout: MapLayout | None = None
+
+    # ------------------------------------------------------------ reading
+    def _read_summary(self) -> dict[str, Any]:
+        path = self.run_dir / "summary.json"
+        if not path.is_file():
+            return {}
+        try:
+            data = json.loads(path.read_text(encoding="utf-8"))
+        except (json.JSONDecodeError, UnicodeDecodeError) as exc:
+            raise ReplayError(f"{path}: not valid JSON ({exc})") from None
+        if not isinstance(data, dict):
+            raise ReplayError(f"{path}: expected a JSON object")
+        return data
+
+    def _read_trajectories(self, path: Path) -> None:
+        with open(path, encoding="utf-8", errors="replace") as fh:
+            header = fh.readline().strip().split(",")
+        missing = [c for c in ("id", *_TRAJ_COLUMNS) if c not in header]
+        if missing:
+            raise ReplayError(f"{path}: line 1: missing column(s) {', '.join(missing)} "
+                              f"(an aamsim trajectories.csv has id,simt,lat,lon,alt_m,tas_mps,...,trk_deg)")
+        cols = [header.index(c) for c in _TRAJ_COLUMNS]
+        try:
+            data = np.loadtxt(path, delimiter=",", skiprows=1, usecols=cols, dtype=np.float64, ndmin=2)
+            names = np.loadtxt(path, delimiter=",", skiprows=1, usecols=header.index("id"), dtype=str, ndmin=1)
+        except ValueError as exc:
+            raise ReplayError(f"{path}: {exc}") from None
+        if len(data) and not np.isfinite(data[:, 0]).all():
+            bad = int(np.flatnonzero(~np.isfinite(data[:, 0]))[0]) + 2
+            raise ReplayError(f"{path}: line {bad}: simt is not a number")
+        order = np.argsort(data[:, 0], kind="stable")
+        data, names = data[order], names[order]
+        self.callsigns, self._code = np.unique(names, return_inverse=True)
+        self._t, self._lat, self._lon, self._alt, self._tas, self._gs, self._trk = (
+            np.ascontiguousarray(data[:, k]) for k in range(7))
+        self.times, self._block = np.unique(self._t, return_index=True)
+        self._block = np.append(self._block, len(self._t))
+        self.t_start = float(self.times[0]) if len(self.times) else 0.0
+        self.t_end = float(self.times[-1]) if len(self.times) else 0.0
+        self.sample_period_s = float(np.median(np.diff(self.times))) if len(self.times) > 1 else 1.0
+
+    def _read_conflicts(self, path: Path) -> None:
+        self._ev_kind = np.zeros(0, dtype=np.int8)
+        self._ev_a = self._ev_b = np.zeros(0, dtype=np.int64)
+        self._ev_start = self._ev_end = self._ev_lat = self._ev_lon = np.zeros(0)
+        if not path.is_file():
+            return
+        import csv
+
+        kinds, a, b, start, end, lat, lon = [], [], [], [], [], [], []
+        index = {c: i for i, c in enumerate(self.callsigns.tolist())}
+        with open(path, newline="", encoding="utf-8", errors="replace") as fh:
+            reader = csv.DictReader(fh)
+            need = ("volume", "ac1", "ac2", "start_s", "end_s", "lat1", "lon1", "lat2", "lon2")
+            missing = [c for c in need if c not in (reader.fieldnames or [])]
+            if missing:
+                raise ReplayError(f"{path}: line 1: missing column(s) {', '.join(missing)}")
+            for lineno, row in enumerate(reader, start=2):
+                volume = row["volume"]
+                if volume not in ("nmac", "lowc"):
+                    continue  # other volumes (user-defined) are not drawn
+                try:
+                    s, e = float(row["start_s"]), float(row["end_s"] or "nan")
+                    la = (float(row["lat1"]) + float(row["lat2"])) / 2
+                    lo = (float(row["lon1"]) + float(row["lon2"])) / 2
+                except ValueError as exc:
+                    raise ReplayError(f"{path}: line {lineno}: {exc}") from None
+                kinds.append(STATUS_NMAC if volume == "nmac" else STATUS_LOWC)
+                a.append(index.get(row["ac1"], -1))
+                b.append(index.get(row["ac2"], -1))
+                start.append(s)
+                end.append(e if math.isfinite(e) else math.inf)
+                lat.append(la)
+                lon.append(lo)
+        order = np.argsort(np.asarray(start), kind="stable")
+        self._ev_kind = np.asarray(kinds, dtype=np.int8)[order]
+        self._ev_a, self._ev_b = np.asarray(a, dtype=np.int64)[order], np.asarray(b, dtype=np.int64)[order]
+        self._ev_start, self._ev_end = np.asarray(start)[order], np.asarray(end)[order]
+        self._ev_lat, self._ev_lon = np.asarray(lat)[order], np.asarray(lon)[order]
+        self._ev_names = [(str(self.callsigns[i]) if i >= 0 else "?", str(self.callsigns[j]) if j >= 0 else "?")
+                          for i, j in zip(self._ev_a.tolist(), self._ev_b.tolist())]
+
+    def _read_flights(self, path: Path) -> None:
+        self._arrivals = np.zeros(0)
+        self.routes_by_id: dict[str, str] = {}
+        if not path.is_file():
+            return
+        import csv
+
+        arrivals = []
+        with open(path, newline="", encoding="utf-8", errors="replace") as fh:
+            for lineno, row in enumerate(csv.DictReader(fh), start=2):
+                try:
+                    if row.get("arrived") == "true" and row.get("deleted_s"):
+                        arrivals.append(float(row["deleted_s"]))
+                except ValueError as exc:
+                    raise ReplayError(f"{path}: line {lineno}: {exc}") from None
+                if row.get("origin") or row.get("destination"):
+                    self.routes_by_id[row.get("id", "")] = f"{row.get('origin', '')}-{row.get('destination', '')}"
+        self._arrivals = np.sort(np.asarray(arrivals))
+
+    # ------------------------------------------------------------ queries
+    def layout(self) -> MapLayout:
+        """The map: the run's scenario network (``scenario.scn``), widened to the flown positions."""
+        if self._layout is None:
+            scn = self.run_dir / "scenario.scn"
+            text = scn.read_text(encoding="utf-8", errors="replace") if scn.is_file() else ""
+            self._layout = layout_from_scenario(text, self._lat, self._lon)
+        return self._layout
+
+    def _rows_at(self, t: float) -> tuple[int, int, float]:
+        k = int(np.searchsorted(self.times, t, side="right")) - 1
+        if k < 0:
+            return 0, 0, 0.0
+        lo, hi = int(self._block[k]), int(self._block[k + 1])
+        gap = t - float(self.times[k])
+        if k == len(self.times) - 1 and gap > 0:
+            return lo, hi, 0.0  # after the last sample: hold the last picture
+        return lo, hi, gap
+
+    def frame_at(self, t: float, events_since: float | None = None) -> TrafficFrame:
+        """The aircraft of the sample at or before ``t``, moved on to ``t``; events in ``(events_since, t]``."""
+        t = float(t)
+        lo, hi, gap = self._rows_at(t)
+        codes = self._code[lo:hi]
+        trk = self._trk[lo:hi]
+        lat, lon = self._lat[lo:hi].copy(), self._lon[lo:hi].copy()
+        if gap > 0 and hi > lo:
+            dist = self._gs[lo:hi] * gap
+            rad = np.radians(trk)
+            lat += np.degrees(dist * np.cos(rad) / EARTH_RADIUS_M)
+            lon += np.degrees(dist * np.sin(rad) / (EARTH_RADIUS_M * np.cos(np.radians(lat))))
+        tas = self._tas[lo:hi]
+        status = np.where(tas < self.hold_speed_mps, STATUS_HOLDING, STATUS_NORMAL).astype(np.int8)
+        live = (self._ev_start <= t) & (t <= self._ev_end)
+        for code in (STATUS_LOWC, STATUS_NMAC):  # NMAC last: it wins over LoWC
+            sel = live & (self._ev_kind == code)
+            inside = np.concatenate([self._ev_a[sel], self._ev_b[sel]])
+            status[np.isin(codes, inside)] = code
+        events: tuple[ConflictEvent, ...] = ()
+        if events_since is not None:
+            i0 = int(np.searchsorted(self._ev_start, events_since, side="right"))
+            i1 = int(np.searchsorted(self._ev_start, t, side="right"))
+            events = tuple(
+                ConflictEvent("nmac" if self._ev_kind[i] == STATUS_NMAC else "lowc", float(self._ev_start[i]),
+                              self._ev_names[i], float(self._ev_lat[i]), float(self._ev_lon[i]))
+                for i in range(i0, i1))
+        started = int(np.searchsorted(self._ev_start, t, side="right"))
+        kinds = self._ev_kind[:started]
+        metrics: dict[str, float] = {
+            "airborne": hi - lo,
+            "nmac": int(np.count_nonzero(kinds == STATUS_NMAC)),
+            "lowc": int(np.count_nonzero(kinds == STATUS_LOWC)),
+            "completed": int(np.searchsorted(self._arrivals, t, side="right")),
+            "holding": int(np.count_nonzero(status == STATUS_HOLDING)),
+        }
+        ids = tuple(self.callsigns[codes].tolist())
+        return TrafficFrame(t, ids, lat, lon, self._alt[lo:hi].copy(), trk.copy(), tas.copy(), status, events,
+                            metrics)
+
+    def trails(self, t: float, seconds: float) -> dict[str, np.ndarray]:
+        """Callsign -> (k, 2) lat/lon samples of the last ``seconds`` up to ``t``, oldest first."""
+        k1 = int(np.searchsorted(self.times, t, side="right"))
+        k0 = int(np.searchsorted(self.times, t - seconds, side="left"))
+        lo, hi = int(self._block[k0]), int(self._block[k1]) if k1 > k0 else int(self._block[k0])
+        codes = self._code[lo:hi]
+        order = np.argsort(codes, kind="stable")  # time order kept within each aircraft
+        codes, starts = np.unique(codes[order], return_index=True)
+        pts = np.column_stack([self._lat[lo:hi], self._lon[lo:hi]])[order]
+        bounds = [*starts.tolist(), len(order)]
+        return {str(self.callsigns[c]): pts[bounds[i]:bounds[i + 1]] for i, c in enumerate(codes.tolist())}
