@@ -211,9 +211,12 @@ def run(scenario: str, until: str | None, out_dir: Path | None, dt: float, seed:
             click.echo(f"error: {exc}", err=True)
             sys.exit(2)
 
+    simulated: list[Any] = []
+
     def setup(sim: Any, text: str) -> None:
         if live is not None:
             live.attach(sim, text, pace=pace)
+            simulated.append(sim)
 
     total = until_s
     progress = _Progress(total, quiet)
@@ -262,7 +265,7 @@ def run(scenario: str, until: str | None, out_dir: Path | None, dt: float, seed:
                            f"AAM vs real traffic: {sf['nmac_events_aam_vs_real_traffic']} NMAC, "
                            f"{sf['lowc_events_aam_vs_real_traffic']} LoWC")
     if live is not None:
-        live.finish()
+        live.finish(simulated[0] if simulated else None)
         click.echo(f"run finished; the viewer shows its last picture at {live.url} until Ctrl-C", err=True)
         try:
             while True:

@@ -105,10 +105,13 @@ class LiveViewer:
         self.publish(frame_from_sim(sim, events_since=self._last_simt), layout)
         self._last_simt = sim.simt
 
-    def finish(self) -> None:
-        """Mark the simulation as over (the page says so; the last frame stays on screen)."""
+    def finish(self, sim: Simulation | None = None) -> None:
+        """Mark the simulation as over, publishing ``sim``'s last picture (the page keeps showing it)."""
         self.source.finished = True
-        self.source.seq += 1
+        if sim is not None:
+            self.publish_sim(sim)
+        elif self.source.frame is not None:
+            self.source.publish(self.source.frame)  # a new sequence number: tabs learn the run is over
 
     def close(self) -> None:
         """Stop the server (the daemon thread ends)."""

@@ -167,6 +167,13 @@ class ViewerApp:
         self.app.router.add_get("/api/status", self._status)
         self.app.router.add_get("/api/frame", self._frame)
         self.app.router.add_get("/ws", self._ws)
+        self.sockets: set[web.WebSocketResponse] = set()
+        self.app.on_shutdown.append(self._close_sockets)
+
+    async def _close_sockets(self, app: web.Application) -> None:
+        """Ctrl-C: tell open tabs the server is going (1001) instead of waiting for them to leave."""
+        for ws in list(self.sockets):
+            await ws.close(code=1001, message=b"viewer stopped")
 
     @web.middleware
     async def _errors(self, request: web.Request, handler: Any) -> web.StreamResponse:
@@ -232,6 +239,7 @@ class ViewerApp:
         ws = web.WebSocketResponse(heartbeat=20.0, max_msg_size=MAX_MESSAGE_BYTES)
         await ws.prepare(request)
         self.clients += 1
+        self.sockets.add(ws)
         src = self.source
         play = _Playback(t=src.replay.t_start if isinstance(src, ReplaySource) else 0.0)
         sender = asyncio.create_task(self._send_loop(ws, play))
@@ -246,6 +254,7 @@ class ViewerApp:
         finally:
             sender.cancel()
             self.clients -= 1
+            self.sockets.discard(ws)
         return ws
 
     async def _control(self, ws: web.WebSocketResponse, play: _Playback, text: str) -> None:
@@ -319,7 +328,7 @@ def is_loopback(host: str) -> bool:
 
 async def start_site(viewer: ViewerApp, host: str, port: int) -> tuple[web.AppRunner, str]:
     """Start serving; returns the runner (to clean up) and the URL (with the port actually bound)."""
-    runner = web.AppRunner(viewer.app, access_log=None, handle_signals=False)
+    runner = web.AppRunner(viewer.app, access_log=None, handle_signals=False, shutdown_timeout=2.0)
     await runner.setup()
     site = web.TCPSite(runner, host, port)
     await site.start()

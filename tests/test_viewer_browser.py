@@ -1,0 +1,162 @@
+"""The web viewer in a real browser: headless Chromium (Playwright) against `aamsim view` and `aamsim run --view`.
+
+Skips only when no Chromium is installed (on Debian: ``apt-get install chromium``; ``.ci/run`` installs it).
+Screenshots are written to the test's folder, and also to ``$AAMSIM_SCREENSHOT_DIR`` when set.
+"""
+
+from __future__ import annotations
+
+import csv
+import os
+import re
+import shutil
+import signal
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+playwright_api = pytest.importorskip("playwright.sync_api", reason="playwright is not installed (pip install -e .[test])")
+
+
+def _chromium() -> str | None:
+    for name in ("chromium", "chromium-browser", "google-chrome", "google-chrome-stable"):
+        found = shutil.which(name)
+        if found:
+            return found
+    return None
+
+
+CHROMIUM = _chromium()
+pytestmark = pytest.mark.skipif(CHROMIUM is None, reason="no Chromium on PATH (Debian: apt-get install chromium)")
+
+# Three aircraft on long straight routes between two vertiports: none lands within the test.
+SCENARIO = """\
+00:00:00.00>DEFWPT VA 40.70 -74.02
+00:00:00.00>DEFWPT VB 40.80 -73.92
+00:00:00.00>CRE U1 EC35 40.70 -74.02 35 1000 60
+00:00:00.00>ORIG U1 VA
+00:00:00.00>DEST U1 VB
+00:00:00.00>CRE U2 EC35 40.80 -73.92 215 1000 60
+00:00:00.00>ORIG U2 VB
+00:00:00.00>DEST U2 VA
+00:01:00.00>CRE U3 EC35 40.75 -74.05 90 1500 60
+00:01:00.00>ADDWPT U3 40.75 -73.90
+"""
+
+
+def _aamsim(*args: str) -> list[str]:
+    return [sys.executable, "-m", "aamsim", *args]
+
+
+def _start(cmd: list[str], cwd: Path) -> tuple[subprocess.Popen, str]:
+    """Start a viewer process and read its URL from what it prints."""
+    proc = subprocess.Popen(cmd, cwd=cwd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    assert proc.stderr is not None
+    for line in proc.stderr:
+        m = re.search(r"viewer: (http://127\.0\.0\.1:\d+/)", line)
+        if m:
+            return proc, m.group(1)
+    proc.wait(10)
+    raise AssertionError(f"no viewer URL printed; exit {proc.returncode}")
+
+
+def _stop(proc: subprocess.Popen) -> int:
+    proc.send_signal(signal.SIGINT)
+    try:
+        return proc.wait(20)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+
+
+def _screenshot(page, tmp_path: Path, name: str) -> Path:
+    path = tmp_path / name
+    page.screenshot(path=str(path))
+    extra = os.environ.get("AAMSIM_SCREENSHOT_DIR")
+    if extra:
+        Path(extra).mkdir(parents=True, exist_ok=True)
+        shutil.copy(path, Path(extra) / name)
+    assert path.stat().st_size > 10_000  # a drawn page, not an empty one
+    return path
+
+
+def _expected_at(traj: Path, t: float) -> dict[str, tuple[float, float]]:
+    with open(traj, newline="") as fh:
+        return {r["id"]: (float(r["lat"]), float(r["lon"])) for r in csv.DictReader(fh) if float(r["simt"]) == t}
+
+
+@pytest.fixture(scope="module")
+def browser():
+    with playwright_api.sync_playwright() as p:
+        b = p.chromium.launch(executable_path=CHROMIUM, args=["--no-sandbox", "--disable-gpu"])
+        yield b
+        b.close()
+
+
+def test_a_replay_shows_the_aircraft_of_the_moment_the_slider_picks(browser, tmp_path):
+    scn = tmp_path / "three.scn"
+    scn.write_text(SCENARIO)
+    run = tmp_path / "run"
+    done = subprocess.run(_aamsim("run", str(scn), "--until", "600", "--out", str(run), "--quiet"),
+                          capture_output=True, text=True, timeout=300)
+    assert done.returncode == 0, done.stderr
+    proc, url = _start(_aamsim("view", str(run), "--port", "0"), tmp_path)
+    try:
+        page = browser.new_page(viewport={"width": 1100, "height": 750})
+        errors: list[str] = []
+        page.on("pageerror", lambda e: errors.append(str(e)))
+        page.goto(url)
+        page.wait_for_function("Number(document.getElementById('map').dataset.frames) > 3", timeout=20_000)
+        page.click("#play")  # pause
+        page.wait_for_function("document.getElementById('play').textContent === 'play'", timeout=10_000)
+        shown = {}
+        for t in (30.0, 300.0):  # before and after U3 is created at 60 s
+            page.evaluate(f"() => {{ const s = document.getElementById('slider'); s.value = '{t:g}';"
+                          "s.dispatchEvent(new Event('input')); s.dispatchEvent(new Event('change')); }")
+            page.wait_for_function(f"document.getElementById('map').dataset.simt === '{t:g}'", timeout=10_000)
+            expected = _expected_at(run / "trajectories.csv", t)
+            assert page.get_attribute("#map", "data-aircraft") == str(len(expected))
+            frame = page.evaluate("() => { const f = window.viewerState.frame; "
+                                  "return {ids: f.ids, lat: f.lat, lon: f.lon}; }")
+            got = {i: (a, o) for i, a, o in zip(frame["ids"], frame["lat"], frame["lon"])}
+            assert got.keys() == expected.keys()
+            for acid, (lat, lon) in expected.items():
+                assert got[acid] == pytest.approx((lat, lon), abs=2e-5)  # 5 decimals sent: about 1 m
+            shown[t] = got
+        assert len(shown[30.0]) == 2 and len(shown[300.0]) == 3
+        assert shown[300.0]["U1"][0] > shown[30.0]["U1"][0] + 0.01  # U1 flew north-east in between
+        # the altitude filter hides U3 (1,500 ft) and keeps the two at 1,000 ft
+        page.fill("#alt-max", "1200")
+        page.wait_for_function("document.getElementById('map').dataset.aircraft === '2'", timeout=10_000)
+        page.fill("#alt-max", "60000")
+        assert page.text_content("#airborne") == "3"
+        _screenshot(page, tmp_path, "viewer-replay.png")
+        assert errors == []
+    finally:
+        assert _stop(proc) == 0
+
+
+def test_a_live_run_streams_its_traffic_and_keeps_the_last_picture(browser, tmp_path):
+    scn = tmp_path / "three.scn"
+    scn.write_text(SCENARIO)
+    proc, url = _start(_aamsim("run", str(scn), "--until", "150", "--out", str(tmp_path / "run"), "--quiet",
+                               "--view", "--port", "0", "--pace", "20"), tmp_path)
+    try:
+        page = browser.new_page(viewport={"width": 1100, "height": 750})
+        page.goto(url)
+        page.wait_for_function("document.getElementById('map').dataset.aircraft === '2'", timeout=20_000)
+        t1 = float(page.get_attribute("#map", "data-simt") or "nan")
+        assert t1 < 60.0  # paced at 20x: U3 (created at 60 s) is not there yet
+        page.wait_for_function("document.getElementById('map').dataset.aircraft === '3'", timeout=20_000)
+        t2 = float(page.get_attribute("#map", "data-simt") or "nan")
+        assert t2 >= 60.0 > t1
+        assert page.text_content("#connection") == "live"
+        page.wait_for_function("document.getElementById('connection').textContent.includes('finished')",
+                               timeout=30_000)
+        assert float(page.get_attribute("#map", "data-simt") or "nan") == pytest.approx(150.0)
+        assert page.get_attribute("#map", "data-aircraft") == "3"
+        _screenshot(page, tmp_path, "viewer-live.png")
+    finally:
+        assert _stop(proc) == 0
