@@ -277,8 +277,17 @@ def run(scenario: str, until: str | None, out_dir: Path | None, dt: float, seed:
 @main.command()
 @click.argument("run_dir", type=click.Path(path_type=Path))
 @_viewer_options
-def view(run_dir: Path, host: str, port: int, open_browser: bool) -> None:
-    """Replay RUN_DIR (an aamsim run directory) in the web viewer until Ctrl-C.
+@click.option("--video", "video_path", type=click.Path(dir_okay=False, path_type=Path), default=None,
+              help="Write the replay to this MP4 or GIF instead of serving it.")
+@click.option("--from", "t_from", default=None, help="With --video: first sim time (seconds or HH:MM:SS).")
+@click.option("--to", "t_to", default=None, help="With --video: last sim time (seconds or HH:MM:SS).")
+@click.option("--speed", type=float, default=60.0, show_default=True,
+              help="With --video: sim seconds per second of video.")
+@click.option("--fps", type=float, default=10.0, show_default=True, help="With --video: frames per second.")
+@click.option("--size", default="800x800", show_default=True, help="With --video: WIDTHxHEIGHT in pixels.")
+def view(run_dir: Path, host: str, port: int, open_browser: bool, video_path: Path | None, t_from: str | None,
+         t_to: str | None, speed: float, fps: float, size: str) -> None:
+    """Replay RUN_DIR (an aamsim run directory) in the web viewer until Ctrl-C, or into a video.
 
     The page shows the traffic over the scenario's network with a time slider,
     playback speed, zoom/pan, follow and filters (docs/viewer.md).
@@ -286,6 +295,23 @@ def view(run_dir: Path, host: str, port: int, open_browser: bool) -> None:
     from aamsim.viewer.frames import ReplayError
     from aamsim.viewer.server import serve_replay
 
+    if video_path is not None:
+        from aamsim.render.video import write_run_video
+
+        try:
+            width, height = (int(x) for x in size.lower().split("x"))
+        except ValueError:
+            raise click.BadParameter(f"{size!r}: expected WIDTHxHEIGHT, e.g. 800x800", param_hint="--size") from None
+        try:
+            n = write_run_video(run_dir, video_path, t_from=_time_option(t_from), t_to=_time_option(t_to),
+                                speed=speed, fps=fps, width=width, height=height)
+        except (ReplayError, ValueError) as exc:
+            click.echo(f"error: {exc}", err=True)
+            sys.exit(2)
+        click.echo(f"{video_path}: {n} frames, {n / fps:.1f} s at {fps:g} frames/s ({speed:g}x)")
+        return
+    if t_from is not None or t_to is not None:
+        raise click.UsageError("--from and --to go with --video")
     try:
         serve_replay(str(run_dir), host, port, lambda url: _announce_viewer(url, host, open_browser))
     except ReplayError as exc:

@@ -22,8 +22,10 @@ import gymnasium as gym
 import numpy as np
 from pettingzoo import ParallelEnv
 
+from aamsim.scenarios import resolve_scenario
 from rlbridge.backends import make_backend
 from rlbridge.core import StepResult
+from rlbridge.render import RENDER_FPS, RENDER_MODES, EnvRenderer, check_render_mode
 from rlbridge.usecases.registry import make_usecase
 
 
@@ -39,7 +41,8 @@ class AamParallelEnv(ParallelEnv):
     with those it creates otherwise (MCRE's random callsigns, PCALL, SCHEDULE).
     """
 
-    metadata = {"name": "aamgym_corridor_sa_v0", "render_modes": [], "is_parallelizable": True}
+    metadata = {"name": "aamgym_corridor_sa_v0", "render_modes": list(RENDER_MODES), "render_fps": RENDER_FPS,
+                "is_parallelizable": True}
 
     def __init__(
         self,
@@ -50,9 +53,13 @@ class AamParallelEnv(ParallelEnv):
         time_limit_s: float | None = None,
         dt: float = 0.05,
         timeout_s: float = 30.0,
+        render_mode: str | None = None,
+        render_size: tuple[int, int] = (640, 640),
+        viewer_port: int = 0,
         **params: Any,
     ):
         super().__init__()
+        self.render_mode = check_render_mode(render_mode)
         self._usecase = make_usecase(usecase, **params)
         self.metadata = {**self.metadata, "name": f"aamgym_{usecase}_v0"}
         self.core = make_backend(scenario, usecase, params, backend, address, time_limit_s, dt, timeout_s)
@@ -60,6 +67,13 @@ class AamParallelEnv(ParallelEnv):
         self.agents: list[str] = []
         self._seed_rng = np.random.default_rng()
         self.last_result: StepResult | None = None
+        self._renderer: EnvRenderer | None = None
+        if self.render_mode is not None:
+            text = getattr(self.core, "text", None)
+            if text is None:
+                path = resolve_scenario(scenario)
+                text = path.read_text(encoding="utf-8", errors="replace") if path is not None else ""
+            self._renderer = EnvRenderer(self.core, text, self.render_mode, render_size, viewer_port)
 
     @functools.cache
     def observation_space(self, agent: str) -> gym.Space:
@@ -77,6 +91,8 @@ class AamParallelEnv(ParallelEnv):
         self._take(result)
         obs = {a: result.obs.row(k) for k, a in enumerate(result.agents)}
         infos = dict(zip(result.agents, result.infos()))
+        if self.render_mode == "human":
+            self.render()
         return obs, infos
 
     def _take(self, result: StepResult) -> None:
@@ -95,7 +111,20 @@ class AamParallelEnv(ParallelEnv):
             rewards[a] = float(result.rewards[k])
             terms[a] = bool(result.terminated[k])
             truncs[a] = bool(result.truncated[k])
+        if self.render_mode == "human":
+            self.render()
         return obs, rewards, terms, truncs, infos
+
+    def render(self) -> np.ndarray | None:
+        """``rgb_array``: the traffic now as an RGB image; ``human``: show it in the web viewer (rlbridge.render)."""
+        if self._renderer is None:
+            return None  # PettingZoo's convention when no render_mode was chosen
+        if self.last_result is None:
+            raise RuntimeError("render() before reset()")
+        if self.render_mode == "rgb_array":
+            return self._renderer.rgb_array()
+        self._renderer.show()
+        return None
 
     def metrics(self) -> dict[str, Any]:
         """The episode's standard safety and operational metrics."""
@@ -105,6 +134,8 @@ class AamParallelEnv(ParallelEnv):
         raise NotImplementedError("no global state vector is defined for this use case")
 
     def close(self) -> None:
+        if self._renderer is not None:
+            self._renderer.close()
         self.core.close()
 
 
@@ -126,7 +157,7 @@ class AamSingleAgentEnv(gym.Env):
     None (the default) gives them no action (in ``corridor_sa``: unequipped).
     """
 
-    metadata = {"render_modes": []}
+    metadata = {"render_modes": list(RENDER_MODES), "render_fps": RENDER_FPS}
 
     def __init__(
         self,
@@ -139,9 +170,15 @@ class AamSingleAgentEnv(gym.Env):
         time_limit_s: float | None = None,
         dt: float = 0.05,
         timeout_s: float = 30.0,
+        render_mode: str | None = None,
+        render_size: tuple[int, int] = (640, 640),
+        viewer_port: int = 0,
         **params: Any,
     ):
-        self._multi = AamParallelEnv(scenario, usecase, backend, address, time_limit_s, dt, timeout_s, **params)
+        self.render_mode = check_render_mode(render_mode)
+        self._multi = AamParallelEnv(scenario, usecase, backend, address, time_limit_s, dt, timeout_s,
+                                     render_mode=render_mode, render_size=render_size, viewer_port=viewer_port,
+                                     **params)
         if not self._multi.possible_agents:
             raise ValueError(f"scenario {scenario} creates no aircraft")
         ego = ego or self._multi.possible_agents[0]
@@ -187,6 +224,10 @@ class AamSingleAgentEnv(gym.Env):
         terminated = terms[self.ego]
         truncated = truncs[self.ego] or (not terminated and self.ego not in self._multi.agents)
         return obs[self.ego], rewards[self.ego], terminated, truncated, info
+
+    def render(self) -> np.ndarray | None:  # type: ignore[override]  # an RGB array is gymnasium's RenderFrame
+        """The whole traffic, as the parallel environment renders it (``rgb_array`` image or the web viewer)."""
+        return self._multi.render()
 
     def close(self) -> None:
         self._multi.close()

@@ -45,6 +45,7 @@ class AamMultiAgentEnv(MultiAgentEnv):
         cfg = dict(config or {})
         scenario = cfg.pop("scenario", "nyc_train_100.scn")
         self.env = AamParallelEnv(scenario, **cfg)
+        self.render_mode = self.env.render_mode
         self.possible_agents = list(self.env.possible_agents)
         self.agents = []
         if not self.possible_agents:
@@ -86,6 +87,10 @@ class AamMultiAgentEnv(MultiAgentEnv):
         terms["__all__"] = done and not truncated_all
         truncs["__all__"] = truncated_all
         return obs, rewards, terms, truncs, infos
+
+    def render(self) -> Any:
+        """``env_config["render_mode"]``: ``rgb_array`` returns an RGB image, ``human`` shows the web viewer."""
+        return self.env.render()
 
     def metrics(self) -> dict[str, Any]:
         """The episode's standard safety and operational metrics."""
