@@ -322,6 +322,56 @@ def view(run_dir: Path, host: str, port: int, open_browser: bool, video_path: Pa
         sys.exit(2)
 
 
+def figure_options(fn: Any) -> Any:
+    """The options of ``aamsim figure`` (shared with its alias ``uam2scn figure``)."""
+    for opt in reversed((
+        click.option("-o", "--output", "out_path", type=click.Path(dir_okay=False, path_type=Path), default=None,
+                     help="PNG to write (default RUN_DIR/traffic.png)."),
+        click.option("--snapshot", default="auto", show_default=True,
+                     help="Show aircraft in flight at this sim time (s or HH:MM:SS) as arrows; 'auto': the busiest "
+                          "moment; 'none': no arrows."),
+        click.option("--every", type=click.IntRange(min=1), default=1, show_default=True,
+                     help="Keep every N-th trajectory sample (lighter drawings of long runs)."),
+        click.option("--title", default=None, help="Figure title."),
+        click.option("--no-labels", is_flag=True, help="Do not label the vertiports."),
+    )):
+        fn = opt(fn)
+    return fn
+
+
+def draw_figure(run_dir: Path, out_path: Path | None, snapshot: str, every: int, title: str | None,
+                no_labels: bool, layout: Any = None) -> None:
+    """Draw a run's traffic map (``aamsim figure``); exits 2 with a message naming a bad file or option."""
+    from aamsim.render.figure import busiest_time, plot_run
+    from aamsim.viewer.frames import ReplayError, RunReplay
+
+    try:
+        if snapshot.lower() == "none":
+            snap = None
+        elif snapshot.lower() == "auto":
+            snap = busiest_time(RunReplay(run_dir))
+        else:
+            try:
+                snap = parse_time(snapshot)
+            except UnitParseError:
+                raise click.BadParameter(f"--snapshot {snapshot!r}: seconds, HH:MM:SS, auto or none") from None
+        out, n = plot_run(run_dir, out_path or run_dir / "traffic.png", title=title, snapshot_s=snap,
+                          labels=not no_labels, layout=layout, every=every)
+    except ReplayError as exc:
+        click.echo(f"error: {exc}", err=True)
+        sys.exit(2)
+    click.echo(f"{out}: {n} trajectories")
+
+
+@main.command()
+@click.argument("run_dir", type=click.Path(exists=True, file_okay=False, path_type=Path))
+@figure_options
+def figure(run_dir: Path, out_path: Path | None, snapshot: str, every: int, title: str | None,
+           no_labels: bool) -> None:
+    """Draw the network, the trajectories flown and the conflicts of an aamsim RUN_DIR (PNG)."""
+    draw_figure(run_dir, out_path, snapshot, every, title, no_labels)
+
+
 @main.command()
 @click.argument("runs", nargs=-1, required=True, type=click.Path(exists=True))
 @click.option("--baseline", "baselines", multiple=True, type=click.Path(exists=True),

@@ -15,6 +15,7 @@ from typing import Any
 
 import click
 
+from aamsim.cli import draw_figure, figure_options
 from uamtoolkit_import.netfile import NetworkError, load_network, nyc_network
 from uamtoolkit_import.network import Network
 from uamtoolkit_import.times import TimeParseError, format_clock, parse_clock
@@ -236,62 +237,24 @@ def synth_command(
 
 @main.command("figure")
 @click.argument("run_dir", type=click.Path(exists=True, file_okay=False, path_type=Path))
-@click.option(
-    "-o",
-    "--output",
-    "out_path",
-    type=click.Path(dir_okay=False, path_type=Path),
-    default=None,
-    help="PNG to write (default RUN_DIR/traffic.png).",
-)
+@figure_options
 @_NETWORK_OPTION
-@click.option(
-    "--snapshot",
-    default="auto",
-    show_default=True,
-    help="Show aircraft in flight at this sim time (s or HH:MM:SS) as arrows; 'auto': the busiest moment; "
-    "'none': no arrows.",
-)
-@click.option(
-    "--every",
-    type=click.IntRange(min=1),
-    default=1,
-    show_default=True,
-    help="Keep every N-th trajectory sample (faster on long runs).",
-)
-@click.option("--title", default=None, help="Figure title.")
-@click.option("--no-labels", is_flag=True, help="Do not label the vertiports.")
 def figure_command(
     run_dir: Path,
     out_path: Path | None,
-    network_path: Path | None,
     snapshot: str,
     every: int,
     title: str | None,
     no_labels: bool,
+    network_path: Path | None,
 ) -> None:
-    """Draw the network and the trajectories flown in an aamsim RUN_DIR (PNG)."""
-    from uamtoolkit_import.figures import busiest_time, plot_traffic, read_tracks
+    """Draw the network and the trajectories flown in an aamsim RUN_DIR (PNG); alias of ``aamsim figure``.
 
-    traj = run_dir / "trajectories.csv"
-    if not traj.is_file():
-        click.echo(f"error: {traj} not found (was the run made with --log-period 0?)", err=True)
-        sys.exit(2)
-    network = _network(network_path)
-    tracks = read_tracks(traj, every)
-    snap: float | None
-    if snapshot.lower() == "none":
-        snap = None
-    elif snapshot.lower() == "auto":
-        snap = busiest_time(tracks)
-    else:
-        try:
-            snap = parse_clock(snapshot) if ":" in snapshot else float(snapshot)
-        except (TimeParseError, ValueError):
-            raise click.BadParameter(f"--snapshot {snapshot!r}: seconds, HH:MM:SS, auto or none") from None
-    out = out_path or run_dir / "traffic.png"
-    plot_traffic(network, tracks, out, title or f"{run_dir.name}: {len(tracks)} flights", snap, not no_labels)
-    click.echo(f"{out}: {len(tracks)} trajectories")
+    The map is the UAMToolkit network (--network, default the shipped New York one).
+    """
+    from uamtoolkit_import.figures import network_layout
+
+    draw_figure(run_dir, out_path, snapshot, every, title, no_labels, layout=network_layout(_network(network_path)))
 
 
 @main.command("scenarios")

@@ -176,10 +176,10 @@ def layout_from_scenario(text: str, extra_lat: np.ndarray | None = None,
     if extra_lat is not None and extra_lon is not None and len(extra_lat):
         lats += [float(np.min(extra_lat)), float(np.max(extra_lat))]
         lons += [float(np.min(extra_lon)), float(np.max(extra_lon))]
-    return MapLayout(vertiports, route_lines, (), _padded_bounds(lats, lons))
+    return MapLayout(vertiports, route_lines, (), padded_bounds(lats, lons))
 
 
-def _padded_bounds(lats: list[float], lons: list[float]) -> tuple[float, float, float, float]:
+def padded_bounds(lats: list[float], lons: list[float]) -> tuple[float, float, float, float]:
     if not lats:
         return (-0.05, 0.05, -0.05, 0.05)
     lat0, lat1, lon0, lon1 = min(lats), max(lats), min(lons), max(lons)
@@ -419,6 +419,15 @@ class RunReplay:
         ids = tuple(self.callsigns[codes].tolist())
         return TrafficFrame(t, ids, lat, lon, self._alt[lo:hi].copy(), trk.copy(), tas.copy(), status, events,
                             metrics)
+
+    def airborne_counts(self) -> np.ndarray:
+        """Aircraft in each sample (one count per entry of ``times``)."""
+        return np.diff(self._block)
+
+    def event_positions(self, kind: str) -> tuple[np.ndarray, np.ndarray]:
+        """Mid-point latitudes and longitudes of every ``"lowc"`` or ``"nmac"`` event of the run."""
+        sel = self._ev_kind == (STATUS_NMAC if kind == "nmac" else STATUS_LOWC)
+        return self._ev_lat[sel], self._ev_lon[sel]
 
     def trails(self, t: float, seconds: float) -> dict[str, np.ndarray]:
         """Callsign -> (k, 2) lat/lon samples of the last ``seconds`` up to ``t``, oldest first."""

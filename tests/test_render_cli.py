@@ -1,0 +1,94 @@
+"""`aamsim figure` and `aamsim view --video`, run as a user runs them."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+
+import imageio.v3 as iio
+import numpy as np
+import pytest
+
+from aamsim.render.draw import TrafficPainter
+from aamsim.render.video import frame_times
+from aamsim.viewer.frames import STATUS_COLOURS, RunReplay
+from tests.test_viewer_frames import run_dir  # noqa: F401  (fixture)
+
+
+def _aamsim(*args: str) -> subprocess.CompletedProcess:
+    return subprocess.run([sys.executable, "-m", "aamsim", *args], capture_output=True, text=True, timeout=300,
+                          check=False)
+
+
+@pytest.fixture(scope="module")
+def train_run(tmp_path_factory):
+    out = tmp_path_factory.mktemp("run") / "run"
+    done = _aamsim("run", "nyc_train_100.scn", "--until", "400", "--out", str(out), "--quiet")
+    assert done.returncode == 0, done.stderr
+    return out
+
+
+def test_aamsim_figure_draws_the_run_with_its_conflicts(train_run, tmp_path):
+    out = tmp_path / "map.png"
+    done = _aamsim("figure", str(train_run), "-o", str(out), "--snapshot", "200")
+    assert done.returncode == 0, done.stderr
+    with open(train_run / "flights.csv") as fh:
+        flights = sum(1 for _ in fh) - 1
+    assert f"{flights} trajectories" in done.stdout
+    image = iio.imread(out)
+    assert image.shape[:2] == (1500, 1500)
+    lowc = np.array([int(STATUS_COLOURS[1][k:k + 2], 16) for k in (1, 3, 5)])
+    # the run has LoWC events, drawn as dots in the LoWC colour
+    assert (np.abs(image[..., :3].astype(int) - lowc).sum(axis=-1) < 30).sum() > 20
+    bad = _aamsim("figure", str(train_run), "--snapshot", "soon")
+    assert bad.returncode == 2 and "--snapshot 'soon'" in bad.stderr
+
+
+def test_uam2scn_figure_is_an_alias_over_its_network(train_run, tmp_path):
+    out = tmp_path / "alias.png"
+    done = subprocess.run([sys.executable, "-c", "from uamtoolkit_import.cli import main; main()", "figure",
+                           str(train_run), "-o", str(out), "--snapshot", "none", "--every", "5"],
+                          capture_output=True, text=True, timeout=300, check=False)
+    assert done.returncode == 0, done.stderr
+    assert out.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_view_video_writes_the_frames_asked_for(train_run, tmp_path):
+    mp4 = tmp_path / "clip.mp4"
+    done = _aamsim("view", str(train_run), "--video", str(mp4), "--from", "100", "--to", "160", "--speed", "30",
+                   "--fps", "5", "--size", "320x240")
+    assert done.returncode == 0, done.stderr
+    frames = iio.imread(mp4)
+    # 60 s at 30 sim-seconds per video second, 5 frames per second: 10 steps, 11 frames
+    assert frames.shape == (11, 240, 320, 3)
+    gif = tmp_path / "clip.gif"
+    assert _aamsim("view", str(train_run), "--video", str(gif), "--from", "0:02:00", "--to", "130", "--speed", "10",
+                   "--fps", "2").returncode == 0
+    assert len(iio.imread(gif)) == 3  # 120, 125, 130 s
+    for args, message in ((["--video", str(tmp_path / "x.avi")], "must end in .mp4 or .gif"),
+                          (["--video", str(mp4), "--from", "300", "--to", "100"], "must come before"),
+                          (["--video", str(mp4), "--speed", "-1"], "--speed must be a positive"),
+                          (["--from", "10"], "go with --video")):
+        bad = _aamsim("view", str(train_run), *args)
+        assert bad.returncode == 2 and message in bad.stderr, (args, bad.stderr)
+
+
+def test_frame_times_step_by_speed_over_fps():
+    np.testing.assert_allclose(frame_times(0.0, 100.0, 10.0, 20.0, 20.0, 4.0), [10, 15, 20])
+    np.testing.assert_allclose(frame_times(5.0, 7.0, None, None, 1.0, 1.0), [5, 6, 7])
+    with pytest.raises(ValueError, match="outside the run"):
+        frame_times(0.0, 100.0, 200.0, 300.0, 60.0, 10.0)
+
+
+def test_the_painter_puts_each_aircraft_at_its_projected_pixel(run_dir):  # noqa: F811
+    replay = RunReplay(run_dir)
+    painter = TrafficPainter(replay.layout(), 400, 400)
+    frame = replay.frame_at(10.0)
+    image = painter.paint(frame)
+    for lat, lon, status in zip(frame.lat, frame.lon, frame.status):
+        row, col = painter.pixel(lat, lon)
+        want = np.array([int(STATUS_COLOURS[status][k:k + 2], 16) for k in (1, 3, 5)])
+        patch = image[row - 2:row + 3, col - 2:col + 3].reshape(-1, 3).astype(int)
+        assert np.abs(patch - want).sum(axis=1).min() < 40
+    with pytest.raises(ValueError, match="at least 64 x 64"):
+        TrafficPainter(replay.layout(), 10, 400)
