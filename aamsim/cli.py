@@ -514,12 +514,19 @@ def commands(group: str | None) -> None:
 @click.option("--allow-shutdown", is_flag=True, help="Let a client stop the server with a shutdown request.")
 @click.option("--log-level", type=click.Choice(["DEBUG", "INFO", "WARNING", "ERROR"], case_sensitive=False),
               default="INFO", show_default=True)
+@click.option("--view", "show_view", is_flag=True,
+              help="Show the traffic of the session that stepped last in the web viewer (read-only).")
+@_viewer_options
 def serve(bind: str, plugins: tuple[str, ...], max_message_bytes: int, session_timeout: float, max_sessions: int,
-          scenario_roots: tuple[Path, ...], allow_shutdown: bool, log_level: str) -> None:
+          scenario_roots: tuple[Path, ...], allow_shutdown: bool, log_level: str, show_view: bool, host: str,
+          port: int, open_browser: bool) -> None:
     """Run a headless simulation server for RL environments (ZeroMQ, docs/protocol.md).
 
     Each client gets its own simulation. Ctrl-C or SIGTERM stops the server.
+    With --view, a web viewer shows the session that stepped last.
     """
+    if open_browser and not show_view:
+        raise click.UsageError("--open goes with --view")
     import logging
 
     from aamsim.errors import CommandError
@@ -540,11 +547,25 @@ def serve(bind: str, plugins: tuple[str, ...], max_message_bytes: int, session_t
 
     import zmq
 
+    live = None
+    if show_view:
+        from aamsim.viewer.live import LiveViewer
+
+        live = LiveViewer(host, port, title="aamsim serve: waiting for a session")
+        try:
+            _announce_viewer(live.start(), host, open_browser)
+        except OSError as exc:
+            click.echo(f"error: {exc}", err=True)
+            sys.exit(2)
     try:
         code = bridge.serve(bind, tuple(plugins), on_ready=ready, max_message_bytes=max_message_bytes,
                             session_timeout_s=session_timeout, max_sessions=max_sessions,
-                            scenario_roots=scenario_roots, allow_shutdown=allow_shutdown)
+                            scenario_roots=scenario_roots, allow_shutdown=allow_shutdown,
+                            on_traffic=live.show_episode if live is not None else None)
     except zmq.ZMQError as exc:
         click.echo(f"error: cannot listen on {bind}: {exc}", err=True)
         sys.exit(2)
+    finally:
+        if live is not None:
+            live.close()
     sys.exit(code)

@@ -59,6 +59,9 @@ class ServerOptions:
     scenario_roots: tuple[Path, ...] = ()  # empty: the working directory
     allow_shutdown: bool = False  # honour the shutdown request
     poll_interval_s: float = 0.1  # how often the loop checks the stop flag and idle sessions
+    # Called with (session number, episode) after every reset and step that moved a simulation
+    # (``aamsim serve --view`` shows the traffic of the session that moved last).
+    on_traffic: Callable[[int, EpisodeCore], None] | None = None
 
     def transport_limit_bytes(self) -> int:
         """zmq MAXMSGSIZE: a frame above it makes zmq drop the connection (no reply possible)."""
@@ -314,7 +317,10 @@ class SimulationServer:
             if session is not None:
                 session.last_seen = time.monotonic()
                 session.requests += 1
-            return reply(msg_id, **handler(session, identity, message))
+            answer = reply(msg_id, **handler(session, identity, message))
+            if op in ("reset", "step") and self.options.on_traffic is not None:
+                self._show(identity)
+            return answer
         except ProtocolError as exc:
             msg_id = msg_id if msg_id is not None else peek_id(body)
             log.warning("bad request from %s: %s", identity.hex(), exc)
@@ -329,6 +335,16 @@ class SimulationServer:
         except Exception as exc:  # the boundary: a bug in one session must not stop the server
             log.exception("internal error answering %s", identity.hex())
             return error_reply(msg_id, "internal", f"internal error: {type(exc).__name__}: {exc}")
+
+    def _show(self, identity: bytes) -> None:
+        """Hand the session's traffic to the viewer; a viewer failure never fails the request."""
+        session = self.sessions.get(identity)
+        if session is None or session.core is None or session.core.sim is None or self.options.on_traffic is None:
+            return
+        try:
+            self.options.on_traffic(list(self.sessions).index(identity) + 1, session.core)
+        except Exception:  # noqa: BLE001  (the simulation goes on without its picture)
+            log.exception("the viewer could not show session %s", identity.hex())
 
     def _need_core(self, session: Session | None) -> EpisodeCore:
         if session is None or session.core is None:

@@ -5,6 +5,7 @@ from __future__ import annotations
 import asyncio
 import json
 import socket
+import time
 
 import aiohttp
 import pytest
@@ -189,3 +190,46 @@ def test_the_page_and_scripts_load_nothing_from_the_internet():
     for name in ("index.html", "viewer.js", "viewer.css"):
         text = static.joinpath(name).read_text()
         assert "http://" not in text and "https://" not in text and "//cdn" not in text, name
+
+
+def test_serve_view_shows_the_session_that_stepped(tmp_path):
+    import re
+    import signal
+    import subprocess
+    import sys
+    import urllib.request
+
+    import rlbridge
+
+    proc = subprocess.Popen([sys.executable, "-m", "aamsim", "serve", "--bind", "tcp://127.0.0.1:*", "--view",
+                             "--port", "0", "--log-level", "WARNING"], cwd=tmp_path, stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True)
+    try:
+        url = endpoint = None
+        assert proc.stderr is not None and proc.stdout is not None
+        for line in proc.stderr:
+            m = re.search(r"viewer: (http://127\.0\.0\.1:\d+/)", line)
+            if m:
+                url = m.group(1)
+                break
+        m = re.search(r"listening on (tcp://\S+)", proc.stdout.readline())
+        assert url and m
+        endpoint = m.group(1)
+        env = rlbridge.parallel_env("nyc_train_100.scn", backend="zmq", address=endpoint, time_limit_s=300.0)
+        env.reset(seed=4)
+        for _ in range(3):
+            env.step({})
+        time.sleep(0.15)  # past the viewer's frame period, so the next step publishes
+        env.step({})
+        state = env.core.traffic_state()
+        with urllib.request.urlopen(url + "api/frame") as res:
+            frame = json.loads(res.read())
+        with urllib.request.urlopen(url + "api/meta") as res:
+            meta = json.loads(res.read())
+        assert frame["simt"] == pytest.approx(state["simt"]) and frame["ids"] == list(state["ids"])
+        assert meta["title"] == "session 1: nyc_train_100"
+        assert [v[0] for v in meta["layout"]["vertiports"]][:2] == ["NYV01", "NYV02"]
+        env.close()
+    finally:
+        proc.send_signal(signal.SIGINT)
+        assert proc.wait(20) == 0

@@ -37,6 +37,7 @@ class LiveViewer:
         self._stop: asyncio.Event | None = None
         self._last_wall = -1.0
         self._last_simt: float | None = None
+        self._shown: tuple[int, Any] | None = None  # the bridge session (and scenario) on screen
 
     def start(self) -> str:
         """Start serving on a daemon thread; returns the URL once the port is bound."""
@@ -104,6 +105,25 @@ class LiveViewer:
         layout = layout_from_sim(sim, scenario_text) if self.source.layout is None else None
         self.publish(frame_from_sim(sim, events_since=self._last_simt), layout)
         self._last_simt = sim.simt
+
+    def show_episode(self, session: int, core: Any) -> None:
+        """``aamsim serve --view``: the traffic of a bridge session's episode, at most ten pictures a second.
+
+        The map follows the session: a session on another scenario brings its own.
+        """
+        now = time.perf_counter()
+        changed = (session, core.path) != self._shown
+        if not changed and now - self._last_wall < FRAME_PERIOD_S:
+            return
+        self._last_wall = now
+        if changed:
+            self._shown = (session, core.path)
+            self.source.title = f"session {session}: {core.path.stem}"
+            self._last_simt = None
+            self.publish(frame_from_sim(core.sim), layout_from_sim(core.sim, core.text))
+            self._last_simt = core.sim.simt
+        else:
+            self.publish_sim(core.sim)
 
     def finish(self, sim: Simulation | None = None) -> None:
         """Mark the simulation as over, publishing ``sim``'s last picture (the page keeps showing it)."""

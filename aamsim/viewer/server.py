@@ -73,6 +73,7 @@ class LiveSource:
         self.layout = layout
         self.frame: TrafficFrame | None = None
         self.seq = 0  # bumped by every publish
+        self.layout_seq = 0  # bumped when the map changes (a bridge session on another scenario)
         self.events: deque[tuple[int, dict[str, Any]]] = deque(maxlen=500)
         self.commands: deque[str] = deque(maxlen=100)
         self.finished = False
@@ -84,6 +85,7 @@ class LiveSource:
             self.seq += 1
             if layout is not None:
                 self.layout = layout
+                self.layout_seq += 1
             self.frame = frame
             for e in frame.to_json()["events"] if frame.events else ():
                 self.events.append((self.seq, e))
@@ -102,6 +104,7 @@ class LiveSource:
             "layout": layout.to_json() if layout is not None else None,
             "routes_by_id": {},
             "totals": {},
+            "layout_seq": self.layout_seq,
         }
 
 
@@ -307,7 +310,7 @@ class ViewerApp:
                         continue
                     body = live.to_json()
                     body.update(type="frame", reset=seen_seq == 0, playing=not src.finished, events=events,
-                                finished=src.finished)
+                                finished=src.finished, layout_seq=src.layout_seq, title=src.title)
                     seen_seq = seq
                 last_wall = now
                 self.last_sent = {"simt": body["simt"], "aircraft": len(body["ids"])}

@@ -155,9 +155,20 @@ function hms(t) {
   return `${String(h).padStart(2, "0")}:${String(m).padStart(2, "0")}:${r.toFixed(1).padStart(4, "0")}`;
 }
 
+async function reloadMap(f) {  // a live source moved on to another scenario: fetch its map
+  state.meta = await (await fetch("/api/meta")).json();
+  fitView();
+  state.trails.clear();
+  $("title").textContent = f.title || state.meta.title;
+}
+
 function onFrame(f) {
   window.viewerStats.received += 1;
   if (state.frozen) return;
+  if (f.layout_seq !== undefined && f.layout_seq !== state.meta.layout_seq) {
+    state.meta.layout_seq = f.layout_seq;
+    reloadMap(f);
+  }
   const wall = performance.now() / 1000;
   if (f.reset) { state.trails.clear(); state.flashes = []; state.lastFrameWall = null; }
   // Speed-up: sim seconds per wall second between frames (blank until two frames came).
