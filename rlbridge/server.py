@@ -343,7 +343,7 @@ class SimulationServer:
             return
         try:
             self.options.on_traffic(list(self.sessions).index(identity) + 1, session.core)
-        except Exception:  # noqa: BLE001  (the simulation goes on without its picture)
+        except Exception:
             log.exception("the viewer could not show session %s", identity.hex())
 
     def _need_core(self, session: Session | None) -> EpisodeCore:

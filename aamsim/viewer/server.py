@@ -57,10 +57,20 @@ class ReplaySource:
             "title": str(summary.get("scenario") or r.run_dir.name),
             "t_start": r.t_start,
             "t_end": r.t_end,
+            "busiest": _busiest(r),
             "layout": r.layout().to_json(),
             "routes_by_id": r.routes_by_id,
             "totals": {"safety": summary.get("safety", {}), "operational": summary.get("operational", {})},
         }
+
+
+def _busiest(r: RunReplay) -> dict[str, float]:
+    """The sample with the most aircraft (the page offers it; benchmarks start there)."""
+    counts = r.airborne_counts()
+    if not len(counts):
+        return {"t": r.t_start, "aircraft": 0}
+    k = int(counts.argmax())
+    return {"t": float(r.times[k]), "aircraft": int(counts[k])}
 
 
 class LiveSource:

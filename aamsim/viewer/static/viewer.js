@@ -4,7 +4,8 @@
 "use strict";
 
 const FT = 0.3048, KT = 1852 / 3600;
-const TRAIL_POINTS = 30;      // about 30 frames of history per aircraft
+const TRAIL_POINTS = 30;      // frames of history per aircraft, with few aircraft...
+const TRAIL_BUDGET = 9000;    // ...and at most this many trail points in all (stroking them is the costly part)
 const FLASH_S = 1.6;          // how long an NMAC/LoWC flash lasts on screen (wall seconds)
 
 const canvas = document.getElementById("map");
@@ -77,30 +78,48 @@ function polyline(pts) {
 }
 
 function drawAircraft(f) {
-  const ids = [], xy = [];
-  ctx.lineWidth = 1.2;
-  for (let i = 0; i < f.ids.length; i++) {
-    if (!visible(f, i)) continue;
-    const trail = state.trails.get(f.ids[i]);
-    if (trail && trail.length > 1) {
-      ctx.strokeStyle = colour(f.status[i]) + "66";
-      polyline(trail);
-    }
-  }
-  ctx.font = "10px system-ui, sans-serif";
+  // One path per state colour (trails, then triangles): thousands of aircraft cost a few fills,
+  // not a save/rotate/fill/restore each.
+  const ids = [], xy = [], groups = [[], [], [], []];
   for (let i = 0; i < f.ids.length; i++) {
     if (!visible(f, i)) continue;
     const [x, y] = project(f.lat[i], f.lon[i]);
-    const a = f.trk[i] * Math.PI / 180;
-    ctx.save();
-    ctx.translate(x, y); ctx.rotate(a);
-    ctx.beginPath(); ctx.moveTo(0, -7); ctx.lineTo(4.5, 5); ctx.lineTo(0, 2.5); ctx.lineTo(-4.5, 5); ctx.closePath();
-    ctx.fillStyle = colour(f.status[i]); ctx.fill();
-    ctx.restore();
-    if ($("show-labels").checked || f.ids[i] === state.follow) {
-      ctx.fillStyle = "#d6e2ee"; ctx.fillText(f.ids[i], x + 7, y + 3);
-    }
     ids.push(i); xy.push([x, y]);
+    (groups[f.status[i]] || groups[0]).push(ids.length - 1);
+  }
+  ctx.lineWidth = 1.2;
+  ctx.globalAlpha = 0.4;
+  groups.forEach((members, status) => {
+    if (!members.length) return;
+    ctx.beginPath();
+    for (const k of members) {
+      const trail = state.trails.get(f.ids[ids[k]]);
+      if (!trail || trail.length < 2) continue;
+      trail.forEach(([lat, lon], n) => { const [x, y] = project(lat, lon); n ? ctx.lineTo(x, y) : ctx.moveTo(x, y); });
+    }
+    ctx.strokeStyle = colour(status); ctx.stroke();
+  });
+  ctx.globalAlpha = 1;
+  groups.forEach((members, status) => {
+    if (!members.length) return;
+    ctx.beginPath();
+    for (const k of members) {
+      const [x, y] = xy[k], a = f.trk[ids[k]] * Math.PI / 180, s = Math.sin(a), c = Math.cos(a);
+      // nose 7 px ahead, wings 4.5 px aside and 5 px back, notch 2.5 px back (screen y points down)
+      ctx.moveTo(x + 7 * s, y - 7 * c);
+      ctx.lineTo(x + 4.5 * c - 5 * s, y + 4.5 * s + 5 * c);
+      ctx.lineTo(x - 2.5 * s, y + 2.5 * c);
+      ctx.lineTo(x - 4.5 * c - 5 * s, y - 4.5 * s + 5 * c);
+      ctx.closePath();
+    }
+    ctx.fillStyle = colour(status); ctx.fill();
+  });
+  ctx.font = "10px system-ui, sans-serif";
+  ctx.fillStyle = "#d6e2ee";
+  const labels = $("show-labels").checked;
+  for (let k = 0; k < ids.length; k++) {
+    const id = f.ids[ids[k]];
+    if (labels || id === state.follow) ctx.fillText(id, xy[k][0] + 7, xy[k][1] + 3);
   }
   state.drawnIds = ids; state.drawnXY = xy;
   return ids.length;
@@ -179,11 +198,12 @@ function onFrame(f) {
   state.lastFrameWall = wall; state.lastFrameSimt = f.simt;
   const seen = new Set(f.ids);
   for (const id of state.trails.keys()) if (!seen.has(id)) state.trails.delete(id);
+  const keep = Math.max(4, Math.min(TRAIL_POINTS, Math.round(TRAIL_BUDGET / Math.max(f.ids.length, 1))));
   for (let i = 0; i < f.ids.length; i++) {
     let t = state.trails.get(f.ids[i]);
     if (!t) { t = []; state.trails.set(f.ids[i], t); }
     t.push([f.lat[i], f.lon[i]]);
-    if (t.length > TRAIL_POINTS) t.shift();
+    while (t.length > keep) t.shift();
   }
   for (const e of f.events || []) state.flashes.push({ ...e, wall });
   state.frame = f;
