@@ -9,6 +9,8 @@ on floats inside the Numba step kernel and on numpy arrays elsewhere.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
+from typing import Any
 
 import numpy as np
 from numba import njit, vectorize
@@ -88,16 +90,39 @@ def spd2tas_scalar(spd: float, is_mach: bool, h: float) -> float:
     return cas2tas_scalar(spd, h)
 
 
-@vectorize(["float64(float64, float64)"], cache=True)
-def cas2tas(cas: float, h: float) -> float:
-    """Vectorised :func:`cas2tas_scalar` (numpy arrays or floats)."""
+def _cas2tas_element(cas: float, h: float) -> float:
     return cas2tas_scalar(cas, h)
 
 
-@vectorize(["float64(float64, float64)"], cache=True)
-def tas2cas(tas: float, h: float) -> float:
-    """Vectorised :func:`tas2cas_scalar` (numpy arrays or floats)."""
+def _tas2cas_element(tas: float, h: float) -> float:
     return tas2cas_scalar(tas, h)
+
+
+# The array forms are Numba ufuncs built at their first use: building one costs
+# a tenth of a second at every start (the ufunc's wrapper is not cached), and a
+# plain run converts single speeds only (the scalar functions).
+_UFUNCS: dict[str, Callable[..., Any]] = {}
+
+
+def _ufunc(name: str, element: Callable[[float, float], float]) -> Callable[..., Any]:
+    ufunc = _UFUNCS.get(name)
+    if ufunc is None:
+        ufunc = _UFUNCS[name] = vectorize(["float64(float64, float64)"], cache=True)(element)
+    return ufunc
+
+
+def cas2tas(cas: np.ndarray | float, h: np.ndarray | float) -> np.ndarray | float:
+    """Vectorised :func:`cas2tas_scalar` (numpy arrays or floats)."""
+    if np.ndim(cas) == 0 and np.ndim(h) == 0:
+        return cas2tas_scalar(float(cas), float(h))
+    return _ufunc("cas2tas", _cas2tas_element)(cas, h)
+
+
+def tas2cas(tas: np.ndarray | float, h: np.ndarray | float) -> np.ndarray | float:
+    """Vectorised :func:`tas2cas_scalar` (numpy arrays or floats)."""
+    if np.ndim(tas) == 0 and np.ndim(h) == 0:
+        return tas2cas_scalar(float(tas), float(h))
+    return _ufunc("tas2cas", _tas2cas_element)(tas, h)
 
 
 def mach2tas(mach: np.ndarray | float, h: np.ndarray | float) -> np.ndarray | float:

@@ -39,6 +39,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import os
 import statistics
 import subprocess
@@ -48,6 +49,7 @@ import time
 from dataclasses import dataclass
 from pathlib import Path
 
+_USER_ENV = dict(os.environ)  # whole processes run in the user's environment, not the settings below
 # Idle OpenBLAS worker threads spin on the second core and disturb the timing.
 for _var in ("OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ.setdefault(_var, "1")
@@ -239,19 +241,19 @@ print(json.dumps({"init_s": t1 - t0, "read_s": t2 - t1, "step_s": t3 - t2, "ntra
 """
 
 
-def _whole_env() -> dict[str, str]:
-    env = dict(os.environ)
+def _whole_env(root: Path = ROOT) -> dict[str, str]:
+    env = dict(_USER_ENV)
     env.pop("PYTHONDONTWRITEBYTECODE", None)
-    env["PYTHONPATH"] = os.pathsep.join(p for p in (str(ROOT), env.get("PYTHONPATH", "")) if p)
+    env["PYTHONPATH"] = os.pathsep.join(p for p in (str(root), env.get("PYTHONPATH", "")) if p)
     return env
 
 
-def whole_aamsim(scn: Path, sim_time: float, dt: float, out_dir: Path) -> tuple[float, dict]:
-    """Wall [s] of ``aamsim run`` as a whole process, and the run's summary."""
+def whole_aamsim(scn: Path, sim_time: float, dt: float, out_dir: Path, root: Path = ROOT) -> tuple[float, dict]:
+    """Wall [s] of ``aamsim run`` (the source tree ``root``) as a whole process, and the run's summary."""
     cmd = [sys.executable, "-m", "aamsim", "run", str(scn), "--until", f"{sim_time:g}", "--dt", f"{dt:g}",
            "--out", str(out_dir), "--quiet"]
     t0 = time.perf_counter()
-    proc = subprocess.run(cmd, capture_output=True, text=True, env=_whole_env(), check=False)
+    proc = subprocess.run(cmd, capture_output=True, text=True, env=_whole_env(root), cwd=root, check=False)
     wall = time.perf_counter() - t0
     if proc.returncode != 0:
         raise RuntimeError(f"aamsim run failed:\n{proc.stderr[-3000:]}")
@@ -270,41 +272,55 @@ def whole_bluesky(scn: Path, sim_time: float, dt: float, workdir: Path) -> tuple
     return wall, json.loads(proc.stdout.strip().splitlines()[-1])
 
 
-def whole_process(repeat: int, dt: float, use_bluesky: bool, cases: tuple[tuple[int, float], ...]) -> None:
-    """Print whole-process walls of aamsim run and BlueSky on the same scenario files."""
+def whole_process(repeat: int, dt: float, use_bluesky: bool, cases: tuple[tuple[int, float], ...],
+                  before: Path | None = None) -> None:
+    """Print whole-process walls of aamsim run and BlueSky on the same scenario files.
+
+    ``before``: another aamsim source tree (an older commit) run alongside, for before/after ratios.
+    """
     print(f"whole processes: EC35 on 3-waypoint routes, {WHOLE_BOX_KM:g} km box, dt {dt:g} s, median of {repeat}, "
           f"cpu count {os.cpu_count()}, load {os.getloadavg()[0]:.2f}")
-    header = f"{'case':>16} {'aamsim s':>9} {'BlueSky s':>10} {'(init':>7} {'read':>6} {'step)':>7} {'ratio':>7}"
+    header = (f"{'case':>16} {'aamsim s':>9} {'BlueSky s':>10} {'(init':>7} {'read':>6} {'step)':>7} {'ratio':>7}"
+              + (f" {'before s':>9} {'ratio':>7} {'speed-up':>8}" if before else ""))
     print(header)
     print("-" * len(header))
     with tempfile.TemporaryDirectory(prefix="bench-whole-") as tmp_name:
         tmp = Path(tmp_name)
         all_cases = [(1, 1.0), *cases]
+        roots = [ROOT] + ([before] if before else [])
         for k, (n, sim_time) in enumerate(all_cases):
             scn = tmp / f"whole_{n}.scn"
             scn.write_text(TRIVIAL_SCENARIO if k == 0 else make_scenario(n, box_km=WHOLE_BOX_KM))
             if k == 0:
-                whole_aamsim(scn, sim_time, dt, tmp / "warm-up")  # Numba cache, byte code
-            ours: list[float] = []
+                for j, root in enumerate(roots):  # Numba's cache, byte code
+                    whole_aamsim(scn, sim_time, dt, tmp / f"warm-up-{j}", root)
+            walls: dict[Path, list[float]] = {root: [] for root in roots}
             theirs: list[tuple[float, dict]] = []
             for r in range(repeat):
                 if use_bluesky:
                     theirs.append(whole_bluesky(scn, sim_time, dt, tmp))
-                wall, summary = whole_aamsim(scn, sim_time, dt, tmp / f"run-{n}-{r}")
-                if summary["flights_created"] != n or summary["errors"]:
-                    raise RuntimeError(f"aamsim: {summary['flights_created']} flights, {summary['errors']} errors")
-                ours.append(wall)
+                for j, root in enumerate(roots):
+                    wall, summary = whole_aamsim(scn, sim_time, dt, tmp / f"run-{n}-{r}-{j}", root)
+                    if summary["flights_created"] != n or summary["errors"]:
+                        raise RuntimeError(f"aamsim: {summary['flights_created']} flights, {summary['errors']} errors")
+                    walls[root].append(wall)
             label = f"N={n:,} {sim_time:g} s"
-            ours_s = statistics.median(ours)
+            ours_s = statistics.median(walls[ROOT])
+            line = f"{label:>16} {ours_s:9.2f}"
+            bs_s = None
             if theirs:
-                mid = statistics.median(w for w, _ in theirs)
-                split = min(theirs, key=lambda t: abs(t[0] - mid))[1]
+                bs_s = statistics.median(w for w, _ in theirs)
+                split = min(theirs, key=lambda t: abs(t[0] - bs_s))[1]
                 if split["ntraf"] != n:
                     raise RuntimeError(f"BlueSky created {split['ntraf']} aircraft, not {n}")
-                print(f"{label:>16} {ours_s:9.2f} {mid:10.2f} {split['init_s']:7.2f} {split['read_s']:6.2f} "
-                      f"{split['step_s']:7.2f} {mid / ours_s:7.1f}", flush=True)
+                line += (f" {bs_s:10.2f} {split['init_s']:7.2f} {split['read_s']:6.2f} {split['step_s']:7.2f} "
+                         f"{bs_s / ours_s:7.1f}")
             else:
-                print(f"{label:>16} {ours_s:9.2f} {'-':>10} {'':>7} {'':>6} {'':>7} {'-':>7}", flush=True)
+                line += f" {'-':>10} {'':>7} {'':>6} {'':>7} {'-':>7}"
+            if before:
+                old_s = statistics.median(walls[before])
+                line += f" {old_s:9.2f} {bs_s / old_s if bs_s else math.nan:7.1f} {old_s / ours_s:8.2f}"
+            print(line, flush=True)
     print(f"load after: {os.getloadavg()[0]:.2f}")
 
 
@@ -347,6 +363,8 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--day-duration", type=float, default=86400.0, help="sim time of the day case [s]")
     parser.add_argument("--whole-process", action="store_true",
                         help="time whole processes (aamsim run vs BlueSky) instead of the stepping loop")
+    parser.add_argument("--before", type=Path, default=None, metavar="DIR",
+                        help="with --whole-process: also run aamsim from this source tree (e.g. an older commit)")
     parser.add_argument("--cases", default=",".join(f"{n}:{t:g}" for n, t in WHOLE_CASES),
                         help="whole-process cases N:SIM_SECONDS, comma-separated (the trivial run is always added)")
     args = parser.parse_args(argv)
@@ -357,7 +375,7 @@ def main(argv: list[str] | None = None) -> int:
         parser.error("--bluesky: bluesky-simulator is not installed")
     if args.whole_process:
         cases = tuple((int(c.split(":")[0]), float(c.split(":")[1])) for c in args.cases.split(",") if c)
-        whole_process(args.repeat, args.dt, use_bluesky, cases)
+        whole_process(args.repeat, args.dt, use_bluesky, cases, args.before)
         return 0
 
     import numba
