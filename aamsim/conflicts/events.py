@@ -61,8 +61,11 @@ def encounter_type(vel1: tuple[float, float, float], vel2: tuple[float, float, f
     """
     if any(math.isnan(x) for x in vel1 + vel2):
         return ""
-    trk1, gs1, vs1 = track_speed(vel1)
-    trk2, gs2, vs2 = track_speed(vel2)
+    return classify_encounter(*track_speed(vel1), *track_speed(vel2))
+
+
+def classify_encounter(trk1: float, gs1: float, vs1: float, trk2: float, gs2: float, vs2: float) -> str:
+    """:func:`encounter_type` from both aircraft's :func:`track_speed` (velocities known)."""
     if min(gs1, gs2) < 1.0:
         return "hover"
     if max(abs(vs1), abs(vs2)) > 1.0:

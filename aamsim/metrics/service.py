@@ -4,11 +4,11 @@ from __future__ import annotations
 
 import csv
 from dataclasses import dataclass, field
-from math import isfinite
+from math import isfinite, isnan
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from aamsim.conflicts.events import track_speed
+from aamsim.conflicts.events import classify_encounter, track_speed
 from aamsim.conflicts.service import conflicts_of
 from aamsim.metrics.registry import MetricContext, MetricRegistry, pair_kind
 from aamsim.metrics.standard import register_standard_metrics
@@ -100,13 +100,14 @@ def write_conflicts_csv(path: Path, sim: Simulation, events: list[SeparationEven
     real = real_traffic_callsigns(sim)
     rows = []
     for e in sorted(events, key=lambda ev: (ev.start_s, ev.volume, ev.ac1, ev.ac2)):
-        trk1, gs1, vs1 = track_speed(e.vel1)
-        trk2, gs2, vs2 = track_speed(e.vel2)
+        motion = (*track_speed(e.vel1), *track_speed(e.vel2))
+        trk1, gs1, vs1, trk2, gs2, vs2 = motion
         (lat1, lon1, alt1), (lat2, lon2, alt2) = e.pos1, e.pos2
+        known = not any(isnan(x) for x in e.vel1 + e.vel2)  # as SeparationEvent.encounter, sparing a recompute
         rows.append((e.volume, e.ac1, e.ac2, _num2(e.start_s), _num2(e.end_s), _num2(e.min_dist_m), _num2(e.t_min_s),
                      _num7(lat1), _num7(lon1), _num2(alt1), _num7(lat2), _num7(lon2), _num2(alt2),
-                     _num1(trk1), _num2(gs1), _num2(vs1), _num1(trk2), _num2(gs2), _num2(vs2), e.encounter,
-                     pair_kind(e.ac1, e.ac2, real)))
+                     _num1(trk1), _num2(gs1), _num2(vs1), _num1(trk2), _num2(gs2), _num2(vs2),
+                     classify_encounter(*motion) if known else "", pair_kind(e.ac1, e.ac2, real)))
     with open(path, "w", newline="") as fh:
         writer = csv.writer(fh)
         writer.writerow(CONFLICT_COLUMNS)
