@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
-from typing import Any
+from typing import Any, overload
 
 import numpy as np
 from numba import njit, vectorize
@@ -111,15 +111,27 @@ def _ufunc(name: str, element: Callable[[float, float], float]) -> Callable[...,
     return ufunc
 
 
-def cas2tas(cas: np.ndarray | float, h: np.ndarray | float) -> np.ndarray | float:
-    """Vectorised :func:`cas2tas_scalar` (numpy arrays or floats)."""
+@overload
+def cas2tas(cas: float, h: float) -> float: ...
+@overload
+def cas2tas(cas: np.ndarray | list[float], h: np.ndarray | list[float] | float) -> np.ndarray: ...
+@overload
+def cas2tas(cas: float, h: np.ndarray | list[float]) -> np.ndarray: ...
+def cas2tas(cas: Any, h: Any) -> Any:
+    """Vectorised :func:`cas2tas_scalar` (numpy arrays or floats; a float for two floats)."""
     if np.ndim(cas) == 0 and np.ndim(h) == 0:
         return cas2tas_scalar(float(cas), float(h))
     return _ufunc("cas2tas", _cas2tas_element)(cas, h)
 
 
-def tas2cas(tas: np.ndarray | float, h: np.ndarray | float) -> np.ndarray | float:
-    """Vectorised :func:`tas2cas_scalar` (numpy arrays or floats)."""
+@overload
+def tas2cas(tas: float, h: float) -> float: ...
+@overload
+def tas2cas(tas: np.ndarray | list[float], h: np.ndarray | list[float] | float) -> np.ndarray: ...
+@overload
+def tas2cas(tas: float, h: np.ndarray | list[float]) -> np.ndarray: ...
+def tas2cas(tas: Any, h: Any) -> Any:
+    """Vectorised :func:`tas2cas_scalar` (numpy arrays or floats; a float for two floats)."""
     if np.ndim(tas) == 0 and np.ndim(h) == 0:
         return tas2cas_scalar(float(tas), float(h))
     return _ufunc("tas2cas", _tas2cas_element)(tas, h)
