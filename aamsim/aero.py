@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
-from typing import Any, overload
+from typing import Any, Protocol, cast, overload
 
 import numpy as np
 from numba import njit, vectorize
@@ -98,43 +98,40 @@ def _tas2cas_element(tas: float, h: float) -> float:
     return tas2cas_scalar(tas, h)
 
 
-# The array forms are Numba ufuncs built at their first use: building one costs
-# a tenth of a second at every start (the ufunc's wrapper is not cached), and a
-# plain run converts single speeds only (the scalar functions).
-_UFUNCS: dict[str, Callable[..., Any]] = {}
+class SpeedConversion(Protocol):
+    """A speed conversion at an altitude: a float for two floats, else an array (numpy broadcasting)."""
+
+    @overload
+    def __call__(self, speed: float, h: float) -> float: ...
+    @overload
+    def __call__(self, speed: np.ndarray | list[float], h: np.ndarray | list[float] | float) -> np.ndarray: ...
+    @overload
+    def __call__(self, speed: float, h: np.ndarray | list[float]) -> np.ndarray: ...
 
 
-def _ufunc(name: str, element: Callable[[float, float], float]) -> Callable[..., Any]:
-    ufunc = _UFUNCS.get(name)
-    if ufunc is None:
-        ufunc = _UFUNCS[name] = vectorize(["float64(float64, float64)"], cache=True)(element)
-    return ufunc
+def _conversion(name: str, scalar: Callable[[float, float], float], element: Callable[[float, float], float],
+                doc: str) -> SpeedConversion:
+    """Floats go to the compiled ``scalar``; arrays to a Numba ufunc of ``element`` built at its first use
+    (building one costs a tenth of a second, its wrapper is not cached, and a plain run converts single
+    speeds only). Both run the same machine code: the results agree bit for bit."""
+    ufunc: list[Callable[..., Any]] = []
+
+    def convert(speed: Any, h: Any) -> Any:
+        if np.ndim(speed) == 0 and np.ndim(h) == 0:
+            return scalar(float(speed), float(h))
+        if not ufunc:
+            ufunc.append(vectorize(["float64(float64, float64)"], cache=True)(element))
+        return ufunc[0](speed, h)
+
+    convert.__name__ = convert.__qualname__ = name
+    convert.__doc__ = doc
+    return cast(SpeedConversion, convert)
 
 
-@overload
-def cas2tas(cas: float, h: float) -> float: ...
-@overload
-def cas2tas(cas: np.ndarray | list[float], h: np.ndarray | list[float] | float) -> np.ndarray: ...
-@overload
-def cas2tas(cas: float, h: np.ndarray | list[float]) -> np.ndarray: ...
-def cas2tas(cas: Any, h: Any) -> Any:
-    """Vectorised :func:`cas2tas_scalar` (numpy arrays or floats; a float for two floats)."""
-    if np.ndim(cas) == 0 and np.ndim(h) == 0:
-        return cas2tas_scalar(float(cas), float(h))
-    return _ufunc("cas2tas", _cas2tas_element)(cas, h)
-
-
-@overload
-def tas2cas(tas: float, h: float) -> float: ...
-@overload
-def tas2cas(tas: np.ndarray | list[float], h: np.ndarray | list[float] | float) -> np.ndarray: ...
-@overload
-def tas2cas(tas: float, h: np.ndarray | list[float]) -> np.ndarray: ...
-def tas2cas(tas: Any, h: Any) -> Any:
-    """Vectorised :func:`tas2cas_scalar` (numpy arrays or floats; a float for two floats)."""
-    if np.ndim(tas) == 0 and np.ndim(h) == 0:
-        return tas2cas_scalar(float(tas), float(h))
-    return _ufunc("tas2cas", _tas2cas_element)(tas, h)
+cas2tas = _conversion("cas2tas", cas2tas_scalar, _cas2tas_element,
+                      "Vectorised :func:`cas2tas_scalar` (numpy arrays or floats; a float for two floats).")
+tas2cas = _conversion("tas2cas", tas2cas_scalar, _tas2cas_element,
+                      "Vectorised :func:`tas2cas_scalar` (numpy arrays or floats; a float for two floats).")
 
 
 def mach2tas(mach: np.ndarray | float, h: np.ndarray | float) -> np.ndarray | float:
