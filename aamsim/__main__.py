@@ -1,3 +1,3 @@
-from aamsim.cli import main
+from aamsim.entry import main
 
 main()

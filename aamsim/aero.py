@@ -9,6 +9,8 @@ on floats inside the Numba step kernel and on numpy arrays elsewhere.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
+from typing import Any, Protocol, cast, overload
 
 import numpy as np
 from numba import njit, vectorize
@@ -88,16 +90,48 @@ def spd2tas_scalar(spd: float, is_mach: bool, h: float) -> float:
     return cas2tas_scalar(spd, h)
 
 
-@vectorize(["float64(float64, float64)"], cache=True)
-def cas2tas(cas: float, h: float) -> float:
-    """Vectorised :func:`cas2tas_scalar` (numpy arrays or floats)."""
+def _cas2tas_element(cas: float, h: float) -> float:
     return cas2tas_scalar(cas, h)
 
 
-@vectorize(["float64(float64, float64)"], cache=True)
-def tas2cas(tas: float, h: float) -> float:
-    """Vectorised :func:`tas2cas_scalar` (numpy arrays or floats)."""
+def _tas2cas_element(tas: float, h: float) -> float:
     return tas2cas_scalar(tas, h)
+
+
+class SpeedConversion(Protocol):
+    """A speed conversion at an altitude: a float for two floats, else an array (numpy broadcasting)."""
+
+    @overload
+    def __call__(self, speed: float, h: float) -> float: ...
+    @overload
+    def __call__(self, speed: np.ndarray | list[float], h: np.ndarray | list[float] | float) -> np.ndarray: ...
+    @overload
+    def __call__(self, speed: float, h: np.ndarray | list[float]) -> np.ndarray: ...
+
+
+def _conversion(name: str, scalar: Callable[[float, float], float], element: Callable[[float, float], float],
+                doc: str) -> SpeedConversion:
+    """Floats go to the compiled ``scalar``; arrays to a Numba ufunc of ``element`` built at its first use
+    (building one costs a tenth of a second, its wrapper is not cached, and a plain run converts single
+    speeds only). Both run the same machine code: the results agree bit for bit."""
+    ufunc: list[Callable[..., Any]] = []
+
+    def convert(speed: Any, h: Any) -> Any:
+        if np.ndim(speed) == 0 and np.ndim(h) == 0:
+            return scalar(float(speed), float(h))
+        if not ufunc:
+            ufunc.append(vectorize(["float64(float64, float64)"], cache=True)(element))
+        return ufunc[0](speed, h)
+
+    convert.__name__ = convert.__qualname__ = name
+    convert.__doc__ = doc
+    return cast(SpeedConversion, convert)
+
+
+cas2tas = _conversion("cas2tas", cas2tas_scalar, _cas2tas_element,
+                      "Vectorised :func:`cas2tas_scalar` (numpy arrays or floats; a float for two floats).")
+tas2cas = _conversion("tas2cas", tas2cas_scalar, _tas2cas_element,
+                      "Vectorised :func:`tas2cas_scalar` (numpy arrays or floats; a float for two floats).")
 
 
 def mach2tas(mach: np.ndarray | float, h: np.ndarray | float) -> np.ndarray | float:

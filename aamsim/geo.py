@@ -18,17 +18,27 @@ sphere (see ``docs/bluesky-differences.md`` for its error against WGS-84).
 from __future__ import annotations
 
 import math
+from functools import cache
+from typing import TYPE_CHECKING
 
 import numpy as np
 from numba import njit
-from pyproj import Geod
 
 from aamsim.units import NM, R_EARTH
 
 WGS84_A = 6378137.0  # m, semi-major axis
 WGS84_B = 6356752.314245  # m, semi-minor axis
 
-_GEOD = Geod(ellps="WGS84")
+if TYPE_CHECKING:
+    from pyproj import Geod
+
+
+@cache
+def _wgs84() -> Geod:
+    """pyproj's WGS-84 geodesic, created at its first use (importing pyproj costs every start 25 ms)."""
+    from pyproj import Geod
+
+    return Geod(ellps="WGS84")
 
 
 @njit(cache=True, inline="always")
@@ -100,13 +110,13 @@ def kwik_qdrdist(
 
 def geodesic_inverse(lat1: float, lon1: float, lat2: float, lon2: float) -> tuple[float, float]:
     """Exact WGS-84 forward azimuth [deg] and distance [m] (pyproj)."""
-    az, _, dist = _GEOD.inv(lon1, lat1, lon2, lat2)
+    az, _, dist = _wgs84().inv(lon1, lat1, lon2, lat2)
     return float(az), float(dist)
 
 
 def geodesic_forward(lat: float, lon: float, azimuth_deg: float, dist_m: float) -> tuple[float, float]:
     """Exact WGS-84 destination point (lat, lon) [deg] (pyproj)."""
-    lon2, lat2, _ = _GEOD.fwd(lon, lat, azimuth_deg, dist_m)
+    lon2, lat2, _ = _wgs84().fwd(lon, lat, azimuth_deg, dist_m)
     return float(lat2), float(lon2)
 
 
@@ -114,7 +124,7 @@ def geodesic_path_length(lats: np.ndarray, lons: np.ndarray) -> float:
     """Length [m] of a polyline on the WGS-84 ellipsoid (pyproj)."""
     if len(lats) < 2:
         return 0.0
-    return float(_GEOD.line_length(np.asarray(lons, dtype=float), np.asarray(lats, dtype=float)))
+    return float(_wgs84().line_length(np.asarray(lons, dtype=float), np.asarray(lats, dtype=float)))
 
 
 def destination_flat(lat: float, lon: float, bearing_deg: float, dist_m: float) -> tuple[float, float]:

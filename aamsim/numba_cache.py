@@ -18,6 +18,7 @@ import hashlib
 import importlib.util
 import os
 import shutil
+import sys
 import time
 from pathlib import Path
 
@@ -70,6 +71,41 @@ def configure() -> str | None:
 
     numba.config.CACHE_DIR = str(directory)  # type: ignore[attr-defined]
     return str(directory)
+
+
+def defer_scipy_import() -> None:
+    """Spare every process the import of SciPy that Numba does before loading its first compiled function.
+
+    Before it loads or compiles anything, Numba imports its array-function
+    module, which asks once whether BLAS is there by importing
+    ``scipy.linalg`` (0.2-0.3 s: SciPy's array-API layer walks numpy and
+    imports ``numpy.f2py``); the answer only picks the inner product of
+    ``np.convolve``/``np.correlate``. Here that one question is answered by
+    whether SciPy is installed, without importing it; every later BLAS or
+    LAPACK use (``np.dot``, ``np.linalg``) still imports and checks SciPy as
+    before. Numba versions without that module layout are left alone.
+    """
+    if "numba.np.arraymath" in sys.modules:
+        return
+    try:
+        from numba.np import linalg
+    except ImportError:
+        return
+    ensure_blas = getattr(linalg, "ensure_blas", None)
+    if ensure_blas is None:
+        return
+
+    def scipy_installed() -> None:
+        if importlib.util.find_spec("scipy") is None:
+            raise ImportError("scipy 0.16+ is required for linear algebra")
+
+    linalg.ensure_blas = scipy_installed
+    try:
+        from numba.np import arraymath
+    finally:
+        linalg.ensure_blas = ensure_blas
+    if getattr(arraymath, "ensure_blas", None) is scipy_installed:
+        arraymath.ensure_blas = ensure_blas
 
 
 def _prune(base: Path, current: Path) -> None:

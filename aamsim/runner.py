@@ -177,6 +177,8 @@ class OverlayError(Exception):
 
 def start_overlays(sim: Simulation, cfg: RunConfig) -> None:
     """Start the run's real-traffic overlays at time 0; raises :class:`OverlayError` naming the overlay."""
+    if not cfg.overlays and not cfg.overlay_area:
+        return  # nothing to check or start (and the readers stay unimported)
     from aamsim.errors import CommandError
     from aamsim.realtraffic.overlay import start_overlay
     from aamsim.realtraffic.replay import parse_area

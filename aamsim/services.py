@@ -65,10 +65,11 @@ def attach_run_services(sim: Simulation, cfg: Any) -> None:
 
     def finish(sim: Simulation, out_dir: Path, summary: dict[str, Any]) -> None:
         conflicts.finish(sim)
+        events = conflicts.events  # built once for the metrics and the CSV
         summary["separation_volumes"] = {v.name: v.describe() for v in conflicts.volumes}
-        summary.update(metrics.compute(sim))
+        summary.update(metrics.compute(sim, events=events))
         if services.daa.issued or services.daa.active(sim):
             summary["daa"] = services.daa.summary()
-        write_conflicts_csv(out_dir / "conflicts.csv", sim)
+        write_conflicts_csv(out_dir / "conflicts.csv", sim, events)
 
     sim.extensions.setdefault("run_outputs", []).append(finish)

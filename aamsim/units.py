@@ -242,12 +242,14 @@ def _parse_angle(text: str, positive: str, negative: str, limit: float, what: st
 
     Accepted: a number (decimal or exponent notation, ``-3.06e-17``) or degrees'minutes'seconds,
     after at most one sign and at most one hemisphere letter in either order (``N52.5``,
-    ``-N52``, ``W074'00'36"``). Refused where BlueSky silently returns 0 or reads a number other
+    ``-N52``, ``W074'00'36"``); degrees'minutes'seconds may end in an E (N), as BlueSky reads
+    it (``E005'00'00.00"E``), unless the angle starts with W (S). Refused where BlueSky silently returns 0 or reads a number other
     than the one written: two negations (``S-52``), signs inside the number, empty text.
     """
     t = text.strip().upper()
     negations = 0
     hemisphere = sign = False
+    leading = ""  # the hemisphere letter before the number, if any
     while t and t[0] in ("+", "-", positive, negative):
         c = t[0]
         if c in "+-":
@@ -258,6 +260,7 @@ def _parse_angle(text: str, positive: str, negative: str, limit: float, what: st
             if hemisphere:
                 raise UnitParseError(f'"{text}" is not a {what}: more than one hemisphere letter')
             hemisphere = True
+            leading = c
         negations += c in ("-", negative)
         t = t[1:]
     plus = text.strip().startswith("+") or text.strip()[1:2] == "+"
@@ -265,6 +268,12 @@ def _parse_angle(text: str, positive: str, negative: str, limit: float, what: st
         raise UnitParseError(f'"{text}" is not a {what}: contradictory signs')
     if not t or t[0] in "+-":
         raise UnitParseError(f'"{text}" is not a {what}')
+    if len(t) > 2 and t[-1] == positive and t[-2] in _DMS_MARKS:
+        # An E (N) after the seconds mark (``E005'00'00.00"E`` in BlueSky's corpus): BlueSky deletes every
+        # E (N) wherever it stands. (A trailing W or S becomes a "-" field there, read as 0.0: refused here.)
+        if leading == negative:
+            raise UnitParseError(f'"{text}" is not a {what}: contradictory hemisphere letters')
+        t = t[:-1]
     if any(c in t for c in _DMS_MARKS):
         value = _dms_to_degrees(t, text, what)
     else:

@@ -17,14 +17,29 @@ path with trajectory logging off (``--log-period 0``).
     python bench/bench_sim.py --sizes 100,1000 --no-day --repeat 3
     python bench/bench_sim.py --threads 1,2            # also the multi-threaded kernel
     python bench/bench_sim.py --wind 4 --no-day        # in a wind field of 4 points (both simulators)
+    python bench/bench_sim.py --whole-process          # whole processes: aamsim run vs BlueSky, start to exit
 
 Numbers are medians over ``--repeat`` runs (the machine is shared and noisy).
+
+``--whole-process`` times what a user waits for instead of the stepping loop:
+N EC35 on random 3-waypoint routes in a 50 km box (dt 0.05 s) written to a
+scenario file, then ``python -m aamsim run FILE --until T`` as a subprocess
+(after one untimed warm-up run, so that Numba's cache and the byte-code
+caches exist), and BlueSky in its own subprocess importing itself, reading the
+same file with its scenario reader and stepping to T headless, at N = 100 over
+1 h and N = 1,000 over 10 min, plus the trivial run (one aircraft, one
+second). The runs of the two simulators alternate; the table shows the median
+walls and their ratio, and BlueSky's own split (init, reading, stepping).
+``PYTHONDONTWRITEBYTECODE`` is dropped for these subprocesses: an installed
+package has its byte code compiled, a development shell that forbids writing
+it would add the compile of every module to every start.
 """
 
 from __future__ import annotations
 
 import argparse
 import json
+import math
 import os
 import statistics
 import subprocess
@@ -34,6 +49,7 @@ import time
 from dataclasses import dataclass
 from pathlib import Path
 
+_USER_ENV = dict(os.environ)  # whole processes run in the user's environment, not the settings below
 # Idle OpenBLAS worker threads spin on the second core and disturb the timing.
 for _var in ("OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ.setdefault(_var, "1")
@@ -198,6 +214,116 @@ def time_bluesky(text: str, sim_time: float, dt: float = 0.05) -> Timing:
     return Timing(out["wall_s"], out["aircraft_steps"], out["sim_s"])
 
 
+WHOLE_BOX_KM = 50.0
+WHOLE_CASES = ((100, 3600.0), (1000, 600.0))
+TRIVIAL_SCENARIO = "# bench_sim: one aircraft\n00:00:00.00>CRE AC00000 EC35 40.700000 -74.000000 90.0 1500 120\n"
+
+_BLUESKY_WHOLE = r"""
+import contextlib, io, json, sys, time
+t0 = time.perf_counter()
+with contextlib.redirect_stdout(io.StringIO()):
+    import bluesky as bs
+    bs.init(mode='sim', detached=True, workdir=sys.argv[1])
+    from bluesky.stack import simstack
+    bs.stack.stack('DT %(dt)r')
+    bs.sim.step()
+    t1 = time.perf_counter()
+    bs.sim.reset()
+    lines = simstack.readscn(sys.argv[2])
+    bs.stack.set_scendata([t for t, _ in lines], [c for _, c in lines])
+    t2 = time.perf_counter()
+    ntraf = 0
+    while bs.sim.simt < %(sim_time)r - 1e-9:
+        bs.sim.step()
+        ntraf = max(ntraf, bs.traf.ntraf)
+t3 = time.perf_counter()
+print(json.dumps({"init_s": t1 - t0, "read_s": t2 - t1, "step_s": t3 - t2, "ntraf": ntraf, "simt": bs.sim.simt}))
+"""
+
+
+def _whole_env(root: Path = ROOT) -> dict[str, str]:
+    env = dict(_USER_ENV)
+    env.pop("PYTHONDONTWRITEBYTECODE", None)
+    env["PYTHONPATH"] = os.pathsep.join(p for p in (str(root), env.get("PYTHONPATH", "")) if p)
+    return env
+
+
+def whole_aamsim(scn: Path, sim_time: float, dt: float, out_dir: Path, root: Path = ROOT) -> tuple[float, dict]:
+    """Wall [s] of ``aamsim run`` (the source tree ``root``) as a whole process, and the run's summary."""
+    cmd = [sys.executable, "-m", "aamsim", "run", str(scn), "--until", f"{sim_time:g}", "--dt", f"{dt:g}",
+           "--out", str(out_dir), "--quiet"]
+    t0 = time.perf_counter()
+    proc = subprocess.run(cmd, capture_output=True, text=True, env=_whole_env(root), cwd=root, check=False)
+    wall = time.perf_counter() - t0
+    if proc.returncode != 0:
+        raise RuntimeError(f"aamsim run failed:\n{proc.stderr[-3000:]}")
+    return wall, json.loads((out_dir / "summary.json").read_text())
+
+
+def whole_bluesky(scn: Path, sim_time: float, dt: float, workdir: Path) -> tuple[float, dict]:
+    """Wall [s] of a BlueSky process that imports, initialises, reads ``scn`` and steps to ``sim_time``."""
+    code = _BLUESKY_WHOLE % {"dt": dt, "sim_time": sim_time}
+    t0 = time.perf_counter()
+    proc = subprocess.run([sys.executable, "-c", code, str(workdir), str(scn)], capture_output=True, text=True,
+                          env=_whole_env(), check=False)
+    wall = time.perf_counter() - t0
+    if proc.returncode != 0:
+        raise RuntimeError(f"BlueSky run failed:\n{proc.stderr[-3000:]}")
+    return wall, json.loads(proc.stdout.strip().splitlines()[-1])
+
+
+def whole_process(repeat: int, dt: float, use_bluesky: bool, cases: tuple[tuple[int, float], ...],
+                  before: Path | None = None) -> None:
+    """Print whole-process walls of aamsim run and BlueSky on the same scenario files.
+
+    ``before``: another aamsim source tree (an older commit) run alongside, for before/after ratios.
+    """
+    print(f"whole processes: EC35 on 3-waypoint routes, {WHOLE_BOX_KM:g} km box, dt {dt:g} s, median of {repeat}, "
+          f"cpu count {os.cpu_count()}, load {os.getloadavg()[0]:.2f}")
+    header = (f"{'case':>16} {'aamsim s':>9} {'BlueSky s':>10} {'(init':>7} {'read':>6} {'step)':>7} {'ratio':>7}"
+              + (f" {'before s':>9} {'ratio':>7} {'speed-up':>8}" if before else ""))
+    print(header)
+    print("-" * len(header))
+    with tempfile.TemporaryDirectory(prefix="bench-whole-") as tmp_name:
+        tmp = Path(tmp_name)
+        all_cases = [(1, 1.0), *cases]
+        roots = [ROOT] + ([before] if before else [])
+        for k, (n, sim_time) in enumerate(all_cases):
+            scn = tmp / f"whole_{n}.scn"
+            scn.write_text(TRIVIAL_SCENARIO if k == 0 else make_scenario(n, box_km=WHOLE_BOX_KM))
+            if k == 0:
+                for j, root in enumerate(roots):  # Numba's cache, byte code
+                    whole_aamsim(scn, sim_time, dt, tmp / f"warm-up-{j}", root)
+            walls: dict[Path, list[float]] = {root: [] for root in roots}
+            theirs: list[tuple[float, dict]] = []
+            for r in range(repeat):
+                if use_bluesky:
+                    theirs.append(whole_bluesky(scn, sim_time, dt, tmp))
+                for j, root in enumerate(roots):
+                    wall, summary = whole_aamsim(scn, sim_time, dt, tmp / f"run-{n}-{r}-{j}", root)
+                    if summary["flights_created"] != n or summary["errors"]:
+                        raise RuntimeError(f"aamsim: {summary['flights_created']} flights, {summary['errors']} errors")
+                    walls[root].append(wall)
+            label = f"N={n:,} {sim_time:g} s"
+            ours_s = statistics.median(walls[ROOT])
+            line = f"{label:>16} {ours_s:9.2f}"
+            bs_s = None
+            if theirs:
+                bs_s = statistics.median(w for w, _ in theirs)
+                split = min(theirs, key=lambda t: abs(t[0] - bs_s))[1]
+                if split["ntraf"] != n:
+                    raise RuntimeError(f"BlueSky created {split['ntraf']} aircraft, not {n}")
+                line += (f" {bs_s:10.2f} {split['init_s']:7.2f} {split['read_s']:6.2f} {split['step_s']:7.2f} "
+                         f"{bs_s / ours_s:7.1f}")
+            else:
+                line += f" {'-':>10} {'':>7} {'':>6} {'':>7} {'-':>7}"
+            if before:
+                old_s = statistics.median(walls[before])
+                line += f" {old_s:9.2f} {bs_s / old_s if bs_s else math.nan:7.1f} {old_s / ours_s:8.2f}"
+            print(line, flush=True)
+    print(f"load after: {os.getloadavg()[0]:.2f}")
+
+
 def _median(timings: list[Timing]) -> Timing:
     walls = [t.wall_s for t in timings]
     mid = statistics.median(walls)
@@ -235,12 +361,22 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--wind", type=int, default=0, metavar="POINTS",
                         help="wind points (no altitude profile) in the box, in both simulators (default: no wind)")
     parser.add_argument("--day-duration", type=float, default=86400.0, help="sim time of the day case [s]")
+    parser.add_argument("--whole-process", action="store_true",
+                        help="time whole processes (aamsim run vs BlueSky) instead of the stepping loop")
+    parser.add_argument("--before", type=Path, default=None, metavar="DIR",
+                        help="with --whole-process: also run aamsim from this source tree (e.g. an older commit)")
+    parser.add_argument("--cases", default=",".join(f"{n}:{t:g}" for n, t in WHOLE_CASES),
+                        help="whole-process cases N:SIM_SECONDS, comma-separated (the trivial run is always added)")
     args = parser.parse_args(argv)
     sizes = [int(s) for s in args.sizes.split(",") if s]
     threads = [int(s) for s in args.threads.split(",") if s]
     use_bluesky = bluesky_available() if args.bluesky is None else args.bluesky
     if use_bluesky and not bluesky_available():
         parser.error("--bluesky: bluesky-simulator is not installed")
+    if args.whole_process:
+        cases = tuple((int(c.split(":")[0]), float(c.split(":")[1])) for c in args.cases.split(",") if c)
+        whole_process(args.repeat, args.dt, use_bluesky, cases, args.before)
+        return 0
 
     import numba
 

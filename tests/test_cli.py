@@ -183,3 +183,28 @@ def test_progress_speed_up_is_blank_for_the_first_interval_then_per_interval() -
     assert progress.speedup_text(10.0, 40.0) == ""
     assert progress.speedup_text(1010.0, 41.0) == "1000x"  # 1,000 sim s in the next wall second
     assert progress.speedup_text(1010.0, 41.0) == ""  # no wall time passed: nothing to divide
+
+
+def test_a_finished_run_leaves_fast_but_runs_exit_handlers_and_flushes(tmp_path):
+    """``aamsim run`` skips the interpreter's teardown (aamsim/entry.py), not what an exit must do:
+    plugins' atexit functions run, buffered output reaches the pipe, the exit status is the run's."""
+    (tmp_path / "exit_plugin.py").write_text(
+        "import atexit, sys\n"
+        "def init_plugin(sim):\n"
+        "    sys.stdout.write('buffered line from the plugin\\n')\n"  # sits in the pipe's buffer until the flush
+        f"    atexit.register(lambda: open({str(tmp_path / 'atexit.txt')!r}, 'w').write('ran'))\n"
+    )
+    scn = tmp_path / "one.scn"
+    scn.write_text("00:00:00.00>CRE A1 EC35 40.7 -74.0 90 1500 100\n")
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(ROOT), str(tmp_path)]))
+    proc = subprocess.run([sys.executable, "-m", "aamsim", "run", str(scn), "--until", "5", "--out",
+                           str(tmp_path / "run"), "--plugin", "exit_plugin", "--quiet"],
+                          check=False, capture_output=True, text=True, env=env, timeout=600)
+    assert proc.returncode == 0, proc.stderr
+    assert proc.stdout == "buffered line from the plugin\n"
+    assert (tmp_path / "atexit.txt").read_text() == "ran"
+    assert json.loads((tmp_path / "run" / "summary.json").read_text())["sim_time_s"] == 5.0
+    assert len((tmp_path / "run" / "trajectories.csv").read_text().splitlines()) == 1 + 6  # header, t = 0..5
+    bad = subprocess.run([sys.executable, "-m", "aamsim", "run", str(tmp_path / "missing.scn"), "--quiet"],
+                         check=False, capture_output=True, text=True, env=env, timeout=600)
+    assert bad.returncode == 2 and "scenario not found" in bad.stderr

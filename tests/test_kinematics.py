@@ -123,3 +123,20 @@ def test_dest_descends_with_vnav_at_three_degree_gradient():
     # The V/S is planned when the leg is activated, from the ground speed then.
     gs0 = float(cas2tas(100 * KTS, 1500 * FT))
     assert sim.traffic.vs[0] == pytest.approx(-gs0 * 3000 * FT / (10 * 1852), rel=1e-9)
+
+
+def test_speed_conversions_of_floats_and_arrays_agree_bit_for_bit():
+    # Floats go through the compiled scalar functions, arrays through ufuncs built at their first use.
+    import numpy as np
+
+    from aamsim import aero
+
+    rng = np.random.default_rng(3)
+    cas, alt = rng.uniform(-80.0, 300.0, 500), rng.uniform(-300.0, 15000.0, 500)
+    tas_array = aero.cas2tas(cas, alt)
+    back_array = aero.tas2cas(tas_array, alt)
+    assert isinstance(aero.cas2tas(50.0, 100), float) and isinstance(aero.tas2cas(np.float64(50.0), 100.0), float)
+    assert [aero.cas2tas(c, h) for c, h in zip(cas, alt)] == tas_array.tolist()
+    assert [aero.tas2cas(t, h) for t, h in zip(tas_array, alt)] == back_array.tolist()
+    assert np.allclose(back_array, cas, rtol=1e-12, atol=1e-9)  # the pair inverts
+    assert abs(aero.cas2tas([50.0], [0.0])[0] - 50.0) < 1e-8  # at sea level CAS = TAS (ISA)

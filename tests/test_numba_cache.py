@@ -65,3 +65,25 @@ def test_checkouts_sharing_the_cache_keep_each_others_directories(tmp_path, monk
     os.utime(stale, (old, old))
     numba_cache._prune(base, dirs[1])
     assert not stale.exists() and all(d.is_dir() for d in dirs[1:])
+
+
+def test_loading_compiled_code_does_not_import_scipy_and_blas_still_works():
+    """Numba's start-up BLAS probe is answered without importing SciPy (0.2-0.3 s a process); the
+    answer is the same, and np.dot in freshly compiled code still goes to SciPy's BLAS."""
+    code = (
+        "import sys, numpy as np\n"
+        "from aamsim import aero\n"
+        "aero.cas2tas_scalar(50.0, 100.0)\n"  # loads compiled code: Numba's target context starts
+        "from numba.np import arraymath, linalg\n"
+        "import importlib.util\n"
+        "print('scipy.linalg' in sys.modules, arraymath._HAVE_BLAS, importlib.util.find_spec('scipy') is not None,"
+        " arraymath.ensure_blas is linalg.ensure_blas)\n"
+        "from numba import njit\n"
+        "dot = njit(lambda a, b: np.dot(a, b))\n"
+        "print(dot(np.arange(3.0), np.arange(3.0)), 'scipy.linalg' in sys.modules)\n"
+    )
+    env = dict(os.environ, PYTHONPATH=str(ROOT))
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, check=True)
+    first, second = out.stdout.strip().splitlines()
+    assert first == "False True True True"
+    assert second == "5.0 True"

@@ -52,6 +52,16 @@ def test_degrees_minutes_seconds():
     # A sign and a hemisphere letter in either order, one negation.
     assert parse_latitude("-N52.5") == parse_latitude("N-52.5") == parse_latitude("S52.5") == -52.5
     assert parse_latitude("+N52.5") == 52.5
+    # An E (N) after the seconds (Contest/amanscen.scn: POLY ... E005'00'00.00"E): BlueSky deletes every
+    # E (N). A trailing W (S) becomes a "-" field there, read as 0.0 after a "value error": refused.
+    assert parse_longitude("E005'00'00.00\"E") == parse_longitude("005'00'00\"E") == 5.0
+    assert parse_longitude("-005'30'00\"E") == -5.5
+    assert parse_latitude("N10'15'00\"N") == 10 + 15 / 60
+    for bad in ("W005'00'00\"E", "005'30'00\"W", "E005'30'00\"W"):
+        with pytest.raises(UnitParseError):
+            parse_longitude(bad)
+    with pytest.raises(UnitParseError):
+        parse_latitude("N52'30'S")
 
 
 @pytest.mark.parametrize("bad", [

@@ -100,3 +100,12 @@ def test_comment_lines_inside_a_continued_command():
     assert not parsed.errors
     assert [str(c.command) for c in parsed.commands] == ["POLY A 1 1 2 2 3 1", "ECHO next"]
     assert parsed.commands[0].source.line == 1 and parsed.commands[1].source.line == 6
+
+
+def test_a_zero_fourth_time_field_is_read_as_bluesky_reads_it():
+    # BlueSky's corpus (testscenarios/test_wind.scn) has "0:00:00:00>CRE ..."; BlueSky reads the
+    # first three fields. A zero fourth field gives that time under any reading; another one is refused.
+    parsed = parse("0:00:00:00>ECHO a\n0:00:01:00>ECHO b\n0:00:01:30>ECHO c\n")
+    assert [(c.time_s, c.command.argtext) for c in parsed.commands] == [(0.0, "a"), (1.0, "b")]
+    assert len(parsed.errors) == 1 and parsed.errors[0].source.line == 3
+    assert 'bad time "0:00:01:30"' in parsed.errors[0].message

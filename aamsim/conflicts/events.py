@@ -61,8 +61,11 @@ def encounter_type(vel1: tuple[float, float, float], vel2: tuple[float, float, f
     """
     if any(math.isnan(x) for x in vel1 + vel2):
         return ""
-    trk1, gs1, vs1 = track_speed(vel1)
-    trk2, gs2, vs2 = track_speed(vel2)
+    return classify_encounter(*track_speed(vel1), *track_speed(vel2))
+
+
+def classify_encounter(trk1: float, gs1: float, vs1: float, trk2: float, gs2: float, vs2: float) -> str:
+    """:func:`encounter_type` from both aircraft's :func:`track_speed` (velocities known)."""
     if min(gs1, gs2) < 1.0:
         return "hover"
     if max(abs(vs1), abs(vs2)) > 1.0:
@@ -258,7 +261,13 @@ class EventLog:
                                (p[6], p[7], p[8]), (p[9], p[10], p[11]))
 
     def events(self) -> list[SeparationEvent]:
-        return [self.event(r) for r in range(self.n)]
+        n = self.n
+        # Whole columns to Python floats at once (tolist), not element by element: dense runs log tens of thousands.
+        starts, ends, dmins, tmins = (a[:n].tolist() for a in (self.start, self.end, self.dmin, self.tmin))
+        return [SeparationEvent(self.volume, a1, a2, t0, t1, d, tm, (p[0], p[1], p[2]), (p[3], p[4], p[5]),
+                                (p[6], p[7], p[8]), (p[9], p[10], p[11]))
+                for a1, a2, t0, t1, d, tm, p in zip(self.ac1, self.ac2, starts, ends, dmins, tmins,
+                                                    self.cpa[:n].tolist())]
 
     def durations_s(self, now: float) -> np.ndarray:
         end = np.where(np.isnan(self.end[: self.n]), now, self.end[: self.n])

@@ -39,6 +39,12 @@ class MetricContext:
     min_separation_m: float = math.inf
     conflict_pairs: int = 0
     real_traffic: frozenset[str] = frozenset()  # callsigns of replayed real aircraft (aamsim.realtraffic)
+    # Per volume, its events and their counts by encounter and by pair kind: a dense run has tens of
+    # thousands of events and a dozen metrics reading them.
+    _by_volume: dict[str, list[SeparationEvent]] = field(default_factory=dict, init=False, repr=False,
+                                                         compare=False)
+    _counts: dict[tuple[str, str], dict[str, int]] = field(default_factory=dict, init=False, repr=False,
+                                                           compare=False)
 
     def pair_kind(self, event: SeparationEvent) -> str:
         """``AAM vs AAM``, ``AAM vs real traffic`` or ``real vs real traffic`` (:func:`pair_kind`)."""
@@ -52,7 +58,27 @@ class MetricContext:
         return sum(1 for f in self.flights if predicate(f))
 
     def events_of(self, volume: str) -> list[SeparationEvent]:
-        return [e for e in self.events if e.volume == volume]
+        found = self._by_volume.get(volume)
+        if found is None:
+            found = self._by_volume[volume] = [e for e in self.events if e.volume == volume]
+        return list(found)
+
+    def encounter_counts(self, volume: str) -> dict[str, int]:
+        """Events of ``volume`` by encounter geometry (``SeparationEvent.encounter``)."""
+        return self._count(volume, "encounter", lambda e: e.encounter)
+
+    def pair_kind_counts(self, volume: str) -> dict[str, int]:
+        """Events of ``volume`` by :meth:`pair_kind`."""
+        return self._count(volume, "pair", self.pair_kind)
+
+    def _count(self, volume: str, what: str, key: Callable[[SeparationEvent], str]) -> dict[str, int]:
+        counts = self._counts.get((volume, what))
+        if counts is None:
+            counts = self._counts[(volume, what)] = {}
+            for e in self.events_of(volume):
+                k = key(e)
+                counts[k] = counts.get(k, 0) + 1
+        return counts
 
 
 AAM_VS_AAM, AAM_VS_REAL, REAL_VS_REAL = "AAM vs AAM", "AAM vs real traffic", "real vs real traffic"

@@ -3,17 +3,18 @@
 from __future__ import annotations
 
 import csv
-import math
 from dataclasses import dataclass, field
+from math import isfinite, isnan
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from aamsim.conflicts.events import track_speed
+from aamsim.conflicts.events import classify_encounter, track_speed
 from aamsim.conflicts.service import conflicts_of
 from aamsim.metrics.registry import MetricContext, MetricRegistry, pair_kind
 from aamsim.metrics.standard import register_standard_metrics
 
 if TYPE_CHECKING:
+    from aamsim.conflicts.events import SeparationEvent
     from aamsim.simulation import Simulation
 
 DEFAULT_GROUPS = ("safety", "operational")
@@ -33,15 +34,20 @@ class MetricsService:
     groups: tuple[str, ...] = DEFAULT_GROUPS
     registry: MetricRegistry = field(default_factory=_standard_registry)
 
-    def context(self, sim: Simulation) -> MetricContext:
+    def context(self, sim: Simulation, events: list[SeparationEvent] | None = None) -> MetricContext:
         """The run's AAM flights and the events with at least one AAM aircraft in them (two replayed
-        real aircraft meeting are not an AAM event; conflicts.csv lists them, marked)."""
+        real aircraft meeting are not an AAM event; conflicts.csv lists them, marked).
+
+        ``events``: the conflict service's events when the caller has them already (they take a
+        while to build in a dense run)."""
         service = conflicts_of(sim)
         real = real_traffic_callsigns(sim)
+        if events is None:
+            events = service.events
         return MetricContext(
             sim=sim,
             flights=list(sim.flights()),
-            events=[e for e in service.events if not (e.ac1 in real and e.ac2 in real)],
+            events=[e for e in events if not (e.ac1 in real and e.ac2 in real)] if real else list(events),
             real_traffic=real,
             duration_s=sim.simt,
             hold_speed_mps=sim.settings.hold_speed_mps,
@@ -49,8 +55,9 @@ class MetricsService:
             conflict_pairs=service.conflict_pairs_total,
         )
 
-    def compute(self, sim: Simulation, groups: tuple[str, ...] | None = None) -> dict[str, dict[str, Any]]:
-        return self.registry.compute(groups or self.groups, self.context(sim))
+    def compute(self, sim: Simulation, groups: tuple[str, ...] | None = None,
+                events: list[SeparationEvent] | None = None) -> dict[str, dict[str, Any]]:
+        return self.registry.compute(groups or self.groups, self.context(sim, events))
 
 
 def metrics_of(sim: Simulation) -> MetricsService:
@@ -72,21 +79,37 @@ def real_traffic_callsigns(sim: Simulation) -> frozenset[str]:
     return frozenset(rec.acid for rec in sim.flights(real_traffic=True))
 
 
-def write_conflicts_csv(path: Path, sim: Simulation) -> int:
-    """Every event of every volume; ``pair`` says AAM vs AAM, AAM vs real traffic or real vs real traffic."""
-    events = conflicts_of(sim).events
+# Decimals of the numeric columns of conflicts.csv, in column order (after volume, ac1, ac2).
+_DECIMALS = (2, 2, 2, 2, 7, 7, 2, 7, 7, 2, 1, 2, 2, 1, 2, 2)
+
+
+def _column(values: list[float], decimals: int) -> list[str]:
+    """Fixed-point text of a column; empty where not finite. (Column by column: a dense run has tens of
+    thousands of events, and one comprehension per column costs far less than a call per cell.)"""
+    spec = f".{decimals}f"
+    return [format(x, spec) if isfinite(x) else "" for x in values]
+
+
+def write_conflicts_csv(path: Path, sim: Simulation, events: list[SeparationEvent] | None = None) -> int:
+    """Every event of every volume; ``pair`` says AAM vs AAM, AAM vs real traffic or real vs real traffic.
+
+    ``events``: the conflict service's events when the caller has them already."""
+    if events is None:
+        events = conflicts_of(sim).events
     real = real_traffic_callsigns(sim)
-
-    def num(x: float, d: int) -> str:
-        return "" if x is None or (isinstance(x, float) and not math.isfinite(x)) else f"{x:.{d}f}"
-
+    ordered = sorted(events, key=lambda ev: (ev.start_s, ev.volume, ev.ac1, ev.ac2))
+    numbers: list[tuple[float, ...]] = []
+    encounters: list[str] = []
+    for e in ordered:
+        motion = (*track_speed(e.vel1), *track_speed(e.vel2))
+        numbers.append((e.start_s, e.end_s, e.min_dist_m, e.t_min_s, *e.pos1, *e.pos2, *motion))
+        known = not any(isnan(x) for x in e.vel1 + e.vel2)  # as SeparationEvent.encounter, sparing a recompute
+        encounters.append(classify_encounter(*motion) if known else "")
+    columns = [_column(list(col), d) for col, d in zip(zip(*numbers), _DECIMALS)] if numbers else []
+    rows = zip([e.volume for e in ordered], [e.ac1 for e in ordered], [e.ac2 for e in ordered], *columns,
+               encounters, [pair_kind(e.ac1, e.ac2, real) for e in ordered])
     with open(path, "w", newline="") as fh:
         writer = csv.writer(fh)
         writer.writerow(CONFLICT_COLUMNS)
-        for e in sorted(events, key=lambda ev: (ev.start_s, ev.volume, ev.ac1, ev.ac2)):
-            motion = [num(x, d) for vel in (e.vel1, e.vel2) for x, d in zip(track_speed(vel), (1, 2, 2))]
-            writer.writerow([e.volume, e.ac1, e.ac2, num(e.start_s, 2), num(e.end_s, 2), num(e.min_dist_m, 2),
-                             num(e.t_min_s, 2), num(e.pos1[0], 7), num(e.pos1[1], 7), num(e.pos1[2], 2),
-                             num(e.pos2[0], 7), num(e.pos2[1], 7), num(e.pos2[2], 2), *motion, e.encounter,
-                             pair_kind(e.ac1, e.ac2, real)])
+        writer.writerows(rows)
     return len(events)

@@ -41,11 +41,11 @@ ENCOUNTERS = ("same-direction", "head-on", "crossing", "vertical", "hover")
 
 
 def _events_by_encounter(volume: str, kind: str) -> MetricFn:
-    return lambda ctx: sum(1 for e in ctx.events_of(volume) if e.encounter == kind)
+    return lambda ctx: ctx.encounter_counts(volume).get(kind, 0)
 
 
 def _events_between(volume: str, kind: str) -> MetricFn:
-    return lambda ctx: sum(1 for e in ctx.events_of(volume) if ctx.pair_kind(e) == kind)
+    return lambda ctx: ctx.pair_kind_counts(volume).get(kind, 0)
 
 
 def register_standard_metrics(reg: MetricRegistry) -> None:

@@ -138,9 +138,14 @@ def format_rows(
         decimals: decimals per column.
     """
     scales = 10.0 ** decimals.astype(np.float64)
+    if not columns.size:
+        return _format_rows_fast(name_bytes, name_offsets, name_index, columns, decimals)
     with np.errstate(invalid="ignore", over="ignore"):
+        # One pass for the usual case, no wide value at all (fmax skips NaN, written fast as empty).
+        if not (np.fmax.reduce(np.abs(columns), axis=1) * scales >= FAST_LIMIT).any():
+            return _format_rows_fast(name_bytes, name_offsets, name_index, columns, decimals)
         wide = np.abs(columns) * scales[:, None] >= FAST_LIMIT  # NaN compares False: written fast
-    slow_rows = np.flatnonzero(wide.any(axis=0)) if columns.size else np.zeros(0, dtype=np.int64)
+    slow_rows = np.flatnonzero(wide.any(axis=0))
     if slow_rows.size == 0:
         return _format_rows_fast(name_bytes, name_offsets, name_index, columns, decimals)
     parts: list[bytes] = []

@@ -42,6 +42,8 @@ class TrajectoryRecorder:
     _name_ids: dict[str, int] = field(default_factory=dict, repr=False)
     _chunks: list[tuple[np.ndarray, np.ndarray]] = field(default_factory=list, repr=False)
     _buffered: int = 0
+    _last_ids: tuple[str, ...] = field(default=(), repr=False)  # the callsigns of the last sample ...
+    _last_index: np.ndarray = field(default_factory=lambda: np.empty(0, dtype=np.int64), repr=False)  # ... numbered
 
     def attach(self, sim: Simulation) -> None:
         self._file = open(self.path, "wb")
@@ -53,13 +55,17 @@ class TrajectoryRecorder:
         n = len(snap)
         if n == 0:
             return
-        ids = np.empty(n, dtype=np.int64)
-        for k, acid in enumerate(snap.ids):
-            j = self._name_ids.get(acid)
-            if j is None:
-                j = self._name_ids[acid] = len(self._names)
-                self._names.append(acid)
-            ids[k] = j
+        if snap.ids == self._last_ids:  # the same aircraft as last time (most samples): the same numbers
+            ids = self._last_index
+        else:
+            ids = np.empty(n, dtype=np.int64)
+            for k, acid in enumerate(snap.ids):
+                j = self._name_ids.get(acid)
+                if j is None:
+                    j = self._name_ids[acid] = len(self._names)
+                    self._names.append(acid)
+                ids[k] = j
+            self._last_ids, self._last_index = snap.ids, ids
         cols = np.empty((len(_FIELDS) + 1, n))
         cols[0] = snap.simt
         cols[1:] = snap.columns(_FIELDS)
@@ -74,7 +80,7 @@ class TrajectoryRecorder:
         ids = np.concatenate([c[0] for c in self._chunks])
         cols = np.concatenate([c[1] for c in self._chunks], axis=1)
         name_bytes, offsets = pack_names(self._names)
-        self._file.write(format_rows(name_bytes, offsets, ids, cols, _DECIMALS).tobytes())
+        self._file.write(format_rows(name_bytes, offsets, ids, cols, _DECIMALS).data)  # a view: no 50 MB copy
         self.rows_written += len(ids)
         self._chunks.clear()
         self._buffered = 0

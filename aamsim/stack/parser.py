@@ -79,9 +79,14 @@ def parse_timestamp(text: str, source: SourceRef | None = None) -> float:
     """Read the ``HH:MM:SS.hh`` time stamp of a scenario line [s].
 
     BlueSky requires three colon-separated fields; so do we, so that every
-    file accepted here also runs there.
+    file accepted here also runs there. BlueSky ignores fields after the
+    third (its corpus has ``0:00:00:00``); a fourth field is accepted when
+    it is zero, so that the time is the same whether it was meant as
+    hundredths or is ignored, and refused otherwise.
     """
     parts = text.strip().split(":")
+    if len(parts) == 4 and parts[3].strip().isdigit() and int(parts[3]) == 0:
+        parts = parts[:3]
     if len(parts) != 3:
         raise ScenarioSyntaxError(f'bad time "{text.strip()}": expected HH:MM:SS.hh', source)
     try:
