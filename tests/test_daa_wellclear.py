@@ -11,7 +11,7 @@ import math
 
 import numpy as np
 import pytest
-from hypothesis import given, settings
+from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
 from aamsim.conflicts.bands import MAX_BANDS, gs_conflicts, hdg_conflicts, vs_conflicts
@@ -153,6 +153,12 @@ def well_clear_along(sx, sy, sz, vx, vy, vz, vol, step=0.05) -> bool:
 
 @settings(max_examples=300, deadline=None)
 @given(encounters(), volumes(), st.floats(0.02, 0.98))
+# pairs on the volume's edge that hypothesis found: at DMOD and leaving it, at ZTHR and climbing away,
+# and passing exactly DMOD abeam whatever the speed
+@example((199.0, 0.0, 0.0, 0.01745240643728351, 0.9998476951563913, 0.0, 1.0, 0.0), (199.0, 199.0, 0.0, 50.0, 0.0),
+         0.5)
+@example((0.0, 0.0, 50.0, 0.0, 1.0, 0.0, 0.0, 1.0), (150.0, 150.0, 0.0, 50.0, 0.0), 0.5)
+@example((150.0, -229.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0), (150.0, 150.0, 0.0, 50.0, 0.0), 0.125)
 def test_a_speed_in_a_conflict_free_band_keeps_the_pair_well_clear(enc, vol, frac):
     sx, sy, sz, ex, ey, wx, wy, vz = enc
     conflict = bands(gs_conflicts, sx, sy, sz, ex, ey, wx, wy, vz, 0.0, 72.0, *vol, T)
