@@ -130,6 +130,9 @@ class EpisodeCore:
         named = scenario_callsigns(self._parsed) if getattr(self.usecase, "aircraft_agents", True) else []
         self.possible_agents: list[str] = standing + [a for a in named if a not in standing]
         self._possible = set(self.possible_agents)
+        # Called with each episode's new simulation, before it runs (a recorder attaches here:
+        # `aamgym evaluate video=true` writes the episode's run directory).
+        self.on_new_simulation: list[Callable[[Simulation], None]] = []
         last_command_s = max((c.time_s for c in self._parsed.commands), default=0.0)
         # Without a limit a policy that hovers would never end the episode.
         self.time_limit_s = time_limit_s if time_limit_s is not None else last_command_s + DEFAULT_EXTRA_TIME_S
@@ -164,6 +167,8 @@ class EpisodeCore:
         if hold is not None:
             commands = hold(sim, commands)
         sim.queue.extend([TimedCommand(c.time_s, c.command, c.source) for c in commands])
+        for fn in self.on_new_simulation:
+            fn(sim)
         return sim
 
     def _on_created(self, sim: Simulation, slot: int) -> None:

@@ -92,3 +92,31 @@ def test_the_painter_puts_each_aircraft_at_its_projected_pixel(run_dir):  # noqa
         assert np.abs(patch - want).sum(axis=1).min() < 40
     with pytest.raises(ValueError, match="at least 64 x 64"):
         TrafficPainter(replay.layout(), 10, 400)
+
+
+def test_evaluate_video_records_each_policy_beside_the_unequipped_baseline(tmp_path):
+    import json
+    import os
+    from pathlib import Path
+
+    data = Path(__file__).parent / "data"
+    env = dict(os.environ, PYTHONPATH=str(Path(__file__).parent.parent) + os.pathsep + os.environ.get("PYTHONPATH", ""))
+    proc = subprocess.run([sys.executable, "-m", "rlbridge.experiment", "evaluate", "baseline=mvp_speed",
+                           f"scenario={data / 'tiny_conflict.scn'}", "episodes=2", "workers=0", "baselines=[]",
+                           "env.time_limit_s=600", "video=true", "video_speed=60", "video_fps=5",
+                           "hydra.run.dir=eval"], cwd=tmp_path, env=env, capture_output=True, text=True, timeout=600,
+                          check=False)
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    ev = tmp_path / "eval"
+    videos = sorted(p.name for p in (ev / "videos").iterdir())
+    assert videos == ["mvp_speed_vs_unequipped_seed-0000.mp4"]  # only the first seed; no unequipped vs itself
+    frames = iio.imread(ev / "videos" / videos[0])
+    assert frames.shape[1:] == (640, 1280, 3)  # two 640 x 640 panels side by side
+    replays = {p: RunReplay(ev / "episodes" / p / "seed-0000") for p in ("mvp_speed", "unequipped")}
+    assert len(frames) == int((max(r.t_end for r in replays.values()) - min(r.t_start for r in replays.values()))
+                              / 12) + 1  # 60 sim-seconds per second of video at 5 frames per second
+    # The recorded episodes are the scored ones: tiny_conflict's pair collides unequipped, MVP sequences them.
+    for policy, replay in replays.items():
+        summary = json.loads((ev / "episodes" / policy / "seed-0000" / "summary.json").read_text())
+        nmac_lat, _ = replay.event_positions("nmac")
+        assert len(nmac_lat) == summary["safety"]["nmac_events"] == (1 if policy == "unequipped" else 0)

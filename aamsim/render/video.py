@@ -43,14 +43,35 @@ def write_run_video(run_dir: str | Path, out_path: str | Path, *, t_from: float 
                     t_to: float | None = None, speed: float = 60.0, fps: float = 10.0, width: int = 800,
                     height: int = 800, progress: bool = True) -> int:
     """Replay ``run_dir`` into ``out_path`` (``.mp4`` or ``.gif``); returns the number of frames."""
+    return write_runs_video([("", run_dir)], out_path, t_from=t_from, t_to=t_to, speed=speed, fps=fps,
+                            width=width, height=height, progress=progress)
+
+
+def write_runs_video(panels: list[tuple[str, str | Path]], out_path: str | Path, *, t_from: float | None = None,
+                     t_to: float | None = None, speed: float = 60.0, fps: float = 10.0, width: int = 800,
+                     height: int = 800, progress: bool = True) -> int:
+    """Several runs side by side at the same sim times (``panels``: label and run directory each).
+
+    Every panel shows the first run's map, widened to every run's traffic, so positions line up;
+    ``width`` is one panel's. Returns the number of frames.
+    """
     import imageio.v2 as imageio
+
+    from aamsim.viewer.frames import MapLayout
 
     out = Path(out_path)
     if out.suffix.lower() not in VIDEO_SUFFIXES:
         raise ValueError(f"{out}: the video must end in {' or '.join(VIDEO_SUFFIXES)}")
-    replay = RunReplay(run_dir)
-    times = frame_times(replay.t_start, replay.t_end, t_from, t_to, speed, fps)
-    painter = TrafficPainter(replay.layout(), width, height, str(replay.summary.get("scenario") or ""))
+    if not panels:
+        raise ValueError("no run to draw")
+    replays = [RunReplay(d) for _, d in panels]
+    times = frame_times(min(r.t_start for r in replays), max(r.t_end for r in replays), t_from, t_to, speed, fps)
+    first = replays[0].layout()
+    boxes = np.array([r.layout().bounds for r in replays])
+    layout = MapLayout(first.vertiports, first.routes, first.outline,
+                       (boxes[:, 0].min(), boxes[:, 1].max(), boxes[:, 2].min(), boxes[:, 3].max()))
+    painters = [TrafficPainter(layout, width, height, label or str(r.summary.get("scenario") or ""))
+                for (label, _), r in zip(panels, replays)]
     kwargs: dict[str, Any] = {"fps": fps}
     if out.suffix.lower() == ".mp4":
         kwargs.update(codec="libx264", quality=7, macro_block_size=8, pixelformat="yuv420p")
@@ -61,8 +82,10 @@ def write_run_video(run_dir: str | Path, out_path: str | Path, *, t_from: float 
     previous: float | None = None
     with imageio.get_writer(out, **kwargs) as writer:
         for t in tqdm(times.tolist(), desc=out.name, unit="frame", disable=not progress, leave=False):
-            frame = replay.frame_at(t, events_since=previous)
-            writer.append_data(painter.paint(frame, replay.trails(t, 30.0)))  # type: ignore[attr-defined]
+            images = [p.paint(r.frame_at(t, events_since=previous), r.trails(t, 30.0))
+                      for p, r in zip(painters, replays)]
+            writer.append_data(np.hstack(images) if len(images) > 1 else images[0])  # type: ignore[attr-defined]
             previous = t
-    painter.close()
+    for p in painters:
+        p.close()
     return len(times)

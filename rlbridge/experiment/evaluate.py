@@ -207,6 +207,8 @@ def run_evaluation(cfg: DictConfig, out_dir: str | Path) -> dict[str, Any]:
                      np.mean([s.lowc_events for s in got]), np.mean([s.reward_per_aircraft for s in got]))
     finally:
         pool.shutdown()
+    if cfg.get("video"):
+        record_videos(out, env, actors, name, weights, explore, seeds[0], labels, results, cfg)
     with open(out / "episodes.csv", "w", newline="") as fh:
         wr = csv.writer(fh)
         wr.writerow(CSV_COLUMNS)
@@ -246,6 +248,34 @@ def run_evaluation(cfg: DictConfig, out_dir: str | Path) -> dict[str, Any]:
     log.info("%s on %s: risk ratio %s, LoWC ratio %s (evaluation.json in %s)", label, first.scenario,
              _ratio_text(rr), _ratio_text(policies[name]["lowc_ratio"]), out)
     return evaluation
+
+
+def record_videos(out: Path, env: EnvSpec, actors: dict[str, dict[str, Any]], name: str, weights: Any,
+                  explore: dict[str, Any], seed: int, labels: dict[str, str], results: dict[str, list[Any]],
+                  cfg: DictConfig) -> None:
+    """``video=true``: the first seed's episode of each policy beside the unequipped one (episode_video)."""
+    from rlbridge.experiment.episode_video import record_episode, write_comparison_video
+
+    dirs: dict[str, Path] = {}
+    for policy, spec in actors.items():
+        d = out / "episodes" / policy / f"seed-{seed:04d}"
+        stats = record_episode(env, policy, spec, weights if policy == name else None,
+                               explore if policy == name else {}, seed, d)
+        scored = next(s for s in results[policy] if s.seed == seed)
+        if (stats.nmac_events, stats.lowc_events) != (scored.nmac_events, scored.lowc_events):
+            raise RuntimeError(f"{policy}, seed {seed}: the recorded episode ({stats.nmac_events} NMAC, "
+                               f"{stats.lowc_events} LoWC) is not the one evaluated ({scored.nmac_events} NMAC, "
+                               f"{scored.lowc_events} LoWC)")
+        dirs[policy] = d
+    videos = out / "videos"
+    videos.mkdir(exist_ok=True)
+    for policy, d in dirs.items():
+        if policy == "unequipped":
+            continue
+        path = videos / f"{policy}_vs_unequipped_seed-{seed:04d}.mp4"
+        n = write_comparison_video(d, labels[policy], dirs["unequipped"], path, float(cfg.video_speed),
+                                   float(cfg.video_fps))
+        log.info("video: %s (%d frames)", path, n)
 
 
 def _ratio_text(r: dict[str, Any]) -> str:
