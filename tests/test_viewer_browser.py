@@ -127,6 +127,14 @@ def test_a_replay_shows_the_aircraft_of_the_moment_the_slider_picks(browser, tmp
             shown[t] = got
         assert len(shown[30.0]) == 2 and len(shown[300.0]) == 3
         assert shown[300.0]["U1"][0] > shown[30.0]["U1"][0] + 0.01  # U1 flew north-east in between
+        # hovering over U3 labels it (callsign, altitude 1,500 ft, route from flights.csv)
+        x, y = page.evaluate("() => { const s = window.viewerState, k = s.drawnIds.findIndex("
+                             "(i) => s.frame.ids[i] === 'U3'); return s.drawnXY[k]; }")
+        box = page.locator("#map").bounding_box()
+        page.mouse.move(box["x"] + x, box["y"] + y)
+        page.wait_for_selector("#tooltip:not([hidden])", timeout=5_000)
+        tip = page.text_content("#tooltip") or ""
+        assert tip.startswith("U3") and "alt 1500 ft" in tip, tip
         # the altitude filter hides U3 (1,500 ft) and keeps the two at 1,000 ft
         page.fill("#alt-max", "1200")
         page.wait_for_function("document.getElementById('map').dataset.aircraft === '2'", timeout=10_000)

@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 from aamsim import Simulation
+from aamsim.metrics import record_advisory
 from aamsim.viewer.frames import (
     STATUS_HOLDING,
     STATUS_LOWC,
@@ -149,3 +150,8 @@ def test_a_live_frame_shows_conflict_states_and_the_events_that_began():
     assert f.metrics["lowc"] == 1 and f.metrics["airborne"] == 2
     np.testing.assert_allclose(f.lat, sim.view.lat)
     assert frame_from_sim(sim, events_since=16.0).events == ()
+    assert f.advisories == {}
+    record_advisory(sim, "P2", "slow down")  # what a use case's action or a resolution service records
+    advised = frame_from_sim(sim)
+    assert advised.advisories == {"P2": "slow down at 16 s"}
+    assert advised.to_json()["advisories"] == {"P2": "slow down at 16 s"}

@@ -71,7 +71,9 @@ def record_advisory(sim: Simulation, acid: str, action: str) -> None:
         return
     i = sim.traffic.find(acid)
     if i is not None:
-        sim.traffic.flights[i].advisories += 1
+        flight = sim.traffic.flights[i]
+        flight.advisories += 1
+        flight.last_advisory = f"{action} at {sim.simt:.0f} s"
 
 
 def real_traffic_callsigns(sim: Simulation) -> frozenset[str]:

@@ -48,6 +48,7 @@ class FlightRecord:
     airborne_s: float = 0.0
     slow_s: float = 0.0
     advisories: int = 0
+    last_advisory: str = ""  # the latest advisory's action and sim time (what a viewer shows on hover)
     real_traffic: bool = False  # a replayed real aircraft (aamsim.realtraffic.replay), not an AAM flight
 
 

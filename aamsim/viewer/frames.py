@@ -70,6 +70,7 @@ class TrafficFrame:
     status: np.ndarray  # int8, STATUS_*
     events: tuple[ConflictEvent, ...] = ()
     metrics: dict[str, float] = field(default_factory=dict)
+    advisories: dict[str, str] = field(default_factory=dict)  # callsign -> latest advisory (live runs)
 
     def __len__(self) -> int:
         return len(self.ids)
@@ -88,6 +89,7 @@ class TrafficFrame:
             "events": [{"kind": e.kind, "t": round(e.t, 2), "ids": list(e.ids), "lat": round(e.lat, 5),
                         "lon": round(e.lon, 5)} for e in self.events],
             "metrics": {k: (round(v, 3) if isinstance(v, float) else v) for k, v in self.metrics.items()},
+            "advisories": self.advisories,
         }
 
 
@@ -228,7 +230,8 @@ def frame_from_sim(sim: Simulation, events_since: float | None = None) -> Traffi
         "completed": sum(1 for f in sim.flight_log if f.arrived),
         "holding": int(np.count_nonzero(status == STATUS_HOLDING)),
     }
-    return TrafficFrame(sim.simt, ids, lat, lon, alt, trk, tas, status, tuple(events), metrics)
+    advisories = {a: view.flight(i).last_advisory for i, a in enumerate(ids) if view.flight(i).last_advisory}
+    return TrafficFrame(sim.simt, ids, lat, lon, alt, trk, tas, status, tuple(events), metrics, advisories)
 
 
 # ---------------------------------------------------------------- replay: from a run directory

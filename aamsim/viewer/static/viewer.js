@@ -332,7 +332,8 @@ function hover(ev) {
   const route = (state.meta.routes_by_id || {})[id];
   tip.textContent = [id, `alt ${Math.round(f.alt[i] / FT)} ft (${Math.round(f.alt[i])} m)`,
     `TAS ${Math.round(f.tas[i] / KT)} kt, track ${Math.round(f.trk[i])}°`, `state ${names[f.status[i]]}`,
-    route ? `route ${route}` : null].filter(Boolean).join("\n");
+    route ? `route ${route}` : null, (f.advisories || {})[id] ? `advisory ${f.advisories[id]}` : null]
+    .filter(Boolean).join("\n");
   const r = canvas.getBoundingClientRect();
   tip.style.left = `${ev.clientX - r.left + 12}px`; tip.style.top = `${ev.clientY - r.top + 12}px`;
   tip.hidden = false;
