@@ -68,7 +68,8 @@ class NavDatabase:
         return bluesky_runways().get(airport, {}).get(runway.lstrip("Y"))
 
 
-def _navdata_dir() -> Path | None:
+def navdata_dir() -> Path | None:
+    """The navigation-data folder of an installed BlueSky (bluesky-simulator), or None."""
     spec = importlib.util.find_spec("bluesky")
     if spec is None or not spec.submodule_search_locations:
         return None
@@ -80,7 +81,7 @@ def _navdata_dir() -> Path | None:
 def bluesky_navdata() -> NamedPlaces:
     """Airports, navaids and fixes from an installed BlueSky (read once, never modified)."""
     places: NamedPlaces = {}
-    folder = _navdata_dir()
+    folder = navdata_dir()
     if folder is None:
         return places
 
@@ -124,7 +125,7 @@ def bluesky_navdata() -> NamedPlaces:
 @functools.lru_cache(maxsize=1)
 def bluesky_airports() -> frozenset[str]:
     """Codes of the airports in BlueSky's airports.dat."""
-    folder = _navdata_dir()
+    folder = navdata_dir()
     if folder is None or not (folder / "airports.dat").exists():
         return frozenset()
     codes = set()
@@ -144,7 +145,7 @@ def bluesky_runways() -> Runways:
     from this end to the other.
     """
     runways: Runways = {}
-    folder = _navdata_dir()
+    folder = navdata_dir()
     if folder is None or not (folder / "apt.zip").exists():
         return runways
     import zipfile

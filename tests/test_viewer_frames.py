@@ -155,3 +155,42 @@ def test_a_live_frame_shows_conflict_states_and_the_events_that_began():
     advised = frame_from_sim(sim)
     assert advised.advisories == {"P2": "slow down at 16 s"}
     assert advised.to_json()["advisories"] == {"P2": "slow down at 16 s"}
+
+
+def test_coastlines_are_read_from_bluesky_navdata_and_cut_to_the_map(tmp_path, monkeypatch):
+    import aamsim.viewer.coastline as coast
+
+    (tmp_path / "coastlines.dat").write_text(
+        "M 40.0 -74.5\nD 40.0 -74.2\nD 40.0 -74.0\nD 40.0 -73.0\nD 40.0 -72.0\n"  # crosses the map
+        "M 10.0 10.0\nD 10.5 10.5\n"                                             # far away
+        "M 40.05 -74.01\nbad line\nD 40.06 x\nD 40.07 -74.02\n")                # garbage lines skipped
+    monkeypatch.setattr(coast, "navdata_dir", lambda: tmp_path)
+    coast._all_lines.cache_clear()
+    try:
+        lines = coast.coastlines((39.9, 40.1, -74.1, -73.9), margin_deg=0.1)
+        # the crossing line keeps its points inside the widened box plus one on either side
+        np.testing.assert_array_equal(lines[0], [[40.0, -74.2], [40.0, -74.0], [40.0, -73.0]])
+        np.testing.assert_array_equal(lines[1], [[40.05, -74.01], [40.07, -74.02]])
+        assert len(lines) == 2
+        assert layout_from_scenario(SCENARIO).outline[0].shape == (3, 2)
+        assert layout_from_scenario(SCENARIO, coastline=False).outline == ()
+        monkeypatch.setattr(coast, "navdata_dir", lambda: None)  # no BlueSky installed: no coastline
+        coast._all_lines.cache_clear()
+        assert coast.coastlines((39.9, 40.1, -74.1, -73.9)) == ()
+    finally:
+        coast._all_lines.cache_clear()
+
+
+def test_the_new_york_map_has_bluesky_s_coastline_when_bluesky_is_installed():
+    pytest.importorskip("bluesky", reason="bluesky-simulator is not installed (the test extra installs it)")
+    from aamsim.scenarios import resolve_scenario
+
+    path = resolve_scenario("nyc_train_100.scn")
+    assert path is not None
+    layout = layout_from_scenario(path.read_text())
+    assert len(layout.outline) >= 3  # the coasts around the Hudson, the East River and the bay
+    lat0, lat1, lon0, lon1 = layout.bounds
+    for line in layout.outline:
+        inside = (line[:, 0] > lat0 - 0.1) & (line[:, 0] < lat1 + 0.1) & (line[:, 1] > lon0 - 0.1) & \
+            (line[:, 1] < lon1 + 0.1)
+        assert inside.any()  # every piece kept reaches into the map

@@ -23,6 +23,7 @@ from aamsim.viewer.frames import STATUS_COLOURS, MapLayout, TrafficFrame
 
 BACKGROUND = "#0b1622"
 ROUTE_COLOUR = "#2c4560"
+COAST_COLOUR = "#4b5a3c"  # olive grey: land and water, apart from the blue network
 TEXT_COLOUR = "#d6e2ee"
 TRAIL_FRAMES = 20  # frames of history kept per aircraft when frames are fed one by one
 FLASH_S = 30.0  # sim seconds an event ring stays on screen
@@ -61,7 +62,9 @@ class TrafficPainter:
         ax.set_xlim(cx - span * self.width / 2, cx + span * self.width / 2)
         ax.set_ylim(cy - span * self.height / 2, cy + span * self.height / 2)
         self.size = 9.0 * span  # an aircraft symbol is about 18 pixels long
-        for line in (*layout.outline, *layout.routes):
+        for line in layout.outline:
+            ax.plot(self._x(line[:, 1]), line[:, 0] - self.lat0, color=COAST_COLOUR, lw=1.0, zorder=1)
+        for line in layout.routes:
             ax.plot(self._x(line[:, 1]), line[:, 0] - self.lat0, color=ROUTE_COLOUR, lw=0.8, zorder=1)
         if layout.vertiports:
             _, vlat, vlon = zip(*layout.vertiports)

@@ -124,10 +124,12 @@ def _number(text: str) -> float | None:
 
 
 def layout_from_scenario(text: str, extra_lat: np.ndarray | None = None,
-                         extra_lon: np.ndarray | None = None) -> MapLayout:
+                         extra_lon: np.ndarray | None = None, coastline: bool = True) -> MapLayout:
     """The map of a scenario: vertiports and route legs (see the module docstring).
 
-    ``extra_lat``/``extra_lon`` (flown positions) widen the bounds beyond the network.
+    ``extra_lat``/``extra_lon`` (flown positions) widen the bounds beyond the network;
+    ``coastline``: BlueSky's coastlines within the bounds, when BlueSky is installed
+    (:mod:`aamsim.viewer.coastline`).
     """
     points: dict[str, tuple[float, float]] = {}
     ends: set[str] = set()
@@ -178,7 +180,13 @@ def layout_from_scenario(text: str, extra_lat: np.ndarray | None = None,
     if extra_lat is not None and extra_lon is not None and len(extra_lat):
         lats += [float(np.min(extra_lat)), float(np.max(extra_lat))]
         lons += [float(np.min(extra_lon)), float(np.max(extra_lon))]
-    return MapLayout(vertiports, route_lines, (), padded_bounds(lats, lons))
+    bounds = padded_bounds(lats, lons)
+    outline: tuple[np.ndarray, ...] = ()
+    if coastline:
+        from aamsim.viewer.coastline import coastlines
+
+        outline = coastlines(bounds)
+    return MapLayout(vertiports, route_lines, outline, bounds)
 
 
 def padded_bounds(lats: list[float], lons: list[float]) -> tuple[float, float, float, float]:

@@ -59,7 +59,7 @@ function drawMap() {
   const L = state.meta.layout;
   if (!L) return;
   ctx.lineWidth = 1;
-  ctx.strokeStyle = "#243a52";
+  ctx.strokeStyle = "#4b5a3c";  // coastline (BlueSky's, when installed): olive grey, apart from the network
   for (const line of L.outline) polyline(line);
   ctx.strokeStyle = "#2c4560";
   for (const line of L.routes) polyline(line);
