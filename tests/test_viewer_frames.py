@@ -194,3 +194,17 @@ def test_the_new_york_map_has_bluesky_s_coastline_when_bluesky_is_installed():
         inside = (line[:, 0] > lat0 - 0.1) & (line[:, 0] < lat1 + 0.1) & (line[:, 1] > lon0 - 0.1) & \
             (line[:, 1] < lon1 + 0.1)
         assert inside.any()  # every piece kept reaches into the map
+
+
+def test_a_run_in_which_no_aircraft_flew_replays_as_an_empty_map(tmp_path):
+    import warnings
+
+    (tmp_path / "trajectories.csv").write_text(TRAJ_HEADER)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # no "input contained no data" from numpy either
+        r = RunReplay(tmp_path)
+    assert (r.t_start, r.t_end, len(r.frame_at(10.0))) == (0.0, 0.0, 0)
+    from aamsim.render.video import write_run_video
+
+    with pytest.raises(ValueError, match="no trajectory samples"):
+        write_run_video(tmp_path, tmp_path / "v.mp4")

@@ -65,6 +65,9 @@ def write_runs_video(panels: list[tuple[str, str | Path]], out_path: str | Path,
     if not panels:
         raise ValueError("no run to draw")
     replays = [RunReplay(d) for _, d in panels]
+    for r in replays:
+        if not len(r.times):
+            raise ValueError(f"{r.run_dir}: no trajectory samples to draw (no aircraft flew)")
     times = frame_times(min(r.t_start for r in replays), max(r.t_end for r in replays), t_from, t_to, speed, fps)
     first = replays[0].layout()
     boxes = np.array([r.layout().bounds for r in replays])

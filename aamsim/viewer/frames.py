@@ -288,11 +288,20 @@ class RunReplay:
     def _read_trajectories(self, path: Path) -> None:
         with open(path, encoding="utf-8", errors="replace") as fh:
             header = fh.readline().strip().split(",")
+            empty = not fh.readline().strip()  # a run in which no aircraft ever flew
         missing = [c for c in ("id", *_TRAJ_COLUMNS) if c not in header]
         if missing:
             raise ReplayError(f"{path}: line 1: missing column(s) {', '.join(missing)} "
                               f"(an aamsim trajectories.csv has id,simt,lat,lon,alt_m,tas_mps,...,trk_deg)")
         cols = [header.index(c) for c in _TRAJ_COLUMNS]
+        if empty:
+            data, names = np.zeros((0, len(cols))), np.zeros(0, dtype=str)
+        else:
+            data, names = self._load(path, header, cols)
+        self._index(data, names)
+
+    @staticmethod
+    def _load(path: Path, header: list[str], cols: list[int]) -> tuple[np.ndarray, np.ndarray]:
         try:
             data = np.loadtxt(path, delimiter=",", skiprows=1, usecols=cols, dtype=np.float64, ndmin=2)
             names = np.loadtxt(path, delimiter=",", skiprows=1, usecols=header.index("id"), dtype=str, ndmin=1)
@@ -301,6 +310,9 @@ class RunReplay:
         if len(data) and not np.isfinite(data[:, 0]).all():
             bad = int(np.flatnonzero(~np.isfinite(data[:, 0]))[0]) + 2
             raise ReplayError(f"{path}: line {bad}: simt is not a number")
+        return data, names
+
+    def _index(self, data: np.ndarray, names: np.ndarray) -> None:
         order = np.argsort(data[:, 0], kind="stable")
         data, names = data[order], names[order]
         self.callsigns, self._code = np.unique(names, return_inverse=True)
