@@ -15,6 +15,7 @@ from pettingzoo.test import parallel_api_test
 
 import rlbridge
 from aamsim.viewer.frames import STATUS_COLOURS
+from rlbridge.usecases.registry import available
 
 SCENARIO = "nyc_train_100.scn"
 LIMIT = 120.0  # two minutes of the training scenario: a dozen decisions
@@ -112,4 +113,17 @@ def test_without_a_render_mode_render_returns_none():
     env = rlbridge.parallel_env(SCENARIO, time_limit_s=LIMIT)
     env.reset(seed=0)
     assert env.render() is None
+    env.close()
+
+
+@pytest.mark.parametrize("usecase", available())
+def test_every_use_case_renders_its_traffic(usecase):
+    env = rlbridge.parallel_env(SCENARIO, usecase=usecase, time_limit_s=300.0, render_mode="rgb_array",
+                                render_size=(200, 200))
+    env.reset(seed=1)
+    before = env.render()
+    env.step({a: env.action_space(a).sample() for a in env.agents})
+    after = env.render()
+    assert before.shape == after.shape == (200, 200, 3)
+    assert not np.array_equal(before, after)  # the traffic moved (or a flight was released)
     env.close()
