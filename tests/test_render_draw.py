@@ -42,3 +42,13 @@ def test_the_legend_names_every_state_in_its_colour():
 def test_scale_bar_lengths_are_round():
     assert [_round_length(x) for x in (0.7, 1.0, 1.9, 2.2, 4.99, 5.0, 13.0, 460.0)] == \
         [0.5, 1.0, 1.0, 2.0, 2.0, 5.0, 10.0, 200.0]
+
+
+def test_a_frame_drawn_over_the_kept_background_equals_a_fresh_drawing():
+    """Blitting: nothing of the previous frame is left behind."""
+    first, second = TrafficPainter(LAYOUT, 200, 200), TrafficPainter(LAYOUT, 200, 200)
+    first.paint(_frame(0.0, 40.70, STATUS_NMAC), trails={})
+    again = first.paint(_frame(10.0, 40.74), trails={})
+    fresh = second.paint(_frame(10.0, 40.74), trails={})
+    np.testing.assert_array_equal(again, fresh)
+    assert not np.array_equal(again, first.paint(_frame(20.0, 40.73), trails={}))

@@ -94,6 +94,12 @@ class TrafficPainter:
         self.title = title
         self._history: dict[str, deque[tuple[float, float, float]]] = {}  # callsign -> (t, lat, lon)
         self._rings: list[tuple[float, float, float, str]] = []  # t, x, y, kind
+        # The map, labels, legend and scale bar never change: they are rendered once into a background and
+        # each frame draws only these over a copy of it (blitting: 100 aircraft 41 -> 150 images/s).
+        self._moving = (self.trails, self.aircraft, self.rings, self.text)
+        for artist in self._moving:
+            artist.set_animated(True)
+        self._background: Any = None
 
     def _legend(self) -> None:
         """What the colours mean (lower right) and a kilometre scale bar (lower left): a video stands alone."""
@@ -172,7 +178,13 @@ class TrafficPainter:
             (f"{self.title}\n" if self.title else "")
             + f"t {_hhmmss(frame.simt)}  airborne {m.get('airborne', len(frame))}\n"
             + f"NMAC {m.get('nmac', '-')}  LoWC {m.get('lowc', '-')}  completed {m.get('completed', '-')}")
-        self.canvas.draw()
+        if self._background is None:
+            self.canvas.draw()  # animated artists are left out of a full draw
+            self._background = self.canvas.copy_from_bbox(self.fig.bbox)
+        else:
+            self.canvas.restore_region(self._background)
+        for artist in self._moving:
+            self.ax.draw_artist(artist)
         return np.asarray(self.canvas.buffer_rgba())[..., :3].copy()
 
     def pixel(self, lat: float, lon: float) -> tuple[int, int]:
