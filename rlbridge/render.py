@@ -49,13 +49,7 @@ class EnvRenderer:
         self._last_simt: float | None = None
 
     def frame(self) -> Any:
-        from aamsim.viewer.frames import (
-            DEFAULT_HOLD_SPEED_MPS,
-            STATUS_HOLDING,
-            STATUS_NORMAL,
-            TrafficFrame,
-            frame_from_sim,
-        )
+        from aamsim.viewer.frames import DEFAULT_HOLD_SPEED_MPS, TrafficFrame, airborne_status, frame_from_sim
 
         sim = getattr(self.core, "sim", None)
         if sim is not None:
@@ -63,11 +57,11 @@ class EnvRenderer:
         else:
             st = self.core.traffic_state()
             tas = np.asarray(st["tas"], dtype=np.float64)
-            status = np.where(tas < DEFAULT_HOLD_SPEED_MPS, STATUS_HOLDING, STATUS_NORMAL).astype(np.int8)
+            airborne, status = airborne_status(np.asarray(st["alt"], dtype=np.float64), tas, DEFAULT_HOLD_SPEED_MPS)
             frame = TrafficFrame(float(st["simt"]), tuple(st["ids"]), np.asarray(st["lat"], dtype=np.float64),
                                  np.asarray(st["lon"], dtype=np.float64), np.asarray(st["alt"], dtype=np.float64),
                                  np.asarray(st["trk"], dtype=np.float64), tas, status,
-                                 metrics={"airborne": len(st["ids"])})
+                                 metrics={"airborne": int(np.count_nonzero(airborne))})
         self._last_simt = frame.simt
         return frame
 
