@@ -231,3 +231,12 @@ def test_a_replayed_aircraft_on_the_ground_is_neither_airborne_nor_holding(tmp_p
     assert f.ids == ("G1", "H1")
     assert f.status.tolist() == [STATUS_NORMAL, STATUS_HOLDING]
     assert f.metrics["airborne"] == 1 and f.metrics["holding"] == 1
+
+
+def test_the_map_holds_where_aircraft_are_created_even_without_a_route():
+    # A scenario of headings only (no waypoints): the first picture, before any aircraft exists, must
+    # still frame the place where they will fly, not (0, 0).
+    text = "00:00:10.00>CRE A1 EC35 40.70 -74.00 90 1000 100\n00:00:20.00>CRE A2 EC35 40.72 -73.95 270 1000 100\n"
+    lat0, lat1, lon0, lon1 = layout_from_scenario(text, coastline=False).bounds
+    assert lat0 < 40.70 and 40.72 < lat1 and lon0 < -74.00 and -73.95 < lon1
+    assert lat1 - lat0 < 0.1 and lon1 - lon0 < 0.1

@@ -145,6 +145,7 @@ def layout_from_scenario(text: str, extra_lat: np.ndarray | None = None,
     ends: set[str] = set()
     routes: dict[str, list[tuple[float, float]]] = {}
     dests: dict[str, tuple[float, float]] = {}
+    created: list[tuple[float, float]] = []  # where aircraft appear: on the map even when they fly no route
     for raw in text.splitlines():
         line = raw.split("#", 1)[0].strip()
         if ">" in line:
@@ -162,6 +163,7 @@ def layout_from_scenario(text: str, extra_lat: np.ndarray | None = None,
             if lat is not None and lon is not None:
                 routes[acid] = [(lat, lon)]
                 dests.pop(acid, None)
+                created.append((lat, lon))
         elif cmd in ("ORIG", "DEST", "ADDWPT"):
             name = words[2].upper()
             pos = points.get(name)
@@ -187,6 +189,8 @@ def layout_from_scenario(text: str, extra_lat: np.ndarray | None = None,
     route_lines = tuple(np.array([[a1, o1], [a2, o2]]) for a1, o1, a2, o2 in sorted(legs))
     lats = [v[1] for v in vertiports] + [x for leg in legs for x in (leg[0], leg[2])]
     lons = [v[2] for v in vertiports] + [x for leg in legs for x in (leg[1], leg[3])]
+    lats += [p[0] for p in created]
+    lons += [p[1] for p in created]
     if extra_lat is not None and extra_lon is not None and len(extra_lat):
         lats += [float(np.min(extra_lat)), float(np.max(extra_lat))]
         lons += [float(np.min(extra_lon)), float(np.max(extra_lon))]
