@@ -52,3 +52,21 @@ def test_a_frame_drawn_over_the_kept_background_equals_a_fresh_drawing():
     fresh = second.paint(_frame(10.0, 40.74), trails={})
     np.testing.assert_array_equal(again, fresh)
     assert not np.array_equal(again, first.paint(_frame(20.0, 40.73), trails={}))
+
+
+def test_traffic_never_covers_the_legend_or_the_scale_bar():
+    painter = TrafficPainter(LAYOUT, 300, 300)
+    empty = painter.paint(TrafficFrame(0.0, (), *(np.empty(0),) * 5, np.empty(0, dtype=np.int8)))
+    legend = painter.ax.get_legend().get_window_extent(painter.canvas.get_renderer())
+    # an aircraft (in NMAC: red) right on the legend's middle
+    x, y = painter.ax.transData.inverted().transform(((legend.x0 + legend.x1) / 2, (legend.y0 + legend.y1) / 2))
+    lat, lon = y + painter.lat0, x / painter.cos0 + painter.lon0
+    one = np.array([1.0])
+    frame = TrafficFrame(1.0, ("A1",), np.array([lat]), np.array([lon]), one * 300, one * 0.0, one * 50,
+                         np.array([STATUS_NMAC], dtype=np.int8))
+    covered = painter.paint(frame)
+    rows = slice(300 - int(legend.y1) + 1, 300 - int(legend.y0) - 1)
+    cols = slice(int(legend.x0) + 1, int(legend.x1) - 1)
+    np.testing.assert_array_equal(covered[rows, cols], empty[rows, cols])
+    row, col = painter.pixel(lat, lon)
+    assert rows.start < row < rows.stop and cols.start < col < cols.stop  # it was drawn there, then covered
