@@ -19,6 +19,7 @@ coloured normal or holding only.
 from __future__ import annotations
 
 import sys
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -75,7 +76,9 @@ class EnvRenderer:
         if self._painter is None:
             from aamsim.render.draw import TrafficPainter
 
-            self._painter = TrafficPainter(self._layout(frame), *self.size)
+            path = getattr(self.core, "path", None)  # the local backend's scenario file: the picture's title
+            self._painter = TrafficPainter(self._layout(frame), *self.size,
+                                           title=Path(path).stem if path is not None else "")
         image: np.ndarray = self._painter.paint(frame)
         return image
 
