@@ -2,10 +2,9 @@
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import json
 import urllib.request
+from pathlib import Path
 
 import gymnasium
 import imageio.v3 as iio
