@@ -274,6 +274,45 @@ def run(scenario: str, until: str | None, out_dir: Path | None, dt: float, seed:
             live.close()
 
 
+def _write_video(run_dir: Path, video_path: Path, t_from: str | None, t_to: str | None, speed: float, fps: float,
+                 size: str) -> None:
+    """``aamsim video`` and ``aamsim view --video``: a run replayed into an MP4 or GIF (exit 2 with a message)."""
+    from aamsim.render.video import write_run_video
+    from aamsim.viewer.frames import ReplayError
+
+    try:
+        width, height = (int(x) for x in size.lower().split("x"))
+    except ValueError:
+        raise click.BadParameter(f"{size!r}: expected WIDTHxHEIGHT, e.g. 800x800", param_hint="--size") from None
+    try:
+        n = write_run_video(run_dir, video_path, t_from=_time_option(t_from), t_to=_time_option(t_to),
+                            speed=speed, fps=fps, width=width, height=height)
+    except (ReplayError, ValueError) as exc:
+        click.echo(f"error: {exc}", err=True)
+        sys.exit(2)
+    click.echo(f"{video_path}: {n} frames, {n / fps:.1f} s at {fps:g} frames/s ({speed:g}x)")
+
+
+@main.command()
+@click.argument("run_dir", type=click.Path(path_type=Path))
+@click.option("-o", "--output", "video_path", type=click.Path(dir_okay=False, path_type=Path), required=True,
+              help="MP4 or GIF to write (chosen by the suffix).")
+@click.option("--from", "t_from", default=None, help="First sim time (seconds or HH:MM:SS).")
+@click.option("--to", "t_to", default=None, help="Last sim time (seconds or HH:MM:SS).")
+@click.option("--speed", type=float, default=60.0, show_default=True, help="Sim seconds per second of video.")
+@click.option("--fps", type=float, default=10.0, show_default=True, help="Frames per second.")
+@click.option("--size", default="800x800", show_default=True, help="WIDTHxHEIGHT in pixels.")
+def video(run_dir: Path, video_path: Path, t_from: str | None, t_to: str | None, speed: float, fps: float,
+          size: str) -> None:
+    """Replay RUN_DIR (an aamsim run directory) into a video; the same as ``aamsim view RUN_DIR --video``.
+
+    Frame k shows sim time FROM + k * SPEED / FPS: the aircraft coloured by
+    state (normal, in LoWC, in NMAC, holding) with short trails, and rings
+    where NMAC/LoWC events begin.
+    """
+    _write_video(run_dir, video_path, t_from, t_to, speed, fps, size)
+
+
 @main.command()
 @click.argument("run_dir", type=click.Path(path_type=Path))
 @_viewer_options
@@ -296,19 +335,7 @@ def view(run_dir: Path, host: str, port: int, open_browser: bool, video_path: Pa
     from aamsim.viewer.server import serve_replay
 
     if video_path is not None:
-        from aamsim.render.video import write_run_video
-
-        try:
-            width, height = (int(x) for x in size.lower().split("x"))
-        except ValueError:
-            raise click.BadParameter(f"{size!r}: expected WIDTHxHEIGHT, e.g. 800x800", param_hint="--size") from None
-        try:
-            n = write_run_video(run_dir, video_path, t_from=_time_option(t_from), t_to=_time_option(t_to),
-                                speed=speed, fps=fps, width=width, height=height)
-        except (ReplayError, ValueError) as exc:
-            click.echo(f"error: {exc}", err=True)
-            sys.exit(2)
-        click.echo(f"{video_path}: {n} frames, {n / fps:.1f} s at {fps:g} frames/s ({speed:g}x)")
+        _write_video(run_dir, video_path, t_from, t_to, speed, fps, size)
         return
     if t_from is not None or t_to is not None:
         raise click.UsageError("--from and --to go with --video")

@@ -19,6 +19,7 @@ coloured normal or holding only.
 from __future__ import annotations
 
 import sys
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -49,13 +50,7 @@ class EnvRenderer:
         self._last_simt: float | None = None
 
     def frame(self) -> Any:
-        from aamsim.viewer.frames import (
-            DEFAULT_HOLD_SPEED_MPS,
-            STATUS_HOLDING,
-            STATUS_NORMAL,
-            TrafficFrame,
-            frame_from_sim,
-        )
+        from aamsim.viewer.frames import DEFAULT_HOLD_SPEED_MPS, TrafficFrame, airborne_status, frame_from_sim
 
         sim = getattr(self.core, "sim", None)
         if sim is not None:
@@ -63,11 +58,11 @@ class EnvRenderer:
         else:
             st = self.core.traffic_state()
             tas = np.asarray(st["tas"], dtype=np.float64)
-            status = np.where(tas < DEFAULT_HOLD_SPEED_MPS, STATUS_HOLDING, STATUS_NORMAL).astype(np.int8)
+            airborne, status = airborne_status(np.asarray(st["alt"], dtype=np.float64), tas, DEFAULT_HOLD_SPEED_MPS)
             frame = TrafficFrame(float(st["simt"]), tuple(st["ids"]), np.asarray(st["lat"], dtype=np.float64),
                                  np.asarray(st["lon"], dtype=np.float64), np.asarray(st["alt"], dtype=np.float64),
                                  np.asarray(st["trk"], dtype=np.float64), tas, status,
-                                 metrics={"airborne": len(st["ids"])})
+                                 metrics={"airborne": int(np.count_nonzero(airborne))})
         self._last_simt = frame.simt
         return frame
 
@@ -81,7 +76,9 @@ class EnvRenderer:
         if self._painter is None:
             from aamsim.render.draw import TrafficPainter
 
-            self._painter = TrafficPainter(self._layout(frame), *self.size)
+            path = getattr(self.core, "path", None)  # the local backend's scenario file: the picture's title
+            self._painter = TrafficPainter(self._layout(frame), *self.size,
+                                           title=Path(path).stem if path is not None else "")
         image: np.ndarray = self._painter.paint(frame)
         return image
 

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import urllib.request
+from pathlib import Path
 
 import gymnasium
 import imageio.v3 as iio
@@ -43,6 +44,7 @@ def test_rgb_array_draws_each_aircraft_in_its_state_colour_where_it_flies():
         # the triangle's body covers the aircraft's own position
         assert np.abs(patch - _rgb(STATUS_COLOURS[status])).sum(axis=1).min() < 40
     assert not np.array_equal(first, image)  # they moved
+    assert painter.text.get_text().splitlines()[0] == Path(SCENARIO).stem  # the picture names its scenario
     env.close()
 
 

@@ -73,6 +73,24 @@ def test_view_video_writes_the_frames_asked_for(train_run, tmp_path):
         assert bad.returncode == 2 and message in bad.stderr, (args, bad.stderr)
 
 
+def test_aamsim_video_writes_the_same_frames_as_view_video(train_run, tmp_path):
+    mp4, alias = tmp_path / "video.mp4", tmp_path / "view.mp4"
+    done = _aamsim("video", str(train_run), "-o", str(mp4), "--from", "00:01:40", "--to", "140", "--speed", "20",
+                   "--fps", "4", "--size", "240x200")
+    assert done.returncode == 0, done.stderr
+    assert "9 frames" in done.stdout  # 40 s at 20 sim-seconds per video second, 4 frames per second: 8 steps
+    frames = iio.imread(mp4)
+    assert frames.shape == (9, 200, 240, 3)
+    assert _aamsim("view", str(train_run), "--video", str(alias), "--from", "100", "--to", "140", "--speed", "20",
+                   "--fps", "4", "--size", "240x200").returncode == 0
+    np.testing.assert_array_equal(iio.imread(alias), frames)  # one writer behind both commands
+    assert not np.array_equal(frames[0], frames[-1])  # the aircraft moved
+    missing = _aamsim("video", str(train_run))
+    assert missing.returncode == 2 and "Missing option '-o'" in missing.stderr
+    bad = _aamsim("video", str(train_run), "-o", str(tmp_path / "x.mkv"))
+    assert bad.returncode == 2 and "must end in .mp4 or .gif" in bad.stderr
+
+
 def test_frame_times_step_by_speed_over_fps():
     np.testing.assert_allclose(frame_times(0.0, 100.0, 10.0, 20.0, 20.0, 4.0), [10, 15, 20])
     np.testing.assert_allclose(frame_times(5.0, 7.0, None, None, 1.0, 1.0), [5, 6, 7])

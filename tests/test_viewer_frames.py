@@ -208,3 +208,35 @@ def test_a_run_in_which_no_aircraft_flew_replays_as_an_empty_map(tmp_path):
 
     with pytest.raises(ValueError, match="no trajectory samples"):
         write_run_video(tmp_path, tmp_path / "v.mp4")
+
+
+def test_an_aircraft_on_the_ground_is_neither_airborne_nor_holding():
+    sim = Simulation(seed=1)
+    sim.require_services()
+    sim.stack("CRE G1 EC35 40.0 -74.0 90 0 0")  # parked on the ground
+    sim.stack("CRE H1 EC35 40.1 -74.0 90 500 0")  # hovering at 500 ft
+    sim.stack("CRE F1 EC35 40.2 -74.0 90 500 60")  # flying at 60 kt
+    sim.run_until(5.0)
+    f = frame_from_sim(sim)
+    assert f.ids == ("G1", "H1", "F1")
+    assert f.status.tolist() == [STATUS_NORMAL, STATUS_HOLDING, STATUS_NORMAL]
+    assert f.metrics["airborne"] == 2 and f.metrics["holding"] == 1
+
+
+def test_a_replayed_aircraft_on_the_ground_is_neither_airborne_nor_holding(tmp_path):
+    rows = ["G1,10.00,40.0,-74.0,0.0,0.0,0.0,0.0,90.0,0.0",  # on the ground, standing
+            "H1,10.00,40.1,-74.0,150.0,0.5,0.5,0.5,90.0,0.0"]  # hovering at 150 m
+    (tmp_path / "trajectories.csv").write_text(TRAJ_HEADER + "\n".join(rows) + "\n")
+    f = RunReplay(tmp_path).frame_at(10.0)
+    assert f.ids == ("G1", "H1")
+    assert f.status.tolist() == [STATUS_NORMAL, STATUS_HOLDING]
+    assert f.metrics["airborne"] == 1 and f.metrics["holding"] == 1
+
+
+def test_the_map_holds_where_aircraft_are_created_even_without_a_route():
+    # A scenario of headings only (no waypoints): the first picture, before any aircraft exists, must
+    # still frame the place where they will fly, not (0, 0).
+    text = "00:00:10.00>CRE A1 EC35 40.70 -74.00 90 1000 100\n00:00:20.00>CRE A2 EC35 40.72 -73.95 270 1000 100\n"
+    lat0, lat1, lon0, lon1 = layout_from_scenario(text, coastline=False).bounds
+    assert lat0 < 40.70 and 40.72 < lat1 and lon0 < -74.00 and -73.95 < lon1
+    assert lat1 - lat0 < 0.1 and lon1 - lon0 < 0.1

@@ -19,14 +19,24 @@ from typing import Any
 
 import numpy as np
 
-from aamsim.viewer.frames import STATUS_COLOURS, MapLayout, TrafficFrame
+from aamsim.viewer.frames import STATUS_COLOURS, STATUS_NAMES, MapLayout, TrafficFrame
 
 BACKGROUND = "#0b1622"
 ROUTE_COLOUR = "#2c4560"
 COAST_COLOUR = "#4b5a3c"  # olive grey: land and water, apart from the blue network
 TEXT_COLOUR = "#d6e2ee"
-TRAIL_FRAMES = 20  # frames of history kept per aircraft when frames are fed one by one
+TRAIL_FRAMES = 20  # at most this many positions per trail when frames are fed one by one
+TRAIL_S = 60.0  # and none older than this [s of sim time]: short trails whatever the time between frames
 FLASH_S = 30.0  # sim seconds an event ring stays on screen
+
+
+_LEGEND_NAMES = {"lowc": "in LoWC", "nmac": "in NMAC"}
+
+
+def _round_length(km: float) -> float:
+    """The largest 1, 2 or 5 times a power of ten not above ``km`` (a scale bar's length)."""
+    p = 10.0 ** math.floor(math.log10(max(km, 1e-3)))
+    return max(m * p for m in (1.0, 2.0, 5.0) if m * p <= max(km, p))
 
 
 def _hhmmss(t: float) -> str:
@@ -79,10 +89,44 @@ class TrafficPainter:
         ax.add_collection(self.trails)
         ax.add_collection(self.aircraft)
         self.text = ax.text(0.015, 0.985, "", transform=ax.transAxes, va="top", ha="left", fontsize=9,
-                            color=TEXT_COLOUR, family="monospace", zorder=6)
+                            color=TEXT_COLOUR, family="monospace", zorder=6,
+                            bbox={"boxstyle": "round,pad=0.3", "facecolor": BACKGROUND, "alpha": 0.75, "lw": 0})
+        keys = self._legend()
         self.title = title
-        self._history: dict[str, deque[tuple[float, float]]] = {}
+        self._history: dict[str, deque[tuple[float, float, float]]] = {}  # callsign -> (t, lat, lon)
         self._rings: list[tuple[float, float, float, str]] = []  # t, x, y, kind
+        # The map, its labels, the legend and the scale bar never change: they are rendered once into a
+        # background and each frame draws only the traffic over a copy of it (blitting: 100 aircraft 41 -> 136
+        # images/s). The legend's and scale bar's pixels are then copied back over the traffic, and the text
+        # line drawn last, so they stay legible over dense traffic.
+        self._keys = keys
+        self._moving = (self.trails, self.aircraft, self.rings)
+        for artist in (*self._moving, self.text):
+            artist.set_animated(True)
+        self._background: Any = None
+        self._key_boxes: list[tuple[int, int, int, int]] = []  # (x0, y0, x1, y1) pixels, origin top left
+
+    def _legend(self) -> tuple[Any, ...]:
+        """What the colours mean (lower right) and a kilometre scale bar (lower left): a video stands alone.
+
+        Returns their artists."""
+        from matplotlib.lines import Line2D
+
+        handles = [Line2D([], [], marker="^", ls="", color=c, markersize=7, label=_LEGEND_NAMES.get(n, n))
+                   for c, n in zip(STATUS_COLOURS, STATUS_NAMES)]
+        legend = self.ax.legend(handles=handles, loc="lower right", fontsize=7.5, facecolor=BACKGROUND,
+                                edgecolor=ROUTE_COLOUR, labelcolor=TEXT_COLOUR, framealpha=0.85, handletextpad=0.3)
+        legend.set_zorder(6)
+        x0, x1 = self.ax.get_xlim()
+        y0, y1 = self.ax.get_ylim()
+        km_per_unit = 111.32  # projected units are degrees of latitude
+        km = _round_length(0.2 * (x1 - x0) * km_per_unit)
+        x, y = x0 + 0.03 * (x1 - x0), y0 + 0.035 * (y1 - y0)
+        (bar,) = self.ax.plot([x, x + km / km_per_unit], [y, y], color=TEXT_COLOUR, lw=2.0, zorder=6,
+                              solid_capstyle="butt")
+        label = self.ax.annotate(f"{km:g} km", (x + 0.5 * km / km_per_unit, y), xytext=(0, 4),
+                                 textcoords="offset points", ha="center", fontsize=7.5, color=TEXT_COLOUR, zorder=6)
+        return legend, bar, label
 
     def _x(self, lon: Any) -> Any:
         """Projected x of longitudes (an array or one number); y is latitude minus the central latitude."""
@@ -111,9 +155,15 @@ class TrafficPainter:
             alive = set(frame.ids)
             for gone in [k for k in self._history if k not in alive]:
                 del self._history[gone]
+            oldest = frame.simt - TRAIL_S
             for acid, la, lo in zip(frame.ids, frame.lat.tolist(), frame.lon.tolist()):
-                self._history.setdefault(acid, deque(maxlen=TRAIL_FRAMES)).append((la, lo))
-            trails = {k: np.array(v) for k, v in self._history.items()}
+                h = self._history.setdefault(acid, deque(maxlen=TRAIL_FRAMES))
+                if h and h[-1][0] > frame.simt:  # time went back (a new episode): start the trail afresh
+                    h.clear()
+                h.append((frame.simt, la, lo))
+                while h[0][0] < oldest:
+                    h.popleft()
+            trails = {k: np.array(v)[:, 1:] for k, v in self._history.items()}
         colour_of = dict(zip(frame.ids, colours.tolist()))
         segs = [np.column_stack([self._x(p[:, 1]), p[:, 0] - self.lat0]) for p in trails.values() if len(p) > 1]
         self.trails.set_segments(segs)
@@ -136,8 +186,26 @@ class TrafficPainter:
             (f"{self.title}\n" if self.title else "")
             + f"t {_hhmmss(frame.simt)}  airborne {m.get('airborne', len(frame))}\n"
             + f"NMAC {m.get('nmac', '-')}  LoWC {m.get('lowc', '-')}  completed {m.get('completed', '-')}")
-        self.canvas.draw()
+        if self._background is None:
+            self.canvas.draw()  # animated artists are left out of a full draw
+            self._background = self.canvas.copy_from_bbox(self.fig.bbox)
+            self._key_boxes = [self._pixel_box(a) for a in self._keys]
+        else:
+            self.canvas.restore_region(self._background)
+        for artist in self._moving:
+            self.ax.draw_artist(artist)
+        for x0, y0, x1, y1 in self._key_boxes:
+            # Agg reads the box with its origin top left and ``xy`` as an offset from it (measured).
+            self.canvas.restore_region(self._background, bbox=(x0, y0, x1, y1), xy=(0, 0))
+        self.ax.draw_artist(self.text)
         return np.asarray(self.canvas.buffer_rgba())[..., :3].copy()
+
+    def _pixel_box(self, artist: Any, pad: int = 2) -> tuple[int, int, int, int]:
+        """An artist's pixels as (x0, y0, x1, y1), origin top left (the Agg buffer's), padded, in the image."""
+        ext = artist.get_window_extent(self.canvas.get_renderer())
+        x0, x1 = max(0, int(ext.x0) - pad), min(self.width, math.ceil(ext.x1) + pad)
+        y0, y1 = max(0, self.height - math.ceil(ext.y1) - pad), min(self.height, self.height - int(ext.y0) + pad)
+        return x0, y0, x1, y1
 
     def pixel(self, lat: float, lon: float) -> tuple[int, int]:
         """Image (row, column) of a position: where a test looks for an aircraft's colour."""

@@ -39,6 +39,16 @@ STATUS_COLOURS = ("#4fa3e0", "#f39c12", "#e8253a", "#b07cdb")
 
 EARTH_RADIUS_M = 6_371_000.0
 DEFAULT_HOLD_SPEED_MPS = 5.0 * 1852.0 / 3600.0  # aamsim's default holding-speed threshold (5 kt)
+DEFAULT_AIRBORNE_ALT_M = 10.0 * 0.3048  # aamsim's default: above 10 ft an aircraft is airborne
+
+
+def airborne_status(alt: np.ndarray, tas: np.ndarray, hold_speed_mps: float,
+                    airborne_alt_m: float = DEFAULT_AIRBORNE_ALT_M) -> tuple[np.ndarray, np.ndarray]:
+    """Per aircraft: airborne (above ``airborne_alt_m``), and the status normal or holding (airborne below
+    the holding speed, as the holding metric counts it: an aircraft on the ground is not holding)."""
+    airborne = np.asarray(alt) > airborne_alt_m
+    holding = airborne & (np.asarray(tas) < hold_speed_mps)
+    return airborne, np.where(holding, STATUS_HOLDING, STATUS_NORMAL).astype(np.int8)
 
 
 class ReplayError(ValueError):
@@ -135,6 +145,7 @@ def layout_from_scenario(text: str, extra_lat: np.ndarray | None = None,
     ends: set[str] = set()
     routes: dict[str, list[tuple[float, float]]] = {}
     dests: dict[str, tuple[float, float]] = {}
+    created: list[tuple[float, float]] = []  # where aircraft appear: on the map even when they fly no route
     for raw in text.splitlines():
         line = raw.split("#", 1)[0].strip()
         if ">" in line:
@@ -152,6 +163,7 @@ def layout_from_scenario(text: str, extra_lat: np.ndarray | None = None,
             if lat is not None and lon is not None:
                 routes[acid] = [(lat, lon)]
                 dests.pop(acid, None)
+                created.append((lat, lon))
         elif cmd in ("ORIG", "DEST", "ADDWPT"):
             name = words[2].upper()
             pos = points.get(name)
@@ -177,6 +189,8 @@ def layout_from_scenario(text: str, extra_lat: np.ndarray | None = None,
     route_lines = tuple(np.array([[a1, o1], [a2, o2]]) for a1, o1, a2, o2 in sorted(legs))
     lats = [v[1] for v in vertiports] + [x for leg in legs for x in (leg[0], leg[2])]
     lons = [v[2] for v in vertiports] + [x for leg in legs for x in (leg[1], leg[3])]
+    lats += [p[0] for p in created]
+    lons += [p[1] for p in created]
     if extra_lat is not None and extra_lon is not None and len(extra_lat):
         lats += [float(np.min(extra_lat)), float(np.max(extra_lat))]
         lons += [float(np.min(extra_lon)), float(np.max(extra_lon))]
@@ -214,7 +228,8 @@ def frame_from_sim(sim: Simulation, events_since: float | None = None) -> Traffi
     lat, lon, alt = (np.array(x, dtype=np.float64) for x in (view.lat, view.lon, view.alt))
     trk, tas = np.array(view.trk, dtype=np.float64), np.array(view.tas, dtype=np.float64)
     hold = float(getattr(sim.settings, "hold_speed_mps", DEFAULT_HOLD_SPEED_MPS))
-    status = np.where(tas < hold, STATUS_HOLDING, STATUS_NORMAL).astype(np.int8)
+    airborne, status = airborne_status(alt, tas, hold,
+                                       float(getattr(sim.settings, "airborne_alt_m", DEFAULT_AIRBORNE_ALT_M)))
     service = conflicts_of(sim)  # type: ignore[arg-type]
     slot = {a: i for i, a in enumerate(ids)}
     for volume, code in (("lowc", STATUS_LOWC), ("nmac", STATUS_NMAC)):
@@ -232,7 +247,7 @@ def frame_from_sim(sim: Simulation, events_since: float | None = None) -> Traffi
                 events.append(ConflictEvent(volume, ev.start_s, (ev.ac1, ev.ac2),
                                             float(np.mean([p[0] for p in pos])), float(np.mean([p[1] for p in pos]))))
     metrics: dict[str, float] = {
-        "airborne": len(ids),
+        "airborne": int(np.count_nonzero(airborne)),
         "nmac": service.count("nmac"),
         "lowc": service.count("lowc"),
         "completed": sum(1 for f in sim.flight_log if f.arrived),
@@ -416,7 +431,7 @@ class RunReplay:
             lat += np.degrees(dist * np.cos(rad) / EARTH_RADIUS_M)
             lon += np.degrees(dist * np.sin(rad) / (EARTH_RADIUS_M * np.cos(np.radians(lat))))
         tas = self._tas[lo:hi]
-        status = np.where(tas < self.hold_speed_mps, STATUS_HOLDING, STATUS_NORMAL).astype(np.int8)
+        airborne, status = airborne_status(self._alt[lo:hi], tas, self.hold_speed_mps)
         live = (self._ev_start <= t) & (t <= self._ev_end)
         for code in (STATUS_LOWC, STATUS_NMAC):  # NMAC last: it wins over LoWC
             sel = live & (self._ev_kind == code)
@@ -433,7 +448,7 @@ class RunReplay:
         started = int(np.searchsorted(self._ev_start, t, side="right"))
         kinds = self._ev_kind[:started]
         metrics: dict[str, float] = {
-            "airborne": hi - lo,
+            "airborne": int(np.count_nonzero(airborne)),
             "nmac": int(np.count_nonzero(kinds == STATUS_NMAC)),
             "lowc": int(np.count_nonzero(kinds == STATUS_LOWC)),
             "completed": int(np.searchsorted(self._arrivals, t, side="right")),
