@@ -28,6 +28,8 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from aamsim.settings import SimSettings
+
 if TYPE_CHECKING:
     from aamsim.simulation import Simulation
 
@@ -38,8 +40,8 @@ STATUS_NAMES = ("normal", "lowc", "nmac", "holding")
 STATUS_COLOURS = ("#4fa3e0", "#f39c12", "#e8253a", "#b07cdb")
 
 EARTH_RADIUS_M = 6_371_000.0
-DEFAULT_HOLD_SPEED_MPS = 5.0 * 1852.0 / 3600.0  # aamsim's default holding-speed threshold (5 kt)
-DEFAULT_AIRBORNE_ALT_M = 10.0 * 0.3048  # aamsim's default: above 10 ft an aircraft is airborne
+DEFAULT_HOLD_SPEED_MPS = SimSettings.hold_speed_mps  # the default holding-speed threshold (5 kt)
+DEFAULT_AIRBORNE_ALT_M = SimSettings.airborne_alt_m  # the default: above 10 ft an aircraft is airborne
 
 
 def airborne_status(alt: np.ndarray, tas: np.ndarray, hold_speed_mps: float,
@@ -227,9 +229,7 @@ def frame_from_sim(sim: Simulation, events_since: float | None = None) -> Traffi
     ids = tuple(view.ids)
     lat, lon, alt = (np.array(x, dtype=np.float64) for x in (view.lat, view.lon, view.alt))
     trk, tas = np.array(view.trk, dtype=np.float64), np.array(view.tas, dtype=np.float64)
-    hold = float(getattr(sim.settings, "hold_speed_mps", DEFAULT_HOLD_SPEED_MPS))
-    airborne, status = airborne_status(alt, tas, hold,
-                                       float(getattr(sim.settings, "airborne_alt_m", DEFAULT_AIRBORNE_ALT_M)))
+    airborne, status = airborne_status(alt, tas, sim.settings.hold_speed_mps, sim.settings.airborne_alt_m)
     service = conflicts_of(sim)  # type: ignore[arg-type]
     slot = {a: i for i, a in enumerate(ids)}
     for volume, code in (("lowc", STATUS_LOWC), ("nmac", STATUS_NMAC)):
@@ -253,7 +253,8 @@ def frame_from_sim(sim: Simulation, events_since: float | None = None) -> Traffi
         "completed": sum(1 for f in sim.flight_log if f.arrived),
         "holding": int(np.count_nonzero(status == STATUS_HOLDING)),
     }
-    advisories = {a: view.flight(i).last_advisory for i, a in enumerate(ids) if view.flight(i).last_advisory}
+    flights = (view.flight(i) for i in range(len(ids)))
+    advisories = {a: f.last_advisory for a, f in zip(ids, flights) if f.last_advisory}
     return TrafficFrame(sim.simt, ids, lat, lon, alt, trk, tas, status, tuple(events), metrics, advisories)
 
 
