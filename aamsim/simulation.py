@@ -370,7 +370,8 @@ class Simulation(SimulationAPI):
         hooks.post_step.call_due(clock.simt_us, clock.dt_us, self)
         self._run_due_commands()
         if clock.simt_us >= scheduler.next_perf_us and scheduler.performance_due(self.settings.perf_interval_s):
-            intents.restore_type_acceleration(self.traffic)
+            # Fixed-wing limits follow the aircraft's state: the next refresh changes them again.
+            scheduler.perf_pending = intents.refresh_performance(self.traffic)
         hooks.pre_step.call_due(clock.simt_us, clock.dt_us, self)
 
     def _advance_steps(self, nsteps: int) -> None:

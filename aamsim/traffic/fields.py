@@ -101,6 +101,28 @@ FLOAT_FIELDS = (
     "c_q0",  # deg, anchor bearing of the guidance's bearing update (see kernel)
     "c_q0cos",
     "c_q0sin",
+    # --- fixed-wing thrust and drag model (BlueSky's OpenAP; NaN for other types) -----
+    # Read once per performance refresh, not per step: kept after the rows the kernel
+    # reads every step so that those stay packed in the same cache lines.
+    "takeoff_tas",  # m/s: on the ground (phase GD) below this TAS the aircraft does not climb (NaN: no gate)
+    "phase",  # BlueSky's OpenAP flight phase (aamsim.traffic.openap.PHASE_*), set at each refresh
+    "fw_mass",  # kg
+    "fw_wing_area",  # m^2
+    "fw_max_thrust",  # N, static maximum thrust of all engines
+    "fw_bypass_ratio",  # -
+    "fw_cd0_clean",
+    "fw_k_clean",
+    "fw_cd0_takeoff",
+    "fw_k_takeoff",
+    "fw_cd0_landing",
+    "fw_k_landing",
+    "fw_cd0_gear",
+    "fw_vminto",  # m/s, take-off speed (TAS gate of the ground phase)
+    "fw_vmaxic",  # CAS m/s, initial climb (and ground) maximum
+    "fw_vminer",  # CAS m/s, en-route range
+    "fw_vmaxer",
+    "fw_vminap",  # CAS m/s, approach range
+    "fw_vmaxap",
 )
 
 BOOL_FIELDS = (
@@ -223,6 +245,25 @@ C_COSLA0 = _row("c_cosla0")
 C_Q0 = _row("c_q0")
 C_Q0COS = _row("c_q0cos")
 C_Q0SIN = _row("c_q0sin")
+TAKEOFF_TAS = _row("takeoff_tas")
+PHASE = _row("phase")
+FW_MASS = _row("fw_mass")
+FW_WING_AREA = _row("fw_wing_area")
+FW_MAX_THRUST = _row("fw_max_thrust")
+FW_BYPASS_RATIO = _row("fw_bypass_ratio")
+FW_CD0_CLEAN = _row("fw_cd0_clean")
+FW_K_CLEAN = _row("fw_k_clean")
+FW_CD0_TAKEOFF = _row("fw_cd0_takeoff")
+FW_K_TAKEOFF = _row("fw_k_takeoff")
+FW_CD0_LANDING = _row("fw_cd0_landing")
+FW_K_LANDING = _row("fw_k_landing")
+FW_CD0_GEAR = _row("fw_cd0_gear")
+FW_VMINTO = _row("fw_vminto")
+FW_VMAXIC = _row("fw_vmaxic")
+FW_VMINER = _row("fw_vminer")
+FW_VMAXER = _row("fw_vmaxer")
+FW_VMINAP = _row("fw_vminap")
+FW_VMAXAP = _row("fw_vmaxap")
 
 B_SWLNAV = _flag("swlnav")
 B_SWVNAV = _flag("swvnav")

@@ -15,6 +15,7 @@ import numpy as np
 
 from aamsim import aero
 from aamsim.traffic import fields as f
+from aamsim.traffic import openap
 from aamsim.traffic.autopilot import activate_waypoint, compute_vnav, nearest_active_index
 from aamsim.traffic.traffic import Traffic
 from aamsim.traffic.wind import APPLY_ABOVE_M, WindField
@@ -162,10 +163,18 @@ def engage_vnav(traffic: Traffic, slot: int) -> None:
     traffic.F[f.WP_NEXTALTCO, slot] = wp.toalt
 
 
-def restore_type_acceleration(traffic: Traffic) -> None:
-    """Every aircraft's acceleration limit back to its type's (the performance refresh)."""
+def refresh_performance(traffic: Traffic) -> bool:
+    """The performance refresh: limits that follow the aircraft's state, as BlueSky's timer sets them.
+
+    Every aircraft gets its type's acceleration limit, and fixed-wing aircraft
+    of BlueSky's OpenAP types then their phase, speed range and thrust-limited
+    acceleration (:func:`aamsim.traffic.openap.refresh`). Returns whether any
+    aircraft's limits depend on its state, so that the next refresh changes
+    them again.
+    """
     n = traffic.n
     traffic.F[f.AXMAX, :n] = traffic.F[f.AXMAX_TYPE, :n]
+    return openap.refresh(traffic.F, n)
 
 
 # State another simulator owns (the BlueSky backend overwrites aamsim's with BlueSky's).

@@ -105,6 +105,7 @@ from aamsim.traffic.fields import (
     SELSPD,
     SELVS,
     SLOW_S,
+    TAKEOFF_TAS,
     TAS,
     TRK,
     TURNPHI,
@@ -400,6 +401,8 @@ def _step_aircraft(
             des_tas = F[MMO, i] * a_h
         if des_vs > F[VSMAX, i]:
             des_vs = (1.0 - F[AX, i] / axmax) * F[VSMAX, i]
+        if tas < F[TAKEOFF_TAS, i]:  # on the ground below take-off speed (NaN: no gate)
+            des_vs = 0.0
 
     # -------------------------------------------------------------- kinematics
     dspd = des_tas - tas

@@ -60,6 +60,28 @@ _FINITE = slice(f.LAT, f.VS + 1)
 _FINITE_NAMES = f.FLOAT_FIELDS[f.LAT : f.VS + 1]
 
 
+# Rows of the fixed-wing model and the envelope fields they are copied from (see aamsim.traffic.openap).
+_OPENAP_ROWS = (
+    (f.FW_MASS, "mass_kg"), (f.FW_WING_AREA, "wing_area_m2"), (f.FW_MAX_THRUST, "max_thrust_n"),
+    (f.FW_BYPASS_RATIO, "bypass_ratio"), (f.FW_CD0_CLEAN, "cd0_clean"), (f.FW_K_CLEAN, "k_clean"),
+    (f.FW_CD0_TAKEOFF, "cd0_takeoff"), (f.FW_K_TAKEOFF, "k_takeoff"), (f.FW_CD0_LANDING, "cd0_landing"),
+    (f.FW_K_LANDING, "k_landing"), (f.FW_CD0_GEAR, "cd0_gear"), (f.FW_VMINTO, "vminto_mps"),
+    (f.FW_VMAXIC, "vmaxic_mps"), (f.FW_VMINAP, "vminap_mps"), (f.FW_VMAXAP, "vmaxap_mps"),
+)
+
+
+def _set_openap_rows(F: np.ndarray, i: int, envelope: Envelope) -> None:
+    """The fixed-wing model's coefficients of slot ``i`` (NaN when the type has none)."""
+    coefficients = envelope.openap
+    for row, name in _OPENAP_ROWS:
+        F[row, i] = math.nan if coefficients is None else getattr(coefficients, name)
+    # The en-route range is the envelope's (what the aircraft is created with).
+    F[f.FW_VMINER, i] = math.nan if coefficients is None else envelope.vmin_mps
+    F[f.FW_VMAXER, i] = math.nan if coefficients is None else envelope.vmax_mps
+    F[f.PHASE, i] = 0.0  # unknown until the first refresh
+    F[f.TAKEOFF_TAS, i] = math.nan
+
+
 @dataclass
 class Traffic:
     """All aircraft of one simulation."""
@@ -209,6 +231,7 @@ class Traffic:
         F[f.AXMAX, i] = PERF_DEFAULT_AXMAX if envelope.rotor else envelope.axmax_mps2
         F[f.MMO, i] = envelope.mmo
         B[f.B_ROTOR, i] = envelope.rotor
+        _set_openap_rows(F, i, envelope)
         # No active leg yet.
         for row in (f.WP_NEXTALTCO, f.WP_NEXTSPD, f.WP_SPD, f.WP_SPDCON, f.WP_NEXTQDR, f.WP_CURLEGDIR,
                     f.WP_TURNSPD, f.WP_OLDTURNSPD, f.WP_NEXTTURNSPD, f.WP_NEXTTURNRAD, f.CRUISESPD):
