@@ -43,8 +43,7 @@ ROOT = Path(__file__).resolve().parent.parent
     (35000.0, 2000.0, openap.PHASE_CL),
 ])
 def test_flight_phase_rules(alt_ft, roc_fpm, phase):
-    got = openap.flight_phase(np.array([roc_fpm * FPM]), np.array([alt_ft * FT]))
-    assert got.tolist() == [phase]
+    assert openap.flight_phase(roc_fpm * FPM, alt_ft * FT) == phase
 
 
 def _aircraft(actype: str, alt_ft: float, spd_kts: float) -> tuple[Simulation, int]:
@@ -144,18 +143,56 @@ bluesky_thrust = pytest.importorskip("bluesky.traffic.performance.openap.thrust"
 bluesky_phase = pytest.importorskip("bluesky.traffic.performance.openap.phase")
 
 
+@pytest.fixture(scope="module")
+def bluesky_coefficients():
+    from bluesky.traffic.performance.openap.coeff import Coefficient
+
+    return Coefficient()
+
+
+_ONE_AIRCRAFT: dict[str, Simulation] = {}  # one simulation per type, its state set by each example
+
+
 @pytest.mark.bluesky
 @settings(max_examples=300, deadline=None)
-@given(alt=st.floats(0.0, 13000.0), tas=st.floats(0.0, 300.0), vs=st.floats(-30.0, 30.0),
-       thrust=st.floats(20_000.0, 1_000_000.0), bpr=st.floats(0.0, 12.0))
-def test_phase_and_thrust_agree_with_bluesky(alt, tas, vs, thrust, bpr):
+@given(actype=st.sampled_from(["A320", "B744", "E145", "A388", "GLF6"]), alt=st.floats(0.0, 13000.0),
+       tas=st.floats(0.0, 300.0), vs=st.floats(-30.0, 30.0))
+def test_refresh_agrees_with_bluesky(bluesky_coefficients, actype, alt, tas, vs):
+    """One refresh of aamsim's model against BlueSky's phase, drag and thrust formulas."""
+    from bluesky.tools import aero as bluesky_aero
+
+    if actype not in _ONE_AIRCRAFT:
+        _ONE_AIRCRAFT[actype] = Simulation(seed=0)
+        _ONE_AIRCRAFT[actype].stack(f"CRE X {actype} 52 4 90 1000 250")
+    F = _ONE_AIRCRAFT[actype].traffic.F
+    F[f.ALT, 0], F[f.TAS, 0], F[f.VS, 0] = alt, tas, vs
+    assert openap.refresh(F, 1)
+
     a, v, w = np.array([alt]), np.array([tas]), np.array([vs])
-    phase = openap.flight_phase(w, a)
-    assert phase.tolist() == bluesky_phase.get_fixwing(v, w, a, unit="SI").tolist()
-    ours = np.where(phase == openap.PHASE_GD, openap.takeoff_thrust_ratio(np.array([bpr]), v, a) * thrust,
-                    openap.inflight_max_thrust(np.array([thrust]), v, a, w))
-    theirs = bluesky_thrust.compute_max_thr_ratio(phase, bpr, v, a, w, thrust) * thrust
-    assert ours[0] == pytest.approx(float(theirs[0]), rel=1e-12, abs=1e-6)
+    phase = int(bluesky_phase.get_fixwing(v, w, a, unit="SI")[0])
+    assert F[f.PHASE, 0] == phase
+    limits = bluesky_coefficients.limits_fixwing[actype]
+    if phase == openap.PHASE_GD:
+        assert (F[f.VMIN, 0], F[f.VMAX, 0], F[f.AXMAX, 0]) == (0.0, limits["vmaxic"], 2.0)
+        assert F[f.TAKEOFF_TAS, 0] == limits["vminto"]
+        return
+    approach = phase == openap.PHASE_AP
+    assert F[f.VMIN, 0] == (limits["vminap"] if approach else limits["vminer"])
+    assert F[f.VMAX, 0] == (limits["vmaxap"] if approach else limits["vmaxer"])
+    assert math.isnan(F[f.TAKEOFF_TAS, 0])
+    polar, ac = bluesky_coefficients.dragpolar_fixwing[actype], bluesky_coefficients.acs_fixwing[actype]
+    config = "ld" if approach else "to" if phase == openap.PHASE_IC else "clean"
+    mass = 0.5 * (ac["oew"] + ac["mtow"])
+    qs = 0.5 * float(bluesky_aero.vdensity(alt)) * tas**2 * ac["wing"]["area"]
+    if qs == 0.0:
+        assert F[f.AXMAX, 0] == math.inf
+        return
+    with np.errstate(over="ignore"):  # a crawl in flight: infinite drag, the least acceleration
+        drag = qs * (polar[f"cd0_{config}"] + polar[f"k_{config}"] * np.float64(mass * bluesky_aero.g0 / qs) ** 2)
+    engine = next(iter(ac["engines"].values()))
+    thr0 = int(ac["engine"]["number"]) * engine["max_thrust"]
+    thrust = float(bluesky_thrust.compute_max_thr_ratio(np.array([phase]), engine["bpr"], v, a, w, thr0)[0]) * thr0
+    assert F[f.AXMAX, 0] == pytest.approx(max((thrust - drag) / mass, 0.5), rel=1e-9, abs=1e-12)
 
 
 @pytest.mark.bluesky

@@ -109,14 +109,12 @@ FLOAT_FIELDS = (
     "fw_mass",  # kg
     "fw_wing_area",  # m^2
     "fw_max_thrust",  # N, static maximum thrust of all engines
-    "fw_bypass_ratio",  # -
     "fw_cd0_clean",
     "fw_k_clean",
     "fw_cd0_takeoff",
     "fw_k_takeoff",
     "fw_cd0_landing",
     "fw_k_landing",
-    "fw_cd0_gear",
     "fw_vminto",  # m/s, take-off speed (TAS gate of the ground phase)
     "fw_vmaxic",  # CAS m/s, initial climb (and ground) maximum
     "fw_vminer",  # CAS m/s, en-route range
@@ -250,14 +248,12 @@ PHASE = _row("phase")
 FW_MASS = _row("fw_mass")
 FW_WING_AREA = _row("fw_wing_area")
 FW_MAX_THRUST = _row("fw_max_thrust")
-FW_BYPASS_RATIO = _row("fw_bypass_ratio")
 FW_CD0_CLEAN = _row("fw_cd0_clean")
 FW_K_CLEAN = _row("fw_k_clean")
 FW_CD0_TAKEOFF = _row("fw_cd0_takeoff")
 FW_K_TAKEOFF = _row("fw_k_takeoff")
 FW_CD0_LANDING = _row("fw_cd0_landing")
 FW_K_LANDING = _row("fw_k_landing")
-FW_CD0_GEAR = _row("fw_cd0_gear")
 FW_VMINTO = _row("fw_vminto")
 FW_VMAXIC = _row("fw_vmaxic")
 FW_VMINER = _row("fw_vminer")

@@ -173,8 +173,12 @@ def refresh_performance(traffic: Traffic) -> bool:
     them again.
     """
     n = traffic.n
-    traffic.F[f.AXMAX, :n] = traffic.F[f.AXMAX_TYPE, :n]
-    return openap.refresh(traffic.F, n)
+    F = traffic.F
+    F[f.AXMAX, :n] = F[f.AXMAX_TYPE, :n]
+    # Checked here first, so that runs without fixed-wing aircraft never load the compiled model.
+    if not np.isfinite(F[f.FW_MASS, :n]).any():
+        return False
+    return bool(openap.refresh(F, n))
 
 
 # State another simulator owns (the BlueSky backend overwrites aamsim's with BlueSky's).

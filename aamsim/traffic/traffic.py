@@ -63,9 +63,9 @@ _FINITE_NAMES = f.FLOAT_FIELDS[f.LAT : f.VS + 1]
 # Rows of the fixed-wing model and the envelope fields they are copied from (see aamsim.traffic.openap).
 _OPENAP_ROWS = (
     (f.FW_MASS, "mass_kg"), (f.FW_WING_AREA, "wing_area_m2"), (f.FW_MAX_THRUST, "max_thrust_n"),
-    (f.FW_BYPASS_RATIO, "bypass_ratio"), (f.FW_CD0_CLEAN, "cd0_clean"), (f.FW_K_CLEAN, "k_clean"),
+    (f.FW_CD0_CLEAN, "cd0_clean"), (f.FW_K_CLEAN, "k_clean"),
     (f.FW_CD0_TAKEOFF, "cd0_takeoff"), (f.FW_K_TAKEOFF, "k_takeoff"), (f.FW_CD0_LANDING, "cd0_landing"),
-    (f.FW_K_LANDING, "k_landing"), (f.FW_CD0_GEAR, "cd0_gear"), (f.FW_VMINTO, "vminto_mps"),
+    (f.FW_K_LANDING, "k_landing"), (f.FW_VMINTO, "vminto_mps"),
     (f.FW_VMAXIC, "vmaxic_mps"), (f.FW_VMINAP, "vminap_mps"), (f.FW_VMAXAP, "vmaxap_mps"),
 )
 
