@@ -4,8 +4,9 @@ At every conflict-detection cycle (``DT ASAS``, 1 s; right after the check of
 :mod:`aamsim.conflicts.service`), while ``RESO MVP`` is on, as BlueSky 1.1.1's
 ``ConflictResolution.update``:
 
-1. when the check found conflict pairs, MVP (:mod:`aamsim.resolution.mvp`)
-   computes a track, ground speed, vertical speed and altitude for every
+1. when BlueSky's state-based detection finds conflict pairs (each pair seen
+   from both sides, as BlueSky lists them: :mod:`aamsim.resolution.mvp_detect`),
+   MVP (:mod:`aamsim.resolution.mvp`) computes a track, ground speed, vertical speed and altitude for every
    aircraft from the pairs of the check, each aircraft resolving its own side
    of each pair. These commands hold until the next cycle that has conflicts;
 2. every pair that has been in conflict stays "being resolved" until it is
@@ -29,14 +30,13 @@ BlueSky's base resolution class does.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from aamsim.conflicts.service import ConflictState
 from aamsim.metrics import record_advisory
 from aamsim.resolution.mvp import MVPSettings, OwnState, PairGeometry, combine, commands, mvp_pairs
-from aamsim.units import NM
+from aamsim.resolution.mvp_detect import DirectedConflicts, detect
 
 if TYPE_CHECKING:
     from aamsim.simulation import Simulation
@@ -56,11 +56,14 @@ class MVPService:
     reso_off: set[str] = field(default_factory=set)  # RESOOFF: these avoid nobody
     following: set[str] = field(default_factory=set)  # callsigns flying the resolution now
     resolutions: int = 0  # times an aircraft started following a resolution
+    _hook: Any = None
 
     def attach(self, sim: Simulation) -> None:
-        # Right after the conflict check (priority 10), on the same interval: BlueSky's CD then CR.
-        sim.hooks.post_step.add(self.update, interval_s=lambda: sim.settings.cd_interval_s, name="mvp",
-                                priority=15)
+        # BlueSky detects and resolves inside the step that reaches each multiple of DT ASAS,
+        # before that step moves the aircraft: here, at the boundary one step earlier, so the
+        # resolution flies from that step on (see _reschedule).
+        self._hook = sim.hooks.post_step.add(self.update, interval_s=lambda: sim.settings.cd_interval_s,
+                                             name="mvp", priority=15)
         sim.hooks.deleted.add(self.on_deleted, name="mvp.deleted")
         sim.hooks.reset.add(self.on_reset, name="mvp.reset")
 
@@ -89,66 +92,56 @@ class MVPService:
             which.symmetric_difference_update({acid})
 
     # ---------------------------------------------------------------- cycle
+    def _reschedule(self, sim: Simulation) -> bool:
+        """Keep the hook one step before each multiple of the interval; True when now is such a time."""
+        dt_us = sim.clock.dt_us
+        interval_us = max(int(round(sim.settings.cd_interval_s * 1e6)), 1)
+        now = sim.clock.simt_us
+        on_time = (now + dt_us) % interval_us == 0
+        target = ((now + dt_us) // interval_us + 1) * interval_us - dt_us  # the next such boundary
+        # The hook list adds one interval to the due time after this call returns.
+        self._hook.next_due_us = target - interval_us
+        return on_time
+
     def update(self, sim: Simulation) -> None:
+        if not self._reschedule(sim):
+            return
         if not self.active(sim):
             if self.following or self.pairs:
                 self.release_all(sim)
             return
-        state = sim.services.conflicts.state if sim.services is not None else None
-        own, intr = self._directed_pairs(sim, state)
-        if own.size:
-            assert state is not None
-            self._resolve(sim, state, own, intr)
+        st = sim.settings
+        if st.cd_method != "OFF":
+            conf = detect(sim, st.zoner_m, st.zonedh_m, st.dtlook_s)
+            # Replayed real traffic is an intruder only: it takes no resolution.
+            keep = ~np.asarray(sim.view.noncooperative)[conf.own]
+            own, intr = conf.own[keep], conf.intr[keep]
+            if own.size:
+                self._resolve(sim, conf, keep)
+        else:
+            own = intr = np.empty(0, dtype=np.int64)
         self._resume(sim, own, intr)
 
-    def _directed_pairs(self, sim: Simulation, state: ConflictState | None) -> tuple[np.ndarray, np.ndarray]:
-        """The check's conflict pairs in both orders (ownship, intruder), by ownship then intruder slot.
-
-        Replayed real traffic is an intruder only: it takes no resolution.
-        """
-        if state is None or state.pi.size == 0 or state.ids != sim.view.ids:
-            empty = np.empty(0, dtype=np.int64)
-            return empty, empty
-        own = np.concatenate([state.pi, state.pj])
-        intr = np.concatenate([state.pj, state.pi])
-        keep = ~sim.view.noncooperative[own]
-        own, intr = own[keep], intr[keep]
-        order = np.lexsort((intr, own))
-        return own[order], intr[order]
-
-    def _geometry(self, sim: Simulation, state: ConflictState, own: np.ndarray, intr: np.ndarray) -> PairGeometry:
-        """Relative positions as BlueSky's detection gives them (bearing and distance, flat earth)."""
-        view = sim.view
-        lat, lon = np.asarray(view.lat), np.asarray(view.lon)
-        dlat = np.radians(lat[intr] - lat[own])
-        dlon = np.radians(((lon[intr] - lon[own]) + 180) % 360 - 180)
-        cavelat = np.cos(np.radians(lat[intr] + lat[own]) * 0.5)
-        dist = _R_EARTH * np.sqrt(dlat * dlat + dlon * dlon * (cavelat * cavelat)) / NM * NM
-        qdr = np.radians(np.degrees(np.arctan2(dlon * cavelat, dlat)) % 360.0)
+    def _resolve(self, sim: Simulation, conf: DirectedConflicts, keep: np.ndarray) -> None:
+        view, st = sim.view, sim.settings
+        own, intr = conf.own[keep], conf.intr[keep]
+        qdr = np.radians(conf.qdr_deg[keep])
+        dist = conf.dist_m[keep]
         alt = np.asarray(view.alt)
         drel = np.column_stack([np.sin(qdr) * dist, np.cos(qdr) * dist, alt[intr] - alt[own]])
         vel = np.column_stack([view.gseast, view.gsnorth, view.vs])
-        vrel = vel[intr] - vel[own]
-        # The check's pairs are (i < j); its times are the same seen from either side.
-        index = {(int(a), int(b)): k for k, (a, b) in enumerate(zip(state.pi.tolist(), state.pj.tolist()))}
-        rows = np.array([index[(min(a, b), max(a, b))] for a, b in zip(own.tolist(), intr.tolist())], dtype=np.int64)
-        return PairGeometry(own, intr, drel, vrel, state.tcpa_s[rows], state.tinconf_s[rows])
-
-    def _resolve(self, sim: Simulation, state: ConflictState, own: np.ndarray, intr: np.ndarray) -> None:
-        view, st = sim.view, sim.settings
-        n = view.n
-        g = self._geometry(sim, state, own, intr)
+        g = PairGeometry(own, intr, drel, vel[intr] - vel[own], conf.tcpa_s[keep], conf.tlos_s[keep])
         push, tsol = mvp_pairs(g, st.zoner_m * self.settings.factor_h, st.zonedh_m * self.settings.factor_v,
                                st.dtlook_s)
         ids = view.ids
         no_reso = np.array([a in self.no_reso for a in ids], dtype=bool)
         reso_off = np.array([a in self.reso_off for a in ids], dtype=bool)
-        dv, tsolv = combine(n, g, push, tsol, self.settings, np.asarray(view.vs), no_reso, reso_off)
+        dv, tsolv = combine(view.n, g, push, tsol, self.settings, np.asarray(view.vs), no_reso, reso_off)
         s = OwnState(view.gseast, view.gsnorth, view.vs, view.trk, view.gs, view.alt, view.selalt, view.ap_vs,
                      view.vmin, view.vmax, view.vsmin, view.vsmax)
-        trk, gs, vs, alt = commands(s, dv, tsolv, self.settings, st.dtlook_s)
-        coop = np.flatnonzero(~view.noncooperative)
-        sim.command_resolution(coop, trk[coop], gs[coop], vs[coop], alt[coop])
+        trk, gs, vs, alt_cmd = commands(s, dv, tsolv, self.settings, st.dtlook_s)
+        coop = np.flatnonzero(~np.asarray(view.noncooperative))
+        sim.command_resolution(coop, trk[coop], gs[coop], vs[coop], alt_cmd[coop])
 
     def _resume(self, sim: Simulation, own: np.ndarray, intr: np.ndarray) -> None:
         """Which aircraft follow the resolution from now on; those whose last pair ended resume their route."""
