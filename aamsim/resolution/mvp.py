@@ -34,8 +34,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-# BlueSky's resolution-zone margins (its settings asas_marh, asas_marv).
-DEFAULT_FACTOR = 1.01
+# BlueSky's resolution-zone margins (asas_marh, asas_marv of its default.cfg; 1.01 in the code).
+DEFAULT_FACTOR = 1.05
 PRIORITY_CODES = ("FF1", "FF2", "FF3", "LAY1", "LAY2")
 HORIZONTAL_OPTIONS = ("BOTH", "SPD", "HDG", "NONE", "ON", "OFF", "OF")
 VERTICAL_OPTIONS = ("NONE", "ON", "OFF", "OF", "V/S")

@@ -80,7 +80,7 @@ def _factor(value: float, what: str) -> float:
 
 @command("RFACH", aliases=("RESOFACH", "HRFAC", "HRESOFAC"), group="conflicts")
 def rfach(sim: CommandContext, factor: Number | None = None) -> str | None:
-    """RFACH [factor]: horizontal resolution zone = protected zone x factor (default 1.01)."""
+    """RFACH [factor]: horizontal resolution zone = protected zone x factor (default 1.05)."""
     settings = _mvp(sim).settings
     if factor is None:
         return f"horizontal resolution factor {settings.factor_h:g}"
@@ -91,7 +91,7 @@ def rfach(sim: CommandContext, factor: Number | None = None) -> str | None:
 
 @command("RFACV", aliases=("RESOFACV",), group="conflicts")
 def rfacv(sim: CommandContext, factor: Number | None = None) -> str | None:
-    """RFACV [factor]: vertical resolution zone = protected zone x factor (default 1.01)."""
+    """RFACV [factor]: vertical resolution zone = protected zone x factor (default 1.05)."""
     settings = _mvp(sim).settings
     if factor is None:
         return f"vertical resolution factor {settings.factor_v:g}"
