@@ -26,12 +26,12 @@ def _mvp(sim: CommandContext) -> MVPService:
 
 @command("RESO", group="conflicts")
 def reso(sim: CommandContext, method: Text = "") -> str | None:
-    """RESO [OFF/MVP/DAA]: conflict resolution method.
+    """RESO [OFF/MVP/DAA]: conflict resolution method: MVP (BlueSky's Modified Voltage Potential) or DAA
+    (the detect-and-avoid service's speed advisories).
 
-    MVP: BlueSky's Modified Voltage Potential (settings RMETHH, RMETHV, RFACH,
-    RFACV, RSZONER, RSZONEDH, PRIORULES, NORESO, RESOOFF); DAA: the
-    detect-and-avoid service (DO-365/DAIDALUS speed advisories; thresholds
-    with the DAA command); OFF: none (conflicts are only detected).
+    MVP's settings: RMETHH, RMETHV, RFACH, RFACV, RSZONER, RSZONEDH,
+    PRIORULES, NORESO, RESOOFF; DAA's thresholds: the DAA command
+    (DO-365/DAIDALUS). OFF: none (conflicts are only detected).
     """
     if not method:
         return f"conflict resolution: {sim.settings.reso}; available: {', '.join(RESO_METHODS)}"
