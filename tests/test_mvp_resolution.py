@@ -96,11 +96,10 @@ def test_priority_rules_ff2_lets_the_cruising_aircraft_keep_its_path():
 
 
 def own_state(**changes) -> OwnState:
-    base = dict(gseast=np.array([0.0]), gsnorth=np.array([50.0]), vs=np.array([0.0]), trk=np.array([0.0]),
-                gs=np.array([50.0]), alt=np.array([500.0]), selalt=np.array([500.0]), ap_vs=np.array([0.0]),
-                vmin=np.array([0.0]), vmax=np.array([60.0]), vsmin=np.array([-5.0]), vsmax=np.array([5.0]))
-    base.update({k: np.array([v], dtype=float) for k, v in changes.items()})
-    return OwnState(**base)
+    base = {"gseast": 0.0, "gsnorth": 50.0, "vs": 0.0, "trk": 0.0, "gs": 50.0, "alt": 500.0, "selalt": 500.0,
+            "ap_vs": 0.0, "vmin": 0.0, "vmax": 60.0, "vsmin": -5.0, "vsmax": 5.0}
+    base.update(changes)
+    return OwnState(**{k: np.array([v], dtype=float) for k, v in base.items()})
 
 
 def test_commands_heading_and_speed_by_default_capped_to_the_envelope():
