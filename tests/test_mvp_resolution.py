@@ -207,3 +207,23 @@ def test_settings_commands_and_reso_off_release():
     sim.stack("RESO OFF")
     sim.run_until(7.0)
     assert not sim.view.resolution.any() and not errors_of(sim)
+
+
+def test_bluesky_pairs_mirror_the_later_aircraft_side():
+    # BlueSky's compiled bearing matrix copies the upper triangle into the lower one: while a
+    # head-on pair closes only the earlier aircraft (A) has the conflict; once past each
+    # other, only the later one (B), which sees A's position mirrored, as still ahead.
+    from aamsim.resolution.mvp_detect import detect
+
+    sim = Simulation(seed=0, use_bluesky_navdata=False)
+    sim.load_text("00:00:00.00>CRE A EC35 40.70 -74.00 90 1500 120\n"
+                  "00:00:00.00>CRE B EC35 40.7001 -73.95 270 1500 120\n")
+    sim.run_until(1.0)
+    conf = detect(sim, 500.0, 100.0, 60.0)
+    assert list(zip(conf.own.tolist(), conf.intr.tolist())) == [(0, 1)]
+    assert conf.qdr_deg[0] == pytest.approx(90.0, abs=0.5) and 0.0 < conf.tlos_s[0] < conf.tcpa_s[0]
+    sim.run_until(45.0)  # they met at about 33 s
+    conf = detect(sim, 500.0, 100.0, 60.0)
+    assert list(zip(conf.own.tolist(), conf.intr.tolist())) == [(1, 0)]
+    assert conf.qdr_deg[0] == pytest.approx(-90.0, abs=0.5)  # A to B; from B, A lies at +90 deg: mirrored
+    assert conf.tcpa_s[0] > 0.0
