@@ -7,13 +7,19 @@ mvp_crossing (tests/conformance), recorded from BlueSky 1.1.1.
 
 from __future__ import annotations
 
+import json
 import math
+import os
+import subprocess
+import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
 
 from aamsim import Simulation
 from aamsim.resolution.mvp import MVPSettings, OwnState, PairGeometry, combine, commands, mvp_pairs
+from aamsim.resolution.mvp_detect import detect
 from aamsim.services import build_services
 
 
@@ -213,8 +219,6 @@ def test_bluesky_pairs_mirror_the_later_aircraft_side():
     # BlueSky's compiled bearing matrix copies the upper triangle into the lower one: while a
     # head-on pair closes only the earlier aircraft (A) has the conflict; once past each
     # other, only the later one (B), which sees A's position mirrored, as still ahead.
-    from aamsim.resolution.mvp_detect import detect
-
     sim = Simulation(seed=0, use_bluesky_navdata=False)
     sim.load_text("00:00:00.00>CRE A EC35 40.70 -74.00 90 1500 120\n"
                   "00:00:00.00>CRE B EC35 40.7001 -73.95 270 1500 120\n")
@@ -227,3 +231,19 @@ def test_bluesky_pairs_mirror_the_later_aircraft_side():
     assert list(zip(conf.own.tolist(), conf.intr.tolist())) == [(1, 0)]
     assert conf.qdr_deg[0] == pytest.approx(-90.0, abs=0.5)  # A to B; from B, A lies at +90 deg: mirrored
     assert conf.tcpa_s[0] > 0.0
+
+
+def test_aamsim_run_with_reso_mvp_keeps_the_head_on_pair_apart(tmp_path):
+    root = Path(__file__).resolve().parents[1]
+    summaries = {}
+    for name, text in (("off", HEAD_ON), ("on", "00:00:00.00>RESO MVP\n" + HEAD_ON)):
+        (tmp_path / f"{name}.scn").write_text(text)
+        proc = subprocess.run([sys.executable, "-m", "aamsim", "run", f"{name}.scn", "--until", "200", "--out", name,
+                               "--quiet"], cwd=tmp_path, env=dict(os.environ, PYTHONPATH=str(root)),
+                              capture_output=True, text=True, timeout=600, check=False)
+        assert proc.returncode == 0, proc.stderr
+        summaries[name] = json.loads((tmp_path / name / "summary.json").read_text())
+    off, on = summaries["off"], summaries["on"]
+    assert off["safety"]["nmac_events"] == 1 and "mvp" not in off
+    assert on["safety"]["lowc_events"] == 0 and on["safety"]["min_separation_m"] > 450.0
+    assert on["mvp"]["resolutions_started"] == 1 and "RFACH 1.05" in on["mvp"]["settings"]
