@@ -148,6 +148,19 @@ class SimulationAPI:
         """Fly a heading [deg true]; LNAV off (BlueSky's HDG)."""
         intents.select_heading(self.traffic, self._intent_slot(target), heading_deg, self.wind)
 
+    def command_resolution(self, targets: Target, trk_deg: float | np.ndarray, gs_mps: float | np.ndarray,
+                           vs_mps: float | np.ndarray, alt_m: float | np.ndarray) -> None:
+        """A conflict resolution's track [deg], ground speed [m/s], vertical speed [m/s] and altitude [m].
+
+        Flown, within the envelope, by the targets that follow the resolution (:meth:`follow_resolution`)
+        instead of the autopilot's commands, as BlueSky's ASAS; the autopilot keeps its own.
+        """
+        intents.command_resolution(self.traffic, self._intent_slots(targets), trk_deg, gs_mps, vs_mps, alt_m)
+
+    def follow_resolution(self, targets: Target, on: bool | np.ndarray) -> None:
+        """Fly the resolution's commands (on) or the autopilot's again (off); see :meth:`command_resolution`."""
+        intents.follow_resolution(self.traffic, self._intent_slots(targets), on)
+
     def set_cruise_speed(self, target: str | int, cas_mps: float) -> None:
         """CAS [m/s] selected when a fly-turn ends and the new leg has no speed constraint (CRUISESPD)."""
         intents.set_cruise_speed(self.traffic, self._intent_slot(target), cas_mps)

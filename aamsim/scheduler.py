@@ -56,9 +56,13 @@ class Scheduler:
         post, pre = self.hooks.post_step, self.hooks.pre_step
         if post.every_step() or pre.every_step():
             return 1
+        hooks_due = [t for t in (post.next_due_us(), pre.next_due_us()) if t is not None]
+        if any(t <= now for t in hooks_due):
+            # A hook added after its list ran at this boundary (a service that a command built):
+            # it runs at the next one, and the hooks behind it keep their times.
+            return 1
         nxt = end_us if end_us > now else None
-        candidates = (self.next_perf_us if self.perf_pending else None, self.queue.next_due_us(),
-                      post.next_due_us(), pre.next_due_us())
+        candidates = (self.next_perf_us if self.perf_pending else None, self.queue.next_due_us(), *hooks_due)
         for t in candidates:
             if t is not None and t > now and (nxt is None or t < nxt):
                 nxt = t

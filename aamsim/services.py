@@ -10,7 +10,8 @@ live in ``sim.settings`` and the service reads them when it runs, so ``DT ASAS
 5`` changes the check interval from then on; the separation volumes live in
 the conflict service (``SEPVOLUME``); the metric groups in the metrics service;
 the detect-and-avoid thresholds in the DAA service (``DAA``), which acts only
-while ``RESO DAA`` is on.
+while ``RESO DAA`` is on; BlueSky's resolution settings (``RMETHH``, ``RFACH``,
+``PRIORULES``, ...) in the MVP service, which acts only while ``RESO MVP`` is on.
 """
 
 from __future__ import annotations
@@ -21,6 +22,7 @@ from typing import TYPE_CHECKING, Any
 
 from aamsim.conflicts.service import PAPER_VOLUMES, ConflictService, SeparationVolume
 from aamsim.metrics.service import DEFAULT_GROUPS, MetricsService, write_conflicts_csv
+from aamsim.resolution.mvp_service import MVPService
 from aamsim.resolution.service import DAAService
 from aamsim.snapshots import SnapshotStream
 
@@ -36,11 +38,12 @@ class Services:
     metrics: MetricsService
     snapshots: SnapshotStream  # frozen traffic snapshots for the recorder, the bridge and viewers
     daa: DAAService  # detect-and-avoid alerting and speed resolutions (idle until RESO DAA)
+    mvp: MVPService  # BlueSky's Modified Voltage Potential resolution (idle until RESO MVP)
 
 
 def build_services(sim: Simulation, volumes: tuple[SeparationVolume, ...] = PAPER_VOLUMES,
                    groups: tuple[str, ...] = DEFAULT_GROUPS) -> Services:
-    """Create and attach conflict detection, metrics and DAA (once per simulation); returns ``sim.services``."""
+    """Create and attach conflict detection, metrics, DAA and MVP (once per simulation); returns ``sim.services``."""
     if sim.services is not None:
         raise RuntimeError("the simulation's services are already built")
     conflicts = ConflictService(volumes=tuple(volumes))
@@ -48,7 +51,9 @@ def build_services(sim: Simulation, volumes: tuple[SeparationVolume, ...] = PAPE
     metrics = MetricsService(groups=tuple(groups))
     daa = DAAService()
     daa.attach(sim)
-    sim.services = Services(conflicts, metrics, SnapshotStream(sim), daa)
+    mvp = MVPService()
+    mvp.attach(sim)
+    sim.services = Services(conflicts, metrics, SnapshotStream(sim), daa, mvp)
     return sim.services
 
 
@@ -70,6 +75,8 @@ def attach_run_services(sim: Simulation, cfg: Any) -> None:
         summary.update(metrics.compute(sim, events=events))
         if services.daa.issued or services.daa.active(sim):
             summary["daa"] = services.daa.summary()
+        if services.mvp.resolutions or services.mvp.active(sim):
+            summary["mvp"] = services.mvp.summary()
         write_conflicts_csv(out_dir / "conflicts.csv", sim, events)
 
     sim.extensions.setdefault("run_outputs", []).append(finish)

@@ -402,6 +402,7 @@ class Simulation(SimulationAPI):
                 cond,
                 self.wind.arrays() if self.wind.active else None,
                 () if traffic.turn_speeds_used else None,
+                () if traffic.resolution_used else None,
                 *extra,
             )
             done += k

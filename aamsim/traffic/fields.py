@@ -76,6 +76,11 @@ FLOAT_FIELDS = (
     "wp_nextturnspd",  # CAS m/s, its turn speed
     "wp_nextturnrad",  # m, its turn radius
     "cruisespd",  # CAS m/s selected when a turn ends (CRUISESPD; NaN: none)
+    # --- conflict resolution's commands (BlueSky's cr.trk/tas/vs/alt; flown while the ``asas`` flag is on) ----
+    "asas_trk",  # deg, track to fly
+    "asas_gs",  # m/s, ground speed to fly (BlueSky's cr.tas, a ground speed: the wind is taken off)
+    "asas_vs",  # m/s, vertical speed
+    "asas_alt",  # m, altitude
     # --- caches (recomputed only when their inputs change) ------------------------
     "c_alt",  # altitude the atmosphere cache belongs to
     "c_rho",
@@ -142,6 +147,7 @@ BOOL_FIELDS = (
     "turntonextwp",  # slowing for, or flying, the turn at the next fly-turn waypoint
     "inturn",  # flying at a turn speed (for CRUISESPD when it ends)
     "noncoop",  # real traffic replayed from a recording: flown straight at its set velocity, no autopilot
+    "asas",  # follows the conflict resolution's asas_* commands instead of the autopilot's (BlueSky's cr.active)
 )
 
 N_FLOAT = len(FLOAT_FIELDS)
@@ -219,6 +225,10 @@ WP_NEXTTURNLON = _row("wp_nextturnlon")
 WP_NEXTTURNSPD = _row("wp_nextturnspd")
 WP_NEXTTURNRAD = _row("wp_nextturnrad")
 CRUISESPD = _row("cruisespd")
+ASAS_TRK = _row("asas_trk")
+ASAS_GS = _row("asas_gs")
+ASAS_VS = _row("asas_vs")
+ASAS_ALT = _row("asas_alt")
 C_ALT = _row("c_alt")
 C_RHO = _row("c_rho")
 C_P = _row("c_p")
@@ -279,6 +289,7 @@ B_HAS_NEXTTURN = _flag("has_nextturn")
 B_TURNTONEXTWP = _flag("turntonextwp")
 B_INTURN = _flag("inturn")
 B_NONCOOP = _flag("noncoop")
+B_ASAS = _flag("asas")
 
 
 def _check_rows() -> None:

@@ -84,6 +84,27 @@ def apply_wind_at_creation(traffic: Traffic, slot: int, wind: WindField) -> None
     F[f.AP_TRK, slot] = F[f.TRK, slot]
 
 
+def command_resolution(traffic: Traffic, slots: Slots, trk_deg: float | np.ndarray, gs_mps: float | np.ndarray,
+                       vs_mps: float | np.ndarray, alt_m: float | np.ndarray) -> None:
+    """The conflict resolution's track, ground speed, vertical speed and altitude (BlueSky's cr.trk/tas/vs/alt).
+
+    Flown only by aircraft that follow the resolution (:func:`follow_resolution`);
+    the wind is taken off the ground speed and the performance limits apply as
+    for the autopilot's commands.
+    """
+    F = traffic.F
+    F[f.ASAS_TRK, slots] = trk_deg
+    F[f.ASAS_GS, slots] = gs_mps
+    F[f.ASAS_VS, slots] = vs_mps
+    F[f.ASAS_ALT, slots] = alt_m
+
+
+def follow_resolution(traffic: Traffic, slots: Slots, on: bool | np.ndarray) -> None:
+    """Fly the resolution's commands instead of the autopilot's (on) or the autopilot's again (BlueSky's cr.active)."""
+    traffic.B[f.B_ASAS, slots] = on
+    traffic.resolution_used = bool(traffic.B[f.B_ASAS, : traffic.n].any())
+
+
 def set_cruise_speed(traffic: Traffic, slot: int, cas_mps: float) -> None:
     """CAS [m/s] selected when a fly-turn ends (BlueSky's CRUISESPD), within the type's speed range."""
     F = traffic.F

@@ -54,8 +54,13 @@ from aamsim.traffic.fields import (
     AP_TAS,
     AP_TRK,
     AP_VS,
+    ASAS_ALT,
+    ASAS_GS,
+    ASAS_TRK,
+    ASAS_VS,
     AX,
     AXMAX,
+    B_ASAS,
     B_C_SPD_MACH,
     B_HAS_MOVED,
     B_HAS_NEXTTURN,
@@ -298,6 +303,7 @@ def _step_aircraft(
     airborne_alt: float,
     wind: tuple[np.ndarray, ...] | None,
     turns: tuple[()] | None,
+    reso: tuple[()] | None,
 ) -> None:
     if B[B_NONCOOP, i]:
         _step_noncooperative(F, i, dt, airborne_alt)
@@ -379,8 +385,23 @@ def _step_aircraft(
     F[AP_ALT, i] = ap_alt
     F[AP_VS, i] = ap_vs
 
-    # The heading that makes good the desired track (BlueSky's APorASAS wind correction).
     des_trk = F[AP_TRK, i]
+    if reso is not None and B[B_ASAS, i]:
+        # Conflict resolution flies this aircraft (BlueSky's APorASAS): its track, its ground
+        # speed less the wind here, its altitude and vertical speed replace the autopilot's
+        # (which keeps its own outputs, resumed when the resolution ends).
+        des_trk = F[ASAS_TRK, i]
+        gs_cmd = F[ASAS_GS, i]
+        if windy:
+            trad = math.radians(des_trk)
+            tas_n = gs_cmd * math.cos(trad) - wind_n
+            tas_e = gs_cmd * math.sin(trad) - wind_e
+            ap_tas = math.sqrt(tas_n * tas_n + tas_e * tas_e)
+        else:
+            ap_tas = gs_cmd
+        ap_alt = F[ASAS_ALT, i]
+        ap_vs = F[ASAS_VS, i]
+    # The heading that makes good the desired track (BlueSky's APorASAS wind correction).
     if windy:
         des_trk = _wind_correction(des_trk, wind_n, wind_e, tas)
 
@@ -553,6 +574,7 @@ def _step_range(
     reached: np.ndarray,
     wind: tuple[np.ndarray, ...] | None,
     turns: tuple[()] | None,
+    reso: tuple[()] | None,
 ) -> int:
     """One step of aircraft ``lo..hi-1``; returns how many reached their waypoint.
 
@@ -570,7 +592,7 @@ def _step_range(
     state_sum = 0.0
     for i in range(lo, hi):
         _step_aircraft(F, B, i, dt, scratch_qdr[i], scratch_dist[i], fresh[i], hold_speed, airborne_alt, wind,
-                       turns)
+                       turns, reso)
         state_sum += (F[LAT, i] + F[LON, i]) + (F[ALT, i] + F[TAS, i])
         if test_next:
             nreached += _check_waypoint(F, B, i, scratch_qdr, scratch_dist, fresh, reached)
@@ -606,6 +628,7 @@ def _advance(
     cond: tuple[np.ndarray, ...],
     wind: tuple[np.ndarray, ...] | None,
     turns: tuple[()] | None,
+    reso: tuple[()] | None,
     nblocks: int,
 ) -> tuple[int, int]:
     scratch_qdr, scratch_dist, fresh, reached = scratch
@@ -626,7 +649,7 @@ def _advance(
         test_next = k + 1 < nsteps
         for b in prange(nblocks):
             counts[b] = _step_range(F, B, b * n // nblocks, (b + 1) * n // nblocks, dt, test_next, hold_speed,
-                                    airborne_alt, scratch_qdr, scratch_dist, fresh, reached, wind, turns)
+                                    airborne_alt, scratch_qdr, scratch_dist, fresh, reached, wind, turns, reso)
         k += 1
         total = counts.sum()
         if total >= _NONFINITE_MARK:
@@ -642,7 +665,7 @@ def _advance(
 def advance(
     F: np.ndarray, B: np.ndarray, n: int, dt: float, nsteps: int, check_first: bool, hold_speed: float,
     airborne_alt: float, scratch: tuple[np.ndarray, ...], cond: tuple[np.ndarray, ...],
-    wind: tuple[np.ndarray, ...] | None, turns: tuple[()] | None,
+    wind: tuple[np.ndarray, ...] | None, turns: tuple[()] | None, reso: tuple[()] | None,
 ) -> tuple[int, int]:
     """Advance all ``n`` aircraft by up to ``nsteps`` steps of ``dt`` seconds.
 
@@ -655,18 +678,22 @@ def advance(
         cond: the conditional commands' arrays (:meth:`Conditions.arrays`).
         wind: the wind field's arrays (:meth:`aamsim.traffic.wind.WindField.arrays`), None without wind.
         turns: ``()`` when some aircraft may fly at a turn speed (fly-turn waypoints), else None.
+        reso: ``()`` when some aircraft may follow a conflict resolution (the ``asas`` flag), else None:
+            without it the kernel is compiled without that part.
 
     Returns:
         ``(steps_done, status)``, status one of ``STATUS_*``.
     """
-    return _advance(F, B, n, dt, nsteps, check_first, hold_speed, airborne_alt, scratch, cond, wind, turns, 1)
+    return _advance(F, B, n, dt, nsteps, check_first, hold_speed, airborne_alt, scratch, cond, wind, turns, reso,
+                    1)
 
 
 @njit(cache=True, parallel=True, error_model="numpy")
 def advance_parallel(
     F: np.ndarray, B: np.ndarray, n: int, dt: float, nsteps: int, check_first: bool, hold_speed: float,
     airborne_alt: float, scratch: tuple[np.ndarray, ...], cond: tuple[np.ndarray, ...],
-    wind: tuple[np.ndarray, ...] | None, turns: tuple[()] | None, nblocks: int,
+    wind: tuple[np.ndarray, ...] | None, turns: tuple[()] | None, reso: tuple[()] | None, nblocks: int,
 ) -> tuple[int, int]:
     """:func:`advance` with the aircraft in ``nblocks`` blocks over Numba's threads (same results, bit for bit)."""
-    return _advance(F, B, n, dt, nsteps, check_first, hold_speed, airborne_alt, scratch, cond, wind, turns, nblocks)
+    return _advance(F, B, n, dt, nsteps, check_first, hold_speed, airborne_alt, scratch, cond, wind, turns, reso,
+                    nblocks)

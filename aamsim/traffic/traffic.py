@@ -90,6 +90,7 @@ class Traffic:
     n: int = 0
     layout_version: int = 0  # changes whenever an aircraft is created or deleted (slots move) or the arrays grow
     turn_speeds_used: bool = False  # some route has had a fly-turn waypoint (the kernel's turn-speed part runs)
+    resolution_used: bool = False  # some aircraft follows a conflict resolution (the kernel's ASAS part runs)
     F: np.ndarray = field(init=False, repr=False)
     B: np.ndarray = field(init=False, repr=False)
     ids: list[str] = field(default_factory=list)

@@ -45,6 +45,9 @@ PUBLIC_FLOATS: dict[str, str] = {
     "bankdef": "bank angle used in turns [rad]",
     "vmin": "minimum speed of the envelope [m/s]",
     "vmax": "maximum speed of the envelope [m/s]",
+    "vsmin": "lowest vertical speed of the envelope [m/s] (negative)",
+    "vsmax": "highest vertical speed of the envelope [m/s]",
+    "ap_vs": "vertical speed commanded by the autopilot [m/s]",
     "axmax": "acceleration limit in use [m/s^2]",
     "dist2wp": "distance to the active waypoint [m]",
     "qdr2wp": "bearing to the active waypoint [deg]",
@@ -58,10 +61,11 @@ PUBLIC_FLAGS: dict[str, str] = {
     "late_descent": "SWTOD: descend as late as possible",
     "rotor": "rotorcraft (hovers; speeds in TAS)",
     "noncooperative": "real traffic replayed from a recording (an intruder, never an agent; refuses intents)",
+    "resolution": "flies a conflict resolution's commands instead of the autopilot's (BlueSky's ASAS active)",
 }
 _FLAG_ROWS = {"lnav": f.B_SWLNAV, "vnav": f.B_SWVNAV, "vnav_speed": f.B_SWVNAVSPD, "selspd_mach": f.B_SELSPD_MACH,
               "early_climb": f.B_SWTOC, "late_descent": f.B_SWTOD, "rotor": f.B_ROTOR,
-              "noncooperative": f.B_NONCOOP}
+              "noncooperative": f.B_NONCOOP, "resolution": f.B_ASAS}
 
 
 @functools.lru_cache(maxsize=64)
@@ -192,6 +196,9 @@ class TrafficView:
     bankdef = _float_view("bankdef")
     vmin = _float_view("vmin")
     vmax = _float_view("vmax")
+    vsmin = _float_view("vsmin")
+    vsmax = _float_view("vsmax")
+    ap_vs = _float_view("ap_vs")
     axmax = _float_view("axmax")
     dist2wp = _float_view("dist2wp")
     qdr2wp = _float_view("qdr2wp")
@@ -203,6 +210,7 @@ class TrafficView:
     late_descent = _flag_view("late_descent")
     rotor = _flag_view("rotor")
     noncooperative = _flag_view("noncooperative")
+    resolution = _flag_view("resolution")
 
 
 def kinematic_matrix(traffic: Traffic, names: tuple[str, ...]) -> tuple[np.ndarray, np.ndarray]:

@@ -10,6 +10,7 @@ from aamsim.stack.commands import (
     display_cmds,
     plugin_cmds,
     realtraffic_cmds,
+    reso_cmds,
     route_cmds,
     sim_cmds,
     traffic_cmds,
@@ -18,7 +19,7 @@ from aamsim.stack.commands import (
 from aamsim.stack.registry import CommandRegistry
 
 MODULES = (traffic_cmds, route_cmds, sim_cmds, asas_cmds, daa_cmds, plugin_cmds, area_cmds, compat_cmds,
-           display_cmds, wind_cmds, realtraffic_cmds)
+           display_cmds, wind_cmds, realtraffic_cmds, reso_cmds)
 
 
 def register_builtin_commands(registry: CommandRegistry) -> None:

@@ -43,7 +43,11 @@ def zoner(sim: CommandContext, radius_nm: Number | None = None) -> str | None:
     """ZONER [radius]: horizontal protected-zone radius [NM] (default 5; 450 m is 0.243)."""
     if radius_nm is None:
         return f"PZ radius {sim.settings.zoner_m / NM:g} NM ({sim.settings.zoner_m:.1f} m)"
+    old = sim.settings.zoner_m
     sim.settings.zoner_m = _positive_up_to(radius_nm * NM, MAX_SEPARATION_M, "the protected-zone radius", "m")
+    mvp = sim.services.mvp.settings if sim.services is not None else None
+    if mvp is not None and not mvp.zone_r_relative:
+        mvp.factor_h *= old / sim.settings.zoner_m  # RSZONER gave a radius: it stays (as BlueSky)
     return None
 
 
@@ -52,7 +56,11 @@ def zonedh(sim: CommandContext, height_ft: Number | None = None) -> str | None:
     """ZONEDH [height]: vertical protected-zone half-height [ft] (default 1000)."""
     if height_ft is None:
         return f"PZ half-height {sim.settings.zonedh_m / FT:g} ft"
+    old = sim.settings.zonedh_m
     sim.settings.zonedh_m = _positive_up_to(height_ft * FT, MAX_SEPARATION_M, "the protected-zone height", "m")
+    mvp = sim.services.mvp.settings if sim.services is not None else None
+    if mvp is not None and not mvp.zone_dh_relative:
+        mvp.factor_v *= old / sim.settings.zonedh_m  # RSZONEDH gave a height: it stays (as BlueSky)
     return None
 
 
@@ -88,37 +96,16 @@ def sepvolume(sim: CommandContext, name: Text = "", radius_m: Number | None = No
     return None
 
 
-RESO_METHODS = ("OFF", "DAA")
-
-
-@command("RESO", group="conflicts")
-def reso(sim: CommandContext, method: Text = "") -> str | None:
-    """RESO [OFF/DAA/method]: conflict resolution method. DAA: the detect-and-avoid service (DO-365/DAIDALUS
-    alerting and speed-band resolutions; thresholds with the DAA command). Another method is stored only
-    (an agent or a plugin resolves)."""
-    if not method:
-        return f"conflict resolution: {sim.settings.reso}"
-    sim.settings.reso = method
-    if method == "DAA":
-        sim.require_services()  # the DAA service acts from the next cycle on
-    elif method != "OFF":
-        sim.note_once("RESO", f"RESO {method} stored; aamsim's built-in methods are {', '.join(RESO_METHODS)}",
-                      sim.current_source)
-    return None
-
-
 def _accepted_setting(name: str):
     @command(name, group="conflicts")
     @raw_arguments
     def handler(sim: CommandContext, argtext: RestOfLine) -> None:
-        sim.note_once(name, f"{name} is accepted and ignored: aamsim's built-in resolution is RESO DAA",
-                      sim.current_source)
+        sim.note_once(name, f"{name} is accepted and ignored by aamsim's conflict detection", sim.current_source)
 
-    handler.__doc__ = f"{name} ...: BlueSky resolution setting, accepted and ignored (built in: RESO DAA, DAA)."
+    handler.__doc__ = f"{name} ...: BlueSky conflict-detection setting, accepted and ignored."
     return handler
 
 
-COMMANDS = (asas, zoner, zonedh, dtlook, sepvolume, reso) + tuple(
-    _accepted_setting(n) for n in ("RMETHH", "RMETHV", "RFACH", "RFACV", "RSZONER", "RSZONEDH", "PRIORULES", "NORESO",
-                                   "RESOOFF", "DTNOLOOK", "CDSPEEDCHANGE")
+COMMANDS = (asas, zoner, zonedh, dtlook, sepvolume) + tuple(
+    _accepted_setting(n) for n in ("DTNOLOOK", "CDSPEEDCHANGE")
 )
