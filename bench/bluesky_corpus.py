@@ -13,9 +13,14 @@ are as a fraction of the distance flown::
 Without ``--corpus`` the ``scenario`` folder of an installed BlueSky is used
 (the bluesky-simulator wheel ships none).
 
-BlueSky runs headless in one process (``--bluesky-worker``), one file after
-the other as its ``IC`` does (``sim.reset()`` and its own ``readscn``); a crash
-restarts the worker at the next file. Its error text is caught where BlueSky
+BlueSky runs headless, each file in a fresh process (``--bluesky-worker``,
+``--jobs`` of them at a time), as a user starts it on one scenario file.
+``--one-process`` runs all files in one process instead, one after the other
+as its ``IC`` does (``sim.reset()`` and its own ``readscn``; a crash restarts
+the worker at the next file): faster, but BlueSky's reset keeps some settings
+of the file before (the conflict-resolution method and its settings, for
+one), so a file's result can depend on the file run before it (MOV/MOV02.scn
+ended 6.8 km away from its fresh-process positions). Its error text is caught where BlueSky
 sends it (``bs.net.send`` of ECHO with an error flag, lines its reader skips
 with ``except this:``, exceptions out of a step), and the commands it
 forwards to a GUI are split into the GUI's own commands (PAN, ZOOM, ...) and
@@ -213,8 +218,43 @@ def _bluesky_files(corpus: Path, names: list[str], until: float, timeout_s: floa
             out.flush()
 
 
+def _bluesky_fresh(corpus: Path, name: str, until: float, timeout_s: float, tmp: Path) -> SideResult:
+    """One file in a fresh BlueSky process."""
+    safe = name.replace("/", "__")
+    listing, out = tmp / f"{safe}.names.json", tmp / f"{safe}.jsonl"
+    listing.write_text(json.dumps([name]))
+    proc = subprocess.run(
+        [sys.executable, __file__, "--bluesky-worker", str(corpus), str(listing), str(out),
+         "--until", str(until), "--timeout", str(timeout_s)],
+        capture_output=True, text=True, check=False,
+    )
+    if out.exists() and out.read_text().strip():
+        record = json.loads(out.read_text().splitlines()[0])
+        record.pop("name")
+        record["aircraft"] = {k: tuple(v) for k, v in record["aircraft"].items()}
+        return SideResult(**record)
+    tail = (proc.stderr or "").strip().splitlines()[-1:] or [f"exit status {proc.returncode}"]
+    return SideResult(crashed=f"BlueSky process died: {tail[0][:200]}")
+
+
+def run_bluesky_per_file(corpus: Path, names: list[str], until: float, timeout_s: float,
+                         jobs: int) -> dict[str, SideResult]:
+    """Every file in its own fresh BlueSky process, ``jobs`` at a time, with progress on stderr."""
+    from concurrent.futures import ThreadPoolExecutor, as_completed
+
+    results: dict[str, SideResult] = {}
+    with tempfile.TemporaryDirectory(prefix="bluesky-corpus-out-") as tmp, \
+            ThreadPoolExecutor(max_workers=max(1, jobs)) as pool:
+        futures = {pool.submit(_bluesky_fresh, corpus, name, until, timeout_s, Path(tmp)): name for name in names}
+        for k, future in enumerate(as_completed(futures), 1):
+            results[futures[future]] = future.result()
+            sys.stderr.write(f"\rBlueSky {k}/{len(names)} {futures[future][:60]:60s}")
+    sys.stderr.write("\n")
+    return results
+
+
 def run_bluesky(corpus: Path, names: list[str], until: float, timeout_s: float) -> dict[str, SideResult]:
-    """All files in BlueSky, one worker process, restarted after a crash."""
+    """All files in BlueSky, one worker process, restarted after a crash (``--one-process``)."""
     results: dict[str, SideResult] = {}
     pending = list(names)
     with tempfile.TemporaryDirectory(prefix="bluesky-corpus-out-") as tmp:
@@ -382,11 +422,13 @@ def print_report(results: list[Comparison], until: float, markdown: bool, out=sy
     return totals
 
 
-def _cached_bluesky(path: Path | None, until: float) -> dict[str, SideResult]:
+def _cached_bluesky(path: Path | None, until: float, mode: str) -> dict[str, SideResult]:
     if path is None or not path.exists():
         return {}
     data = json.loads(path.read_text())
-    if data.get("until_s") != until:
+    # A cache without a mode is from the one-process runs that came first.
+    if data.get("until_s") != until or data.get("mode", "one-process") != mode:
+        sys.stderr.write(f"{path}: not BlueSky's results for --until {until:g} in {mode} mode: not used\n")
         return {}
     out = {}
     for name, record in data["files"].items():
@@ -406,6 +448,10 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--bluesky-cache", type=Path,
                         help="BlueSky's results: read from this JSON file when it exists (same --until), else "
                              "written to it (BlueSky takes most of the time; aamsim changes do not touch it)")
+    parser.add_argument("--jobs", type=int, default=os.cpu_count() or 1,
+                        help="BlueSky processes at a time (default: the number of CPUs)")
+    parser.add_argument("--one-process", action="store_true",
+                        help="run every file in one BlueSky process (faster; see the module docstring)")
     parser.add_argument("--bluesky-worker", nargs=3, type=Path, help=argparse.SUPPRESS)
     args = parser.parse_args(argv)
     if args.bluesky_worker:
@@ -419,14 +465,18 @@ def main(argv: list[str] | None = None) -> int:
     names = corpus_files(corpus, args.only)
     if not names:
         parser.error(f"no .scn files under {corpus}")
-    sys.stderr.write(f"{len(names)} files; BlueSky first (one process)...\n")
+    mode = "one-process" if args.one_process else "per-file"
+    sys.stderr.write(f"{len(names)} files; BlueSky first ({mode})...\n")
     _warm_up_aamsim()
-    bluesky = _cached_bluesky(args.bluesky_cache, args.until)
+    bluesky = _cached_bluesky(args.bluesky_cache, args.until, mode)
     missing = [n for n in names if n not in bluesky]
     if missing:
-        bluesky.update(run_bluesky(corpus, missing, args.until, args.timeout))
+        if args.one_process:
+            bluesky.update(run_bluesky(corpus, missing, args.until, args.timeout))
+        else:
+            bluesky.update(run_bluesky_per_file(corpus, missing, args.until, args.timeout, args.jobs))
         if args.bluesky_cache:
-            args.bluesky_cache.write_text(json.dumps({"until_s": args.until, "files": {
+            args.bluesky_cache.write_text(json.dumps({"until_s": args.until, "mode": mode, "files": {
                 k: asdict(v) for k, v in bluesky.items()}}))
     results = []
     for k, name in enumerate(names, 1):

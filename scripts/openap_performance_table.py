@@ -38,9 +38,9 @@ def _entry(code: str, limits: dict, aircraft: dict, polar: dict) -> dict:
         "vmin_mps": limits["vminer"],
         "vmax_mps": limits["vmaxer"],
         "mmo": limits["mmo"],
-        # BlueSky's descent limit (the minimum of the climb rates) is never reached:
-        # its vertical speed command is a magnitude. The climb rate bounds both ways.
-        "vsmin_mps": -limits["vsmax"],
+        # BlueSky's "descent limit" is the least of the WRAP climb rates, a positive number:
+        # kept, as BlueSky's limits and its MVP resolution use it (docs/performance.md).
+        "vsmin_mps": limits["vsmin"],
         "vsmax_mps": limits["vsmax"],
         "hmax_m": limits["hmax"],
         "axmax_mps2": limits["axmax"],

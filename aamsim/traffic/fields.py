@@ -49,7 +49,7 @@ FLOAT_FIELDS = (
     # --- performance envelope ---------------------------------------------------
     "vmin",  # m/s (TAS for rotorcraft, CAS for fixed wing)
     "vmax",  # m/s
-    "vsmin",  # m/s (negative)
+    "vsmin",  # m/s (negative; positive for BlueSky's OpenAP fixed-wing types, see docs/performance.md)
     "vsmax",  # m/s
     "hmax",  # m
     "axmax",  # m/s^2 in use (refreshed from the type at the performance interval)

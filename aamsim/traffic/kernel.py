@@ -420,6 +420,8 @@ def _step_aircraft(
         des_tas = _cas2tas(cas_l, rho_h, p_h)
         if des_tas / a_h > F[MMO, i]:
             des_tas = F[MMO, i] * a_h
+        # The command is a magnitude here (BlueSky's APorASAS takes its absolute value), so
+        # BlueSky's descent-side limit never applies; only the climb rate limits it.
         if des_vs > F[VSMAX, i]:
             des_vs = (1.0 - F[AX, i] / axmax) * F[VSMAX, i]
         if tas < F[TAKEOFF_TAS, i]:  # on the ground below take-off speed (NaN: no gate)

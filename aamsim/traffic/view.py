@@ -45,7 +45,7 @@ PUBLIC_FLOATS: dict[str, str] = {
     "bankdef": "bank angle used in turns [rad]",
     "vmin": "minimum speed of the envelope [m/s]",
     "vmax": "maximum speed of the envelope [m/s]",
-    "vsmin": "lowest vertical speed of the envelope [m/s] (negative)",
+    "vsmin": "lowest vertical speed of the envelope [m/s] (negative; BlueSky's OpenAP fixed-wing data: a small positive rate)",
     "vsmax": "highest vertical speed of the envelope [m/s]",
     "ap_vs": "vertical speed commanded by the autopilot [m/s]",
     "axmax": "acceleration limit in use [m/s^2]",
