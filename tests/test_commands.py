@@ -218,6 +218,15 @@ def test_display_commands_are_ignored_with_one_note(sim):
     assert len(notes) == 3 and not errors_of(sim)
 
 
+def test_console_zoom_keys_of_any_length_are_zoom(sim):
+    # BlueSky's corpus has lines of 8 and 14 plus signs (Malik/nycGrid_test.scn, taxiwpts.scn).
+    sim.load_text("00:00:00.00>++++++++++++++\n00:00:00.00>--\n00:00:00.00>=+-\n00:00:00.00>-5\n")
+    sim.run_until(1.0)
+    assert [m.text for m in sim.reporter.messages if m.kind == "note"] == [
+        "ZOOM ignored: aamsim is headless (display or real-time command)"]
+    assert len(errors_of(sim)) == 1 and "unknown command -5" in errors_of(sim)[0]  # a number is no zoom key
+
+
 def test_unknown_command_and_bad_arguments_report_and_continue(sim):
     sim.load_text(
         "00:00:00.00>CRE A EC35 0 0 0 1000 100\n"

@@ -10,6 +10,7 @@ line never hides the good ones.
 from __future__ import annotations
 
 import io
+import re
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
 
@@ -125,8 +126,11 @@ def split_commands(text: str) -> list[str]:
     return [p.strip() for p in parts if p.strip()]
 
 
+_ZOOM_KEYS = re.compile(r"[+=-]+")
+
+
 def resolve_command_form(command: Command, is_command: Callable[[str], bool]) -> Command:
-    """Rewrite BlueSky's ``ACID CMD args`` form to ``CMD ACID args``.
+    """Rewrite BlueSky's ``ACID CMD args`` form to ``CMD ACID args`` (and its zoom keys to ZOOM).
 
     A line whose first word is not a command but whose second word is, names
     the aircraft first. Otherwise the command is returned unchanged: an
@@ -135,6 +139,9 @@ def resolve_command_form(command: Command, is_command: Callable[[str], bool]) ->
     """
     if is_command(command.name):
         return command
+    if _ZOOM_KEYS.fullmatch(command.name):
+        # BlueSky's console reads a word of + (or =) and - signs, of any length, as ZOOM.
+        return Command("ZOOM", f"{command.name} {command.argtext}".strip())
     second, rest = next_arg(command.argtext)
     if second and is_command(second.upper()):
         argtext = f"{command.name} {rest}".strip()

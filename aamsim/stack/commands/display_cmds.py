@@ -34,7 +34,6 @@ def _ignored(name: str) -> Callable[..., Any]:
     return handler
 
 
-# BlueSky's console reads a command of + (or =) and - signs as ZOOM IN by sqrt(2) per + and out per -.
-ZOOM_KEYS = tuple(sign * count for sign in "+=-" for count in range(1, 7))
-
-COMMANDS = tuple(_ignored(name) for name in DISPLAY_COMMANDS + ZOOM_KEYS)
+# (A command of + or = and - signs, BlueSky's console zoom keys, is read as ZOOM: see
+# aamsim.stack.parser.resolve_command_form.)
+COMMANDS = tuple(_ignored(name) for name in DISPLAY_COMMANDS)
