@@ -218,6 +218,13 @@ def _bluesky_files(corpus: Path, names: list[str], until: float, timeout_s: floa
             out.flush()
 
 
+def _side_result(record: dict) -> SideResult:
+    """A :class:`SideResult` from its JSON record (a worker's line or the cache; a ``name`` key is dropped)."""
+    fields = {k: v for k, v in record.items() if k != "name"}
+    fields["aircraft"] = {k: tuple(v) for k, v in fields["aircraft"].items()}
+    return SideResult(**fields)
+
+
 def _bluesky_fresh(corpus: Path, name: str, until: float, timeout_s: float, tmp: Path) -> SideResult:
     """One file in a fresh BlueSky process."""
     safe = name.replace("/", "__")
@@ -229,10 +236,7 @@ def _bluesky_fresh(corpus: Path, name: str, until: float, timeout_s: float, tmp:
         capture_output=True, text=True, check=False,
     )
     if out.exists() and out.read_text().strip():
-        record = json.loads(out.read_text().splitlines()[0])
-        record.pop("name")
-        record["aircraft"] = {k: tuple(v) for k, v in record["aircraft"].items()}
-        return SideResult(**record)
+        return _side_result(json.loads(out.read_text().splitlines()[0]))
     tail = (proc.stderr or "").strip().splitlines()[-1:] or [f"exit status {proc.returncode}"]
     return SideResult(crashed=f"BlueSky process died: {tail[0][:200]}")
 
@@ -270,9 +274,7 @@ def run_bluesky(corpus: Path, names: list[str], until: float, timeout_s: float) 
             if out.exists():
                 for line in out.read_text().splitlines():
                     record = json.loads(line)
-                    name = record.pop("name")
-                    record["aircraft"] = {k: tuple(v) for k, v in record["aircraft"].items()}
-                    results[name] = SideResult(**record)
+                    results[record["name"]] = _side_result(record)
             pending = [n for n in names if n not in results]
             if pending:
                 # The worker died inside the first pending file: record that and go on after it.
@@ -432,8 +434,7 @@ def _cached_bluesky(path: Path | None, until: float, mode: str) -> dict[str, Sid
         return {}
     out = {}
     for name, record in data["files"].items():
-        record["aircraft"] = {k: tuple(v) for k, v in record["aircraft"].items()}
-        out[name] = SideResult(**record)
+        out[name] = _side_result(record)
     return out
 
 

@@ -55,6 +55,7 @@ FLOAT_FIELDS = (
     "axmax",  # m/s^2 in use (refreshed from the type at the performance interval)
     "axmax_type",  # m/s^2 of the aircraft type
     "mmo",  # -, maximum Mach (inf for rotorcraft)
+    "takeoff_tas",  # m/s: on the ground (phase GD) below this TAS the aircraft does not climb (NaN: no gate)
     # --- active waypoint (the leg being flown) -----------------------------------
     "wp_lat",
     "wp_lon",
@@ -108,8 +109,7 @@ FLOAT_FIELDS = (
     "c_q0sin",
     # --- fixed-wing thrust and drag model (BlueSky's OpenAP; NaN for other types) -----
     # Read once per performance refresh, not per step: kept after the rows the kernel
-    # reads every step so that those stay packed in the same cache lines.
-    "takeoff_tas",  # m/s: on the ground (phase GD) below this TAS the aircraft does not climb (NaN: no gate)
+    # reads every step (takeoff_tas is with the envelope) so that those stay packed.
     "phase",  # BlueSky's OpenAP flight phase (aamsim.traffic.openap.PHASE_*), set at each refresh
     "fw_mass",  # kg
     "fw_wing_area",  # m^2
@@ -206,6 +206,7 @@ HMAX = _row("hmax")
 AXMAX = _row("axmax")
 AXMAX_TYPE = _row("axmax_type")
 MMO = _row("mmo")
+TAKEOFF_TAS = _row("takeoff_tas")
 WP_LAT = _row("wp_lat")
 WP_LON = _row("wp_lon")
 WP_NEXTALTCO = _row("wp_nextaltco")
@@ -253,7 +254,6 @@ C_COSLA0 = _row("c_cosla0")
 C_Q0 = _row("c_q0")
 C_Q0COS = _row("c_q0cos")
 C_Q0SIN = _row("c_q0sin")
-TAKEOFF_TAS = _row("takeoff_tas")
 PHASE = _row("phase")
 FW_MASS = _row("fw_mass")
 FW_WING_AREA = _row("fw_wing_area")

@@ -56,25 +56,6 @@ _H35 = 35_000.0 * FT
 
 
 
-def _reference_point() -> tuple[float, float, float]:
-    """ISA pressure at FL100 and FL350 [Pa] and the CAS of Mach 0.8 at FL350 [m/s], in plain Python.
-
-    (Calling the compiled atmosphere here would load compiled code at import.)
-    """
-    def isa(h: float) -> tuple[float, float]:
-        t = max(aero.T0 + aero.LAPSE * h, aero.T_STRAT)
-        rho = aero.RHO0 * (t / aero.T0) ** 4.256848030018761 * math.exp(-max(0.0, h - 11000.0) / 6341.552161)
-        return rho, rho * aero.R_AIR * t
-
-    rho35, p35 = isa(_H35)
-    tas = _MACH_REF * math.sqrt(aero.GAMMA * aero.R_AIR * max(aero.T0 + aero.LAPSE * _H35, aero.T_STRAT))
-    qdyn = p35 * ((1.0 + rho35 * tas * tas / (7.0 * p35)) ** 3.5 - 1.0)
-    vcas = math.sqrt(7.0 * aero.P0 / aero.RHO0 * ((qdyn / aero.P0 + 1.0) ** (2.0 / 7.0) - 1.0))
-    return isa(_H10)[1], p35, vcas
-
-
-_P10, _P35, _VCAS_REF = _reference_point()
-
 
 @njit(cache=True, error_model="numpy")
 def flight_phase(vs: float, alt: float) -> int:
@@ -111,25 +92,29 @@ def inflight_max_thrust(max_thrust: float, tas: float, alt: float, vs: float) ->
     ``max_thrust`` is the static maximum thrust of all engines [N]; the model
     scales a top-of-climb thrust estimated from it by pressure, CAS and climb rate.
     """
+    # The reference point: pressure at FL350 (and FL100), the CAS of Mach 0.8 at FL350.
+    p35 = aero.pressure(_H35)
+    vcas_ref = aero.tas2cas_scalar(_MACH_REF * aero.speed_of_sound(_H35), _H35)
     roc = abs(vs / FPM)
     tas = max(tas, 10.0)
     mach = tas / aero.speed_of_sound(alt)
     vcas = aero.tas2cas_scalar(tas, alt)
     p = aero.pressure(alt)
     f35 = (200.0 + 0.2 * max_thrust / LBF) * LBF  # top-of-climb thrust [N]
-    mratio, vratio = mach / _MACH_REF, vcas / _VCAS_REF
+    mratio, vratio = mach / _MACH_REF, vcas / vcas_ref
     if alt > _H35:
-        ratio = (-0.4204 * mratio + 1.0824) * math.log(p / _P35) + mratio**-0.11
+        ratio = (-0.4204 * mratio + 1.0824) * math.log(p / p35) + mratio**-0.11
     else:
         a = vratio**-0.1
         n = 2.667e-05 * roc + 0.8633
         if alt > _H10:
-            ratio = a * (p / _P35) ** (-0.355 * vratio + n)
+            ratio = a * (p / p35) ** (-0.355 * vratio + n)
         else:
             # Linear in pressure, continuous with the segment above at FL100.
-            ratio_f10 = a * (_P10 / _P35) ** (-0.355 * vratio + n)
+            p10 = aero.pressure(_H10)
+            ratio_f10 = a * (p10 / p35) ** (-0.355 * vratio + n)
             m = -1.2043e-1 * vratio - 8.8889e-9 * roc**2 + 2.4444e-5 * roc + 4.7379e-1
-            ratio = m * (p / _P35) + (ratio_f10 - m * (_P10 / _P35))
+            ratio = m * (p / p35) + (ratio_f10 - m * (p10 / p35))
     return ratio * f35
 
 
