@@ -27,12 +27,11 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from aamsim.conflicts.service import search_pairs, traffic_snapshot
-from aamsim.units import NM
+from aamsim.units import NM, R_EARTH  # R_EARTH: also the radius of BlueSky's compiled geo
 
 if TYPE_CHECKING:
     from aamsim.simulation import Simulation
 
-_RE = 6371000.0  # BlueSky's compiled geo: mean earth radius [m]
 _M2NM = 0.0005399568034557236
 _DEG2RAD = 0.017453292519943295
 _RAD2DEG = 57.29577951308232
@@ -80,7 +79,7 @@ def detect(sim: Simulation, rpz_m: float, hpz_m: float, dtlook_s: float) -> Dire
     dlon = lon[j] - lon[i]
     cavelat = np.cos(0.5 * (lat[i] + lat[j]))
     qdr = _RAD2DEG * np.fmod(np.arctan2(dlon * cavelat, dlat), 360.0)
-    dist = _M2NM * (_RE * np.sqrt(dlat * dlat + dlon * dlon * cavelat * cavelat)) * NM
+    dist = _M2NM * (R_EARTH * np.sqrt(dlat * dlat + dlon * dlon * cavelat * cavelat)) * NM
     # Both sides: (i, j) and (j, i), with the same bearing and distance.
     own = np.concatenate([i, j])
     intr = np.concatenate([j, i])

@@ -37,12 +37,12 @@ import numpy as np
 from aamsim.metrics import record_advisory
 from aamsim.resolution.mvp import MVPSettings, OwnState, PairGeometry, combine, commands, mvp_pairs
 from aamsim.resolution.mvp_detect import DirectedConflicts, detect
+from aamsim.units import R_EARTH  # also the radius of BlueSky's flat-earth pair formulas
 
 if TYPE_CHECKING:
     from aamsim.simulation import Simulation
 
 METHOD = "MVP"
-_R_EARTH = 6371000.0  # BlueSky's radius in its flat-earth pair formulas
 _BOUNCING_DEG = 30.0  # nearly parallel tracks: a conflict that keeps starting and ending
 
 
@@ -171,8 +171,8 @@ class MVPService:
         """Before CPA, within the protected radius, or a bouncing conflict (BlueSky's resumenav test)."""
         view = sim.view
         lat_i, lat_j = float(view.lat[i]), float(view.lat[j])
-        dx = _R_EARTH * np.radians(float(view.lon[j]) - float(view.lon[i])) * np.cos(0.5 * np.radians(lat_j + lat_i))
-        dy = _R_EARTH * np.radians(lat_j - lat_i)
+        dx = R_EARTH * np.radians(float(view.lon[j]) - float(view.lon[i])) * np.cos(0.5 * np.radians(lat_j + lat_i))
+        dy = R_EARTH * np.radians(lat_j - lat_i)
         ux = float(view.gseast[j]) - float(view.gseast[i])
         uy = float(view.gsnorth[j]) - float(view.gsnorth[i])
         past_cpa = dx * ux + dy * uy > 0.0
