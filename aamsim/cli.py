@@ -23,8 +23,11 @@ def _time_option(value: str | None) -> float | None:
 
 
 def _viewer_options(fn: Any) -> Any:
-    """--host/--port/--open of every command that shows the web viewer."""
+    """--host/--port/--allow-host/--open of every command that shows the web viewer."""
     fn = click.option("--open", "open_browser", is_flag=True, help="Open the viewer in the default browser.")(fn)
+    fn = click.option("--allow-host", "allow_hosts", multiple=True, metavar="NAME",
+                      help="Also answer requests addressed to this host name (IP addresses, localhost and "
+                           "--host are always answered; other names are refused against DNS rebinding).")(fn)
     fn = click.option("--port", type=click.IntRange(0, 65535), default=8750, show_default=True,
                       help="Viewer port (0: any free port).")(fn)
     fn = click.option("--host", default="127.0.0.1", show_default=True,
@@ -147,8 +150,8 @@ def main() -> None:
 def run(scenario: str, until: str | None, out_dir: Path | None, dt: float, seed: int | None, strict: bool,
         quiet: bool, log_period: float, plugins: tuple[str, ...], delete_on_arrival: bool, metrics: str,
         nmac: str, lowc: str, threads: int, overlays: tuple[str, ...], overlay_offset: str,
-        overlay_area: str, show_view: bool, host: str, port: int, open_browser: bool, pace: float | None,
-        allow_commands: bool) -> None:
+        overlay_area: str, show_view: bool, host: str, port: int, allow_hosts: tuple[str, ...],
+        open_browser: bool, pace: float | None, allow_commands: bool) -> None:
     """Simulate SCENARIO headless, as fast as possible, and write a run directory.
 
     SCENARIO is a path, or the name of a scenario shipped with aamsim
@@ -204,9 +207,12 @@ def run(scenario: str, until: str | None, out_dir: Path | None, dt: float, seed:
     if show_view:
         from aamsim.viewer.live import LiveViewer
 
-        live = LiveViewer(host, port, allow_commands=allow_commands, title=Path(scenario).stem)
+        live = LiveViewer(host, port, allow_commands=allow_commands, title=Path(scenario).stem,
+                          allow_hosts=allow_hosts)
         try:
-            _announce_viewer(live.start(), host, open_browser)
+            live.start()
+            assert live.page_url is not None
+            _announce_viewer(live.page_url, host, open_browser)
         except OSError as exc:
             click.echo(f"error: {exc}", err=True)
             sys.exit(2)
@@ -324,8 +330,8 @@ def video(run_dir: Path, video_path: Path, t_from: str | None, t_to: str | None,
               help="With --video: sim seconds per second of video.")
 @click.option("--fps", type=float, default=10.0, show_default=True, help="With --video: frames per second.")
 @click.option("--size", default="800x800", show_default=True, help="With --video: WIDTHxHEIGHT in pixels.")
-def view(run_dir: Path, host: str, port: int, open_browser: bool, video_path: Path | None, t_from: str | None,
-         t_to: str | None, speed: float, fps: float, size: str) -> None:
+def view(run_dir: Path, host: str, port: int, allow_hosts: tuple[str, ...], open_browser: bool,
+         video_path: Path | None, t_from: str | None, t_to: str | None, speed: float, fps: float, size: str) -> None:
     """Replay RUN_DIR (an aamsim run directory) in the web viewer until Ctrl-C, or into a video.
 
     The page shows the traffic over the scenario's network with a time slider,
@@ -340,7 +346,7 @@ def view(run_dir: Path, host: str, port: int, open_browser: bool, video_path: Pa
     if t_from is not None or t_to is not None:
         raise click.UsageError("--from and --to go with --video")
     try:
-        serve_replay(str(run_dir), host, port, lambda url: _announce_viewer(url, host, open_browser))
+        serve_replay(str(run_dir), host, port, lambda url: _announce_viewer(url, host, open_browser), allow_hosts)
     except ReplayError as exc:
         click.echo(f"error: {exc}", err=True)
         sys.exit(2)
@@ -546,7 +552,7 @@ def commands(group: str | None) -> None:
 @_viewer_options
 def serve(bind: str, plugins: tuple[str, ...], max_message_bytes: int, session_timeout: float, max_sessions: int,
           scenario_roots: tuple[Path, ...], allow_shutdown: bool, log_level: str, show_view: bool, host: str,
-          port: int, open_browser: bool) -> None:
+          port: int, allow_hosts: tuple[str, ...], open_browser: bool) -> None:
     """Run a headless simulation server for RL environments (ZeroMQ, docs/protocol.md).
 
     Each client gets its own simulation. Ctrl-C or SIGTERM stops the server.
@@ -578,7 +584,7 @@ def serve(bind: str, plugins: tuple[str, ...], max_message_bytes: int, session_t
     if show_view:
         from aamsim.viewer.live import LiveViewer
 
-        live = LiveViewer(host, port, title="aamsim serve: waiting for a session")
+        live = LiveViewer(host, port, title="aamsim serve: waiting for a session", allow_hosts=allow_hosts)
         try:
             _announce_viewer(live.start(), host, open_browser)
         except OSError as exc:

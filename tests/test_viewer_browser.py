@@ -55,7 +55,7 @@ def _start(cmd: list[str], cwd: Path) -> tuple[subprocess.Popen, str]:
     proc = subprocess.Popen(cmd, cwd=cwd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     assert proc.stderr is not None
     for line in proc.stderr:
-        m = re.search(r"viewer: (http://127\.0\.0\.1:\d+/)", line)
+        m = re.search(r"viewer: (http://127\.0\.0\.1:\d+/(?:\?token=[\w-]+)?)", line)
         if m:
             return proc, m.group(1)
     proc.wait(10)
@@ -168,3 +168,57 @@ def test_a_live_run_streams_its_traffic_and_keeps_the_last_picture(browser, tmp_
         _screenshot(page, tmp_path, "viewer-live.png")
     finally:
         assert _stop(proc) == 0
+
+
+HOSTILE_PAGE = """<!doctype html><title>pending</title><script>
+const ws = new WebSocket("ws://127.0.0.1:%(port)s/ws?token=%(token)s");
+ws.onopen = () => { ws.send(JSON.stringify({op: "stack", line: "CRE EVIL1 EC35 40.75 -73.98 0 500 40"}));
+                    document.title = "opened"; };
+ws.onerror = () => { document.title = "refused"; };
+</script>"""
+
+
+def test_a_hostile_page_cannot_drive_a_live_run_but_the_viewers_own_page_can(browser, tmp_path):
+    """The browser sends the hostile page's Origin: the upgrade is refused even when it knows the token."""
+    import http.server
+    import threading
+
+    scn = tmp_path / "three.scn"
+    scn.write_text(SCENARIO)
+    proc, url = _start(_aamsim("run", str(scn), "--until", "400", "--out", str(tmp_path / "run"), "--quiet",
+                               "--view", "--port", "0", "--pace", "5", "--allow-commands"), tmp_path)
+    port, token = re.match(r"http://127\.0\.0\.1:(\d+)/\?token=([\w-]+)", url).groups()  # type: ignore[union-attr]
+    body = (HOSTILE_PAGE % {"port": port, "token": token}).encode()
+
+    class Hostile(http.server.BaseHTTPRequestHandler):
+        def do_GET(self):
+            self.send_response(200)
+            self.send_header("Content-Type", "text/html")
+            self.end_headers()
+            self.wfile.write(body)
+
+        def log_message(self, *args):
+            pass
+
+    hostile = http.server.ThreadingHTTPServer(("127.0.0.1", 0), Hostile)
+    threading.Thread(target=hostile.serve_forever, daemon=True).start()
+    try:
+        page = browser.new_page()
+        page.goto(f"http://127.0.0.1:{hostile.server_address[1]}/")
+        page.wait_for_function("document.title !== 'pending'", timeout=10_000)
+        assert page.title() == "refused"
+        own = browser.new_page(viewport={"width": 1100, "height": 750})
+        own.goto(url)
+        own.wait_for_function("document.getElementById('map').dataset.aircraft === '2'", timeout=20_000)
+        assert own.is_visible("#command-form")
+        own.fill("#command", "CRE OK1 EC35 40.75 -73.98 0 500 40")
+        own.press("#command", "Enter")
+        own.wait_for_function("window.viewerState.frame.ids.includes('OK1')", timeout=20_000)
+        assert "EVIL1" not in own.evaluate("() => window.viewerState.frame.ids")
+        tokenless = browser.new_page()
+        tokenless.goto(url.split("?")[0])
+        tokenless.wait_for_function("Number(document.getElementById('map').dataset.frames) > 0", timeout=20_000)
+        assert not tokenless.is_visible("#command-form")  # without the token the page offers no command box
+    finally:
+        hostile.shutdown()
+        assert _stop(proc) == 130  # Ctrl-C in the middle of the paced run: stopped, outputs complete so far

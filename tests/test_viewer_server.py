@@ -114,7 +114,7 @@ def test_a_client_that_vanishes_mid_stream_stops_neither_the_simulation_nor_the_
         host, port = url.split("//")[1].rstrip("/").split(":")
         for _ in range(3):  # a raw WebSocket upgrade, then the socket is dropped without a close frame
             s = socket.create_connection((host, int(port)))
-            s.sendall(b"GET /ws HTTP/1.1\r\nHost: x\r\nUpgrade: websocket\r\nConnection: Upgrade\r\n"
+            s.sendall(b"GET /ws HTTP/1.1\r\nHost: 127.0.0.1\r\nUpgrade: websocket\r\nConnection: Upgrade\r\n"
                       b"Sec-WebSocket-Key: dGhlIHNhbXBsZSBub25jZQ==\r\nSec-WebSocket-Version: 13\r\n\r\n")
             s.recv(200)
             s.close()
@@ -139,9 +139,11 @@ def test_stack_commands_from_the_browser_run_only_when_allowed():
     url = live.start()
     try:
         live.attach(sim, None)
+        assert live.page_url is not None
+        token = live.page_url.split("?token=")[1]  # the secret printed in the URL (tests/test_viewer_access.py)
 
         async def command():
-            async with aiohttp.ClientSession() as http, http.ws_connect(url + "ws") as ws:
+            async with aiohttp.ClientSession() as http, http.ws_connect(url + "ws?token=" + token) as ws:
                 await ws.send_str(json.dumps({"op": "stack", "line": "ALT P1 1500"}))
                 while True:
                     msg = await ws.receive_json(timeout=5)

@@ -17,7 +17,7 @@ import time
 from typing import TYPE_CHECKING, Any
 
 from aamsim.viewer.frames import MapLayout, TrafficFrame, frame_from_sim, layout_from_sim
-from aamsim.viewer.server import FRAME_PERIOD_S, LiveSource, ViewerApp, start_site
+from aamsim.viewer.server import FRAME_PERIOD_S, AccessPolicy, LiveSource, ViewerApp, start_site
 
 if TYPE_CHECKING:
     from aamsim.simulation import Simulation
@@ -30,10 +30,11 @@ class LiveViewer:
     """A web viewer on a daemon thread; :meth:`publish` frames to it, or :meth:`attach` a simulation."""
 
     def __init__(self, host: str = "127.0.0.1", port: int = 0, *, allow_commands: bool = False,
-                 title: str = "live simulation") -> None:
+                 title: str = "live simulation", allow_hosts: tuple[str, ...] = ()) -> None:
         self.host, self.port = host, port
         self.source = LiveSource(title)
-        self.viewer = ViewerApp(self.source, allow_commands=allow_commands)
+        self.viewer = ViewerApp(self.source, allow_commands=allow_commands,
+                                access=AccessPolicy.for_server(host, allow_hosts, allow_commands))
         self.url: str | None = None
         self._loop: asyncio.AbstractEventLoop | None = None
         self._thread: threading.Thread | None = None
@@ -76,6 +77,11 @@ class LiveViewer:
         if self.url is None:
             raise OSError(f"the viewer did not start on {self.host}:{self.port} within 30 s")
         return self.url
+
+    @property
+    def page_url(self) -> str | None:
+        """The URL a person opens: :attr:`url`, plus the command token when commands are allowed."""
+        return None if self.url is None else self.viewer.page_url(self.url)
 
     def publish(self, frame: TrafficFrame, layout: MapLayout | None = None) -> None:
         """Hand a frame to the browsers (never blocks; they take the latest at ten per second)."""

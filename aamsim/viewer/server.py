@@ -9,7 +9,17 @@ every tab gets it at most ten times a second, however fast the simulation runs.
 
 Everything served is read-only. The only message that changes anything is
 ``{"op": "stack", "line": ...}`` on a live source, and only when the server
-was started with ``allow_commands``; otherwise it is refused with a message.
+was started with ``allow_commands`` *and* the WebSocket was opened with the
+run's command token (a random secret made at start-up and printed in the
+page's URL, ``?token=...``); otherwise it is refused with a message.
+
+Who may ask at all: any page in the user's browser can try to reach
+``127.0.0.1:8750``. So every request must name an allowed ``Host`` (an IP
+literal, ``localhost``, the name the server was bound to, or a name the user
+declared with ``--allow-host``), which defeats DNS rebinding (an attacker's
+name resolving to 127.0.0.1 arrives with the attacker's name as ``Host``), and
+a WebSocket upgrade that carries an ``Origin`` (every browser sends one) must
+come from the viewer's own origin. A refused request gets a 403 naming why.
 A bad request gets a 4xx (HTTP) or an ``error`` message (WebSocket) and the
 server keeps serving; a tab that vanishes mid-stream ends only its own task.
 """
@@ -17,14 +27,18 @@ server keeps serving; a tab that vanishes mid-stream ends only its own task.
 from __future__ import annotations
 
 import asyncio
+import hmac
+import ipaddress
 import json
 import math
+import secrets
 import threading
 import time
 from collections import deque
 from dataclasses import dataclass
 from importlib import resources
 from typing import Any
+from urllib.parse import urlsplit
 
 from aiohttp import WSMsgType, web
 
@@ -129,9 +143,86 @@ class _Playback:
     seeked: bool = False  # the next frame starts afresh (trails cleared, no events replayed)
 
 
+# ---------------------------------------------------------------- who may ask
+LOOPBACK_NAMES = frozenset({"localhost", "localhost.localdomain", "ip6-localhost", "ip6-loopback"})
+
+
+def split_host(value: str) -> tuple[str, int | None] | None:
+    """``Host`` header (or an origin's net location) -> (lower-case name, port); ``None`` if malformed."""
+    try:
+        parts = urlsplit("//" + value.strip())
+        port = parts.port
+    except ValueError:
+        return None
+    name = (parts.hostname or "").rstrip(".")
+    return (name, port) if name else None
+
+
+def _is_ip_literal(name: str) -> bool:
+    try:
+        ipaddress.ip_address(name)
+    except ValueError:
+        return False
+    return True
+
+
+@dataclass(frozen=True)
+class AccessPolicy:
+    """The names a request may arrive under, and the secret that unlocks stack commands.
+
+    An IP literal is always accepted as ``Host``: DNS rebinding needs a *name* the attacker controls,
+    and a browser sends the name of the page's URL, so a numeric ``Host`` never comes from a
+    rebinding page. Names must be loopback names, the name the server was bound to, or declared.
+    """
+
+    allowed_names: frozenset[str] = LOOPBACK_NAMES
+    command_token: str | None = None
+
+    @classmethod
+    def for_server(cls, bind_host: str = "127.0.0.1", extra_names: tuple[str, ...] = (),
+                   allow_commands: bool = False) -> AccessPolicy:
+        names = set(LOOPBACK_NAMES)
+        names.update(n.lower().rstrip(".") for n in (bind_host, *extra_names) if n and not _is_ip_literal(n))
+        return cls(frozenset(names), secrets.token_urlsafe(18) if allow_commands else None)
+
+    def host_refusal(self, host_header: str | None) -> str | None:
+        """Why a request with this ``Host`` is refused, or ``None`` if it is accepted."""
+        parsed = split_host(host_header or "")
+        if parsed is None:
+            return "a request must carry a valid Host header"
+        name, _ = parsed
+        if _is_ip_literal(name) or name in self.allowed_names:
+            return None
+        return (f"Host {name!r} is not served here (DNS rebinding protection); open the viewer by the address "
+                "it printed, or start it with --allow-host NAME")
+
+    def origin_refusal(self, origin: str | None, host_header: str | None) -> str | None:
+        """Why a WebSocket upgrade from ``origin`` is refused (same-origin only), or ``None``."""
+        if origin is None:
+            return None  # not a browser (browsers always send Origin on a WebSocket upgrade)
+        parts = urlsplit(origin.strip())
+        own = split_host(host_header or "")
+        theirs = split_host(parts.netloc) if parts.scheme in ("http", "https") else None
+        if own is None or theirs is None:
+            return f"cross-origin WebSocket from {origin!r} refused"
+        default_port = 443 if parts.scheme == "https" else 80
+        if theirs[0] == own[0] and (theirs[1] or default_port) == (own[1] or default_port):
+            return None
+        return f"cross-origin WebSocket from {origin!r} refused: only the viewer's own page may connect"
+
+    def token_matches(self, token: str | None) -> bool:
+        if self.command_token is None or not token:
+            return False
+        return hmac.compare_digest(token.encode(), self.command_token.encode())
+
+
 # ---------------------------------------------------------------- control messages
-def parse_control(text: str | bytes, mode: str, allow_commands: bool) -> dict[str, Any]:
-    """Check one control message; raises :class:`ControlError` naming what is wrong."""
+def parse_control(text: str | bytes, mode: str, allow_commands: bool, token_ok: bool = True) -> dict[str, Any]:
+    """Check one control message; raises :class:`ControlError` naming what is wrong.
+
+    ``allow_commands``: the server takes stack commands at all; ``token_ok``: this connection
+    presented the run's command token.
+    """
     try:
         msg = json.loads(text)
     except (json.JSONDecodeError, UnicodeDecodeError, RecursionError):
@@ -158,6 +249,9 @@ def parse_control(text: str | bytes, mode: str, allow_commands: bool) -> dict[st
                                "with --allow-commands")
         if mode != "live":
             raise ControlError("stack commands need a live simulation, not a replay")
+        if not token_ok:
+            raise ControlError("stack commands need the command token: open the viewer by the URL it printed "
+                               "(it ends in ?token=...)")
         if not isinstance(line, str) or not line.strip() or len(line) > 512 or "\n" in line:
             raise ControlError("\"stack\" needs one command line (text, at most 512 characters) in \"line\"")
         return {"op": "stack", "line": line.strip()}
@@ -168,12 +262,15 @@ def parse_control(text: str | bytes, mode: str, allow_commands: bool) -> dict[st
 class ViewerApp:
     """The aiohttp application around one source."""
 
-    def __init__(self, source: Source, *, allow_commands: bool = False) -> None:
+    def __init__(self, source: Source, *, allow_commands: bool = False, access: AccessPolicy | None = None) -> None:
         self.source = source
         self.allow_commands = allow_commands
+        self.access = access or AccessPolicy.for_server(allow_commands=allow_commands)
+        if allow_commands and self.access.command_token is None:
+            raise ValueError("a viewer that takes commands needs an AccessPolicy with a command token")
         self.clients = 0
         self.last_sent: dict[str, Any] = {}
-        self.app = web.Application(client_max_size=MAX_MESSAGE_BYTES, middlewares=[self._errors])
+        self.app = web.Application(client_max_size=MAX_MESSAGE_BYTES, middlewares=[self._guard, self._errors])
         self.app.router.add_get("/", self._index)
         self.app.router.add_get("/static/{name}", self._static)
         self.app.router.add_get("/api/meta", self._meta)
@@ -187,6 +284,21 @@ class ViewerApp:
         """Ctrl-C: tell open tabs the server is going (1001) instead of waiting for them to leave."""
         for ws in list(self.sockets):
             await ws.close(code=1001, message=b"viewer stopped")
+
+    def page_url(self, base_url: str) -> str:
+        """The URL to open: ``base_url`` plus the command token when commands are allowed."""
+        token = self.access.command_token if self.allow_commands else None
+        return f"{base_url}?token={token}" if token else base_url
+
+    @web.middleware
+    async def _guard(self, request: web.Request, handler: Any) -> web.StreamResponse:
+        """Host check on every request (DNS rebinding), same-origin check on WebSocket upgrades."""
+        why = self.access.host_refusal(request.headers.get("Host"))
+        if why is None and request.path == "/ws":
+            why = self.access.origin_refusal(request.headers.get("Origin"), request.headers.get("Host"))
+        if why is not None:
+            return web.Response(status=403, text=f"403 Forbidden: {why}")
+        return await handler(request)
 
     @web.middleware
     async def _errors(self, request: web.Request, handler: Any) -> web.StreamResponse:
@@ -255,11 +367,12 @@ class ViewerApp:
         self.sockets.add(ws)
         src = self.source
         play = _Playback(t=src.replay.t_start if isinstance(src, ReplaySource) else 0.0)
+        token_ok = self.access.token_matches(request.query.get("token"))
         sender = asyncio.create_task(self._send_loop(ws, play))
         try:
             async for msg in ws:
                 if msg.type == WSMsgType.TEXT:
-                    await self._control(ws, play, msg.data)
+                    await self._control(ws, play, msg.data, token_ok)
                 elif msg.type == WSMsgType.BINARY:
                     await _send(ws, {"type": "error", "error": "send control messages as JSON text"})
                 elif msg.type == WSMsgType.ERROR:
@@ -270,9 +383,9 @@ class ViewerApp:
             self.sockets.discard(ws)
         return ws
 
-    async def _control(self, ws: web.WebSocketResponse, play: _Playback, text: str) -> None:
+    async def _control(self, ws: web.WebSocketResponse, play: _Playback, text: str, token_ok: bool) -> None:
         try:
-            msg = parse_control(text, self.source.mode, self.allow_commands)
+            msg = parse_control(text, self.source.mode, self.allow_commands, token_ok)
         except ControlError as exc:
             await _send(ws, {"type": "error", "error": str(exc)})
             return
@@ -352,9 +465,9 @@ async def start_site(viewer: ViewerApp, host: str, port: int) -> tuple[web.AppRu
     return runner, f"http://{shown}:{bound}/"
 
 
-def serve_replay(run_dir: str, host: str, port: int, on_ready: Any) -> None:
+def serve_replay(run_dir: str, host: str, port: int, on_ready: Any, allow_hosts: tuple[str, ...] = ()) -> None:
     """``aamsim view RUN_DIR``: serve a replay until interrupted (Ctrl-C)."""
-    viewer = ViewerApp(ReplaySource(RunReplay(run_dir)))
+    viewer = ViewerApp(ReplaySource(RunReplay(run_dir)), access=AccessPolicy.for_server(host, allow_hosts))
 
     async def main() -> None:
         runner, url = await start_site(viewer, host, port)

@@ -226,8 +226,12 @@ function send(msg) {
   if (state.ws && state.ws.readyState === WebSocket.OPEN) state.ws.send(JSON.stringify(msg));
 }
 
+// The command token the server printed in this page's URL (?token=...): stack commands need it.
+const commandToken = new URLSearchParams(location.search).get("token");
+
 function connect() {
-  const ws = new WebSocket(`${location.protocol === "https:" ? "wss" : "ws"}://${location.host}/ws`);
+  const query = commandToken ? `?token=${encodeURIComponent(commandToken)}` : "";
+  const ws = new WebSocket(`${location.protocol === "https:" ? "wss" : "ws"}://${location.host}/ws${query}`);
   state.ws = ws;
   ws.onopen = () => { $("connection").textContent = state.meta.mode === "replay" ? "replay" : "live"; };
   ws.onmessage = (ev) => {
@@ -276,7 +280,7 @@ function setupControls() {
     $("live-pause").addEventListener("click", () => {
       state.frozen = !state.frozen; $("live-pause").textContent = state.frozen ? "follow live" : "freeze view";
     });
-    if (meta.allow_commands) {
+    if (meta.allow_commands && commandToken) {
       $("command-form").hidden = false;
       $("command-form").addEventListener("submit", (ev) => {
         ev.preventDefault(); send({ op: "stack", line: $("command").value }); $("command").value = "";
