@@ -88,6 +88,44 @@ def test_d2mava_update_moves_the_policy_with_the_advantage(shared):
     assert 0.0 <= out["clip_fraction"] <= 1.0
 
 
+def test_ppo_epochs_take_full_minibatches_only():
+    from rlbridge.agents.core import minibatch_bounds
+
+    assert minibatch_bounds(0, 512) == []
+    assert minibatch_bounds(4, 512) == [(0, 4)]  # fewer than one minibatch: all of them, once
+    assert minibatch_bounds(1024, 512) == [(0, 512), (512, 1024)]
+    # 1,027 samples: two steps of 512; the 3 left over sit out this epoch (no Adam step on 3 samples)
+    assert minibatch_bounds(1027, 512) == [(0, 512), (512, 1024)]
+    d = dims()
+    learner = make_learner("d2mava", {"batch_size": 3, "epochs": 2}, d, seed=1)
+    out = learner.update([hand_batch(d, flat=False)])  # 4 transitions: one minibatch of 3 per epoch
+    assert out["gradient_steps"] == 2
+
+
+def _actor_step(returns_scale: float, shared: bool) -> float:
+    """Size of the actor's first update when the returns (and so the critic's gradient) are scaled."""
+    d = dims()
+    learner = make_learner("d2mava", {"shared": shared, "lr": 1e-3, "epochs": 1, "max_grad_norm": 0.5}, d, seed=5)
+    b = hand_batch(d, flat=False)
+    b.rewards[:] = b.rewards * returns_scale
+    b.values[:] = b.values * returns_scale
+    before = [p.detach().clone() for p in learner.model.pi.parameters()]
+    learner.update([b])
+    return float(sum((p.detach() - q).norm() ** 2 for p, q in zip(learner.model.pi.parameters(), before)) ** 0.5)
+
+
+def test_no_shared_layers_clips_the_actor_and_the_critic_apart():
+    """Advantages are normalised, so the actor's gradient does not grow with the returns; a joint clip
+    let the critic's 1e5-times larger gradient shrink the actor's step to almost nothing."""
+    assert _actor_step(1e5, shared=False) == pytest.approx(_actor_step(1.0, shared=False), rel=0.05)
+    d = dims()
+    model = make_learner("d2mava", {"shared": False}, d).model
+    groups = model.clip_groups()
+    ids = [{id(p) for p in g} for g in groups]
+    assert len(groups) == 2 and not ids[0] & ids[1] and ids[0] | ids[1] == {id(p) for p in model.parameters()}
+    assert len(make_learner("d2mava", {"shared": True}, d).model.clip_groups()) == 1
+
+
 # -------------------------------------------------------------------------------- (D)DQN
 def test_replay_memory_links_next_observations_and_grows_lazily():
     d = dims()

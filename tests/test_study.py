@@ -77,3 +77,60 @@ def test_smoke_study_runs_the_whole_pipeline(tmp_path):
                        "--workers", "0", "--budget", "60", "--train-scenario", TINY, "--eval-scenarios", TINY],
                       timeout=600)
     assert "training d2mava_a" not in proc.stderr + proc.stdout
+
+
+def _tiny_plan(**kw) -> StudyPlan:
+    plan = StudyPlan(contenders=["d2mava_a"], usecases=["corridor_sa"], seeds=[0], budget=200,
+                     train_scenario=str(ROOT / TINY), eval_scenarios=[str(ROOT / TINY)], episodes=1, baselines=[],
+                     actions=["greedy"], workers=0, best_window=2, smooth=1,
+                     overrides=["usecase.params.n_intruders=4", "env.time_limit_s=300", "train.checkpoint_every=1",
+                                "train.baseline_episodes=1"])
+    for k, v in kw.items():
+        setattr(plan, k, v)
+    return plan
+
+
+def test_a_study_interrupted_inside_a_training_run_continues_it_exactly(tmp_path, monkeypatch):
+    """A slice of the study ends in the middle of a run; the next slice continues from its last checkpoint
+    and ends where an uninterrupted run ends (same curve, same best policy); finished runs are exported."""
+    import numpy as np
+
+    from rlbridge.experiment import study as study_module
+    from rlbridge.experiment import train as train_module
+
+    plan = _tiny_plan()
+    whole = study_module.run_study(plan, tmp_path / "whole", tmp_path / "whole_out", ("train",))
+    assert whole["training_runs"] == ["train/corridor_sa/d2mava_a_s0"] and whole["evaluations"] == []
+    curve_whole = rows(tmp_path / "whole" / "train/corridor_sa/d2mava_a_s0/learning_curve.csv")
+    assert len(curve_whole) >= 3
+
+    real_save = train_module.save_checkpoint
+
+    def save_then_stop(path, learner, state, meta):
+        real_save(path, learner, state, meta)
+        if path.name == "last.pt" and state.iteration == 2:
+            raise KeyboardInterrupt  # the session ends here
+    monkeypatch.setattr(train_module, "save_checkpoint", save_then_stop)
+    with pytest.raises(KeyboardInterrupt):
+        study_module.run_study(plan, tmp_path / "cut", tmp_path / "cut_out", ("train",))
+    monkeypatch.setattr(train_module, "save_checkpoint", real_save)
+    run = tmp_path / "cut" / "train/corridor_sa/d2mava_a_s0"
+    assert not (run / "training_summary.json").exists() and len(rows(run / "learning_curve.csv")) == 2
+    study_module.run_study(plan, tmp_path / "cut", tmp_path / "cut_out", ("train",))
+    curve_cut = rows(run / "learning_curve.csv")
+    assert [r["iteration"] for r in curve_cut] == [r["iteration"] for r in curve_whole]
+    for a, b in zip(curve_cut, curve_whole):
+        assert a["reward_mean"] == b["reward_mean"] and a["aircraft_states_total"] == b["aircraft_states_total"]
+    exported = tmp_path / "cut_out" / "runs/corridor_sa/d2mava_a_s0"
+    assert {p.name for p in exported.iterdir()} >= {"policy.npz", "policy.json", "learning_curve.csv",
+                                                     "training_summary.json", "resolved_config.yaml"}
+    config = (exported / "resolved_config.yaml").read_text()
+    assert "resume: null" in config and str(tmp_path) not in config
+    with np.load(exported / "policy.npz") as cut, \
+            np.load(tmp_path / "whole_out" / "runs/corridor_sa/d2mava_a_s0" / "policy.npz") as ref:
+        assert sorted(cut.files) == sorted(ref.files)
+        for k in ref.files:
+            np.testing.assert_array_equal(cut[k], ref[k])
+    provenance = json.loads((exported / "policy.json").read_text())["provenance"]
+    assert provenance["seed"] == 0 and provenance["aircraft_states_budget"] == 200
+    assert provenance["training_scenario"] == "tiny_conflict"

@@ -8,8 +8,12 @@ hour" divides by the total airborne time of all flights.
 from __future__ import annotations
 
 import math
+from typing import TYPE_CHECKING
 
 from aamsim.metrics.registry import AAM_VS_AAM, AAM_VS_REAL, MetricContext, MetricFn, MetricRegistry, MetricValue
+
+if TYPE_CHECKING:
+    from aamsim.traffic.traffic import FlightRecord
 
 
 def _per_flight(count: int, ctx: MetricContext) -> float | None:
@@ -23,6 +27,11 @@ def _per_hour(count: float, ctx: MetricContext) -> float | None:
 
 def _mean(values: list[float]) -> float | None:
     return sum(values) / len(values) if values else None
+
+
+def _flight_end_s(flight: FlightRecord, ctx: MetricContext) -> float:
+    """When a flight's record ends: its deletion (arrived or not), else the end of the run."""
+    return ctx.duration_s if math.isnan(flight.deleted_s) else flight.deleted_s
 
 
 def _events(volume: str, per: str = "") -> MetricFn:
@@ -71,9 +80,18 @@ def register_standard_metrics(reg: MetricRegistry) -> None:
     reg.add("operational", "airborne_holding_s", lambda c: sum(f.slow_s for f in c.flights))
     reg.add("operational", "holding_flight_share", lambda c: _per_flight(c.count(lambda f: f.slow_s > 0), c))
     reg.add("operational", "holding_speed_threshold_mps", lambda c: c.hold_speed_mps)
+    reg.add("operational", "flights_unfinished", lambda c: c.count(lambda f: not f.arrived))
+    # Unfinished flights count, censored at the end of their record (deletion, else the end of the run):
+    # counting arrived flights only made a policy that parks aircraft look fast (issue 28). For an
+    # unfinished flight the figure is a lower bound of what it would have been.
     reg.add("operational", "mean_flight_time_s",
-            lambda c: _mean([f.deleted_s - f.created_s for f in c.flights if f.arrived]))
+            lambda c: _mean([_flight_end_s(f, c) - f.created_s for f in c.flights]))
     reg.add("operational", "mean_delay_s",
+            lambda c: _mean([_flight_end_s(f, c) - f.scheduled_arrival_s for f in c.flights
+                             if not math.isnan(f.scheduled_arrival_s)]))
+    reg.add("operational", "mean_flight_time_completed_s",
+            lambda c: _mean([f.deleted_s - f.created_s for f in c.flights if f.arrived]))
+    reg.add("operational", "mean_delay_completed_s",
             lambda c: _mean([f.deleted_s - f.scheduled_arrival_s for f in c.flights
                              if f.arrived and not math.isnan(f.scheduled_arrival_s)]))
     reg.add("operational", "distance_flown_m", lambda c: sum(f.distance_m for f in c.flights))

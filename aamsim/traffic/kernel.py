@@ -508,13 +508,15 @@ def _step_aircraft(
     F[ALT, i] = alt
     position_step(F, i, dt, gsn, gse)
     F[DISTFLOWN, i] += gs * dt
-    # Airborne holding: slow after having flown (the initial spin-up after a
-    # creation at 0 kt is not holding).
+    # Airborne holding: slow while airborne, either after having flown or because the aircraft is
+    # held there (its desired speed is under the threshold). The initial spin-up after a creation at
+    # 0 kt, with a higher speed selected, is not holding; an aircraft told to hold from its creation
+    # is (it once counted as 0 s: issue 28, a policy parking aircraft looked free).
     if abs(tas) >= hold_speed:
         B[B_HAS_MOVED, i] = True
     if alt > airborne_alt:
         F[AIRBORNE_S, i] += dt
-        if abs(tas) < hold_speed and B[B_HAS_MOVED, i]:
+        if abs(tas) < hold_speed and (B[B_HAS_MOVED, i] or des_tas < hold_speed):
             F[SLOW_S, i] += dt
 
 

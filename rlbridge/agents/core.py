@@ -5,6 +5,7 @@
 * :func:`dqn_target`, :func:`ddqn_target` — one-step Q-learning targets (Mnih et al. 2015;
   van Hasselt et al. 2016);
 * :func:`ppo_clip_loss`, :func:`value_loss` — PPO's clipped surrogate (Schulman et al. 2017);
+  :func:`minibatch_bounds` — the minibatches of one PPO epoch (full-sized only);
 * :func:`masked_softmax`, :func:`attention_pool` — attention over a padded set of intruders
   in which padded rows get exactly zero weight;
 * :class:`PackedIntruders`, :func:`segment_attention_pool` — the same attention over only the
@@ -95,10 +96,11 @@ def ddqn_target(rewards: torch.Tensor, next_q_online: torch.Tensor, next_q_targe
 # ------------------------------------------------------------------------------------ PPO
 @dataclass(frozen=True)
 class PPOLossInfo:
-    """Diagnostics of one clipped-surrogate evaluation."""
+    """Diagnostics of one clipped-surrogate evaluation, as 0-d tensors on the loss's device (reading
+    them with ``float()`` syncs with the device: the learner reads them once per update, not per step)."""
 
-    clip_fraction: float  # share of samples whose ratio left [1 - clip, 1 + clip]
-    approx_kl: float  # E[(ratio - 1) - log ratio], always >= 0
+    clip_fraction: torch.Tensor  # share of samples whose ratio left [1 - clip, 1 + clip]
+    approx_kl: torch.Tensor  # E[(ratio - 1) - log ratio], always >= 0
 
 
 def ppo_clip_loss(logp_new: torch.Tensor, logp_old: torch.Tensor, advantages: torch.Tensor,
@@ -113,9 +115,24 @@ def ppo_clip_loss(logp_new: torch.Tensor, logp_old: torch.Tensor, advantages: to
     clipped = torch.clamp(ratio, 1.0 - clip, 1.0 + clip) * advantages
     loss = -torch.min(unclipped, clipped).mean()
     with torch.no_grad():
-        frac = ((ratio - 1.0).abs() > clip).float().mean().item()
-        kl = ((ratio - 1.0) - log_ratio).mean().item()
+        frac = ((ratio - 1.0).abs() > clip).float().mean()
+        kl = ((ratio - 1.0) - log_ratio).mean()
     return loss, PPOLossInfo(frac, kl)
+
+
+def minibatch_bounds(n: int, batch_size: int) -> list[tuple[int, int]]:
+    """(start, end) of the minibatches of one epoch over ``n`` shuffled samples.
+
+    Every minibatch has exactly ``batch_size`` samples; the ``n mod batch_size`` left over are left
+    out of this epoch (the next epoch's permutation draws others), so no Adam step is taken on a
+    handful of samples whose gradient is mostly noise, and every step has the same shape (what a
+    captured CUDA graph needs). With fewer than ``batch_size`` samples, one minibatch of all of them.
+    """
+    if n <= 0:
+        return []
+    if n < batch_size:
+        return [(0, n)]
+    return [(start, start + batch_size) for start in range(0, n - batch_size + 1, batch_size)]
 
 
 def value_loss(values: torch.Tensor, returns: torch.Tensor) -> torch.Tensor:

@@ -32,6 +32,7 @@ from rlbridge.agents.core import (
     PackedIntruders,
     attention_pool,
     compute_gae,
+    minibatch_bounds,
     normalize,
     ppo_clip_loss,
     segment_attention_pool,
@@ -111,6 +112,15 @@ class ActorCritic(nn.Module):
         nn.init.zeros_(self.pi.bias)
         nn.init.orthogonal_(self.v.weight, gain=1.0)
         nn.init.zeros_(self.v.bias)
+
+    def clip_groups(self) -> list[list[nn.Parameter]]:
+        """The parameter groups whose gradient norm is clipped on its own: actor and critic when they
+        are separate networks (one joint clip would let the critic's large value gradients shrink the
+        actor's step), everything together when they share layers."""
+        if self.critic_enc is None:
+            return [list(self.parameters())]
+        return [[*self.actor_enc.parameters(), *self.pi.parameters()],
+                [*self.critic_enc.parameters(), *self.v.parameters()]]
 
     def forward(self, own: torch.Tensor, intr: torch.Tensor, mask: torch.Tensor
                 ) -> tuple[torch.Tensor, torch.Tensor]:
@@ -207,6 +217,7 @@ class D2MAVALearner:
         torch.manual_seed(seed)
         self.model = ActorCritic(own_dim, intr_dim, int(dims["n_actions"]), self.config).to(self.device)
         self.optimizer = torch.optim.Adam(self.model.parameters(), lr=self.config.lr, eps=1e-5)
+        self.clip_groups = self.model.clip_groups()
         self.gen = torch.Generator().manual_seed(seed)
         self.updates = 0
 
@@ -254,12 +265,13 @@ class D2MAVALearner:
         t = {k: torch.as_tensor(v, device=self.device) for k, v in data.items()}
         packed = PackedIntruders.from_padded(t["intruders"], t["mask"]) if c.packed_attention else None
         self.model.train()
-        stats: dict[str, list[float]] = {"policy_loss": [], "value_loss": [], "entropy": [], "approx_kl": [],
-                                         "clip_fraction": []}
+        names = ("policy_loss", "value_loss", "entropy", "approx_kl", "clip_fraction")
+        totals = torch.zeros(len(names), dtype=torch.float64, device=self.device)  # read once, after the loop
+        steps = 0
         for _ in range(c.epochs):
             perm = torch.randperm(n, generator=self.gen).to(self.device)
-            for start in range(0, n, c.batch_size):
-                idx = perm[start:start + c.batch_size]
+            for start, end in minibatch_bounds(n, c.batch_size):
+                idx = perm[start:end]
                 if packed is not None:
                     rows, seg = packed.gather(idx)
                     logits, values = self.model.forward_packed(t["ownship"][idx], rows, seg)
@@ -274,16 +286,17 @@ class D2MAVALearner:
                 loss = pl + c.vf_coef * vl - c.ent_coef * ent
                 self.optimizer.zero_grad()
                 loss.backward()
-                nn.utils.clip_grad_norm_(self.model.parameters(), c.max_grad_norm)
+                for group in self.clip_groups:
+                    nn.utils.clip_grad_norm_(group, c.max_grad_norm)
                 self.optimizer.step()
                 self.updates += 1
-                for k, v in (("policy_loss", pl.item()), ("value_loss", vl.item()), ("entropy", ent.item()),
-                             ("approx_kl", info.approx_kl), ("clip_fraction", info.clip_fraction)):
-                    stats[k].append(v)
+                steps += 1
+                totals += torch.stack([pl.detach(), vl.detach(), ent.detach(), info.approx_kl,
+                                       info.clip_fraction]).to(totals.dtype)
         self.model.eval()
         ret, val = data["ret"], data["values"]
         var = float(np.var(ret))
-        out = {k: float(np.mean(v)) for k, v in stats.items()}
+        out = dict(zip(names, (totals / max(steps, 1)).tolist()))
         out["explained_variance"] = float(1.0 - np.var(ret - val) / var) if var > 0 else 0.0
         out["gradient_steps"] = float(self.updates)
         return out

@@ -119,41 +119,88 @@ def eval_overrides(plan: StudyPlan, run: Path, scenario: str, actions: str, labe
             f"greedy={str(greedy).lower()}", f"baselines=[{','.join(baselines)}]", f"name='{name}'"]
 
 
-def run_study(plan: StudyPlan, work: Path, out: Path) -> dict[str, Any]:
-    """Train, evaluate, report (see the module docstring); returns the study's index."""
+STAGES = ("train", "evaluate", "report")
+
+
+def run_study(plan: StudyPlan, work: Path, out: Path, stages: tuple[str, ...] = STAGES) -> dict[str, Any]:
+    """Train, evaluate, report (see the module docstring); returns the study's index.
+
+    ``stages`` picks what runs: ``train`` trains the runs not finished yet (a run interrupted in
+    the middle continues from its last checkpoint); ``evaluate`` evaluates the finished runs; every
+    finished run is exported to ``out/runs`` (config, curve, summary, best policy as plain data) so
+    it can be committed as soon as it finishes; ``report`` writes the tables and curves.
+    """
     from rlbridge.experiment.evaluate import run_evaluation
     from rlbridge.experiment.report import make_report
     from rlbridge.experiment.train import run_training
 
+    unknown = [s for s in stages if s not in STAGES]
+    if unknown:
+        raise ValueError(f"unknown stage(s) {', '.join(unknown)}; known: {', '.join(STAGES)}")
     work.mkdir(parents=True, exist_ok=True)
     train_dirs: list[Path] = []
     eval_dirs: list[Path] = []
     t0 = time.perf_counter()
     for uc, algo, seed in plan.runs():
         run = work / "train" / uc / f"{algo}_s{seed}"
-        cfg = _compose("config", train_overrides(plan, uc, algo, seed))
-        if not (run / "training_summary.json").exists():
-            log.info("training %s on %s (%s), seed %d: %d aircraft-states", algo, plan.train_scenario, uc, seed,
-                     plan.budget)
+        overrides = train_overrides(plan, uc, algo, seed)
+        cfg = _compose("config", overrides)
+        finished = (run / "training_summary.json").exists()
+        if "train" in stages and not finished:
+            if (run / "checkpoints" / "last.pt").exists():
+                log.info("continuing %s on %s (%s), seed %d from its last checkpoint", algo, plan.train_scenario,
+                         uc, seed)
+                cfg = _compose("config", overrides + [f"train.resume={run.resolve()}"])
+            else:
+                log.info("training %s on %s (%s), seed %d: %d aircraft-states", algo, plan.train_scenario, uc,
+                         seed, plan.budget)
             run_training(cfg, run)
+            finished = True
+        if not finished:
+            continue
         train_dirs.append(run)
+        export_run(work, run, out / "runs" / uc / f"{algo}_s{seed}")
         label = str(cfg.algorithm.label)
         for scen in plan.eval_scenarios:
             for actions in plan.actions:
                 ev = work / "eval" / uc / f"{algo}_s{seed}" / f"{Path(scen).stem}_{actions}"
-                if not (ev / "evaluation.json").exists():
+                if "evaluate" in stages and not (ev / "evaluation.json").exists():
                     log.info("evaluating %s seed %d on %s (%s actions)", algo, seed, scen, actions)
                     run_evaluation(_compose("evaluate", eval_overrides(plan, run, scen, actions, label)), ev)
-                eval_dirs.append(ev)
+                if (ev / "evaluation.json").exists():
+                    eval_dirs.append(ev)
     out.mkdir(parents=True, exist_ok=True)
-    make_report(eval_dirs, train_dirs, out, plan.smooth)
-    copy_configs(work, train_dirs + eval_dirs, out / "configs")
-    (out / "paper.md").write_text(paper_tables_md())
+    if "report" in stages and eval_dirs:
+        make_report(eval_dirs, train_dirs, out, plan.smooth)
+        copy_configs(work, train_dirs + eval_dirs, out / "configs")
+        (out / "paper.md").write_text(paper_tables_md())
     index = {"plan": asdict(plan), "training_runs": [str(d.relative_to(work)) for d in train_dirs],
              "evaluations": [str(d.relative_to(work)) for d in eval_dirs],
+             "runs_planned": len(plan.runs()),
+             "evaluations_planned": len(plan.runs()) * len(plan.eval_scenarios) * len(plan.actions),
              "wall_s_this_session": time.perf_counter() - t0}
     (out / "study.json").write_text(json.dumps(index, indent=2) + "\n")
     return index
+
+
+def export_run(work: Path, run: Path, dest: Path) -> None:
+    """A finished training run as files to commit: its configuration (no machine paths), learning curve,
+    unequipped reference, summary and best policy (plain data, :mod:`rlbridge.experiment.export`)."""
+    import shutil
+
+    from rlbridge.experiment.export import export_policy
+
+    if (dest / "policy.npz").exists() and (dest / "training_summary.json").exists():
+        return
+    dest.mkdir(parents=True, exist_ok=True)
+    for name in ("learning_curve.csv", "baseline.json", "training_summary.json"):
+        if (run / name).exists():
+            shutil.copy(run / name, dest / name)
+    copy_configs(work, [run], dest.parent / ".configs")
+    shutil.move(str(dest.parent / ".configs" / run.relative_to(work) / "resolved_config.yaml"),
+                dest / "resolved_config.yaml")
+    shutil.rmtree(dest.parent / ".configs")
+    export_policy(run / "checkpoints" / "best.pt", dest)
 
 
 def copy_configs(work: Path, dirs: list[Path], dest: Path) -> None:
@@ -209,6 +256,9 @@ def main(argv: list[str] | None = None) -> None:
     ap.add_argument("--mode", default=plan.mode, choices=("serial", "overlap"), help="train.mode")
     ap.add_argument("--rates", type=json.loads, default=None,
                     help='aircraft-states/s per contender for the estimate, e.g. \'{"ddqn": 900}\'')
+    ap.add_argument("--stages", nargs="+", default=list(STAGES), choices=STAGES,
+                    help="what runs: train (unfinished runs, continuing interrupted ones), evaluate, report; "
+                         "finished runs are exported to OUT/runs in every case")
     ap.add_argument("overrides", nargs="*", help="more Hydra overrides for every training run")
     args = ap.parse_args(argv)
     plan = StudyPlan(contenders=args.contenders, usecases=args.usecases, seeds=args.seeds, budget=args.budget,
@@ -227,5 +277,5 @@ def main(argv: list[str] | None = None) -> None:
     if args.plan:
         return
     logging.basicConfig(level=logging.INFO, format="[%(asctime)s][%(name)s][%(levelname)s] - %(message)s")
-    run_study(plan, args.work, out)
+    run_study(plan, args.work, out, tuple(args.stages))
     print(out)

@@ -222,11 +222,55 @@ def copy_curve(src: Path, dst: Path, upto: int) -> None:
         writer.write(r)
 
 
+def discard_after(run_dir: Path, iteration: int) -> None:
+    """Resuming a run in its own directory: forget what it did after the checkpoint's ``iteration``.
+
+    Those iterations are played again (their episode seeds follow from the iteration), so their
+    curve rows go, and a ``best.pt`` chosen among them goes too (the rolling mean is rebuilt).
+    """
+    curve = run_dir / "learning_curve.csv"
+    if curve.exists():
+        with open(curve, newline="") as fh:
+            rows = [r for r in csv.DictReader(fh) if int(r["iteration"]) <= iteration]
+        tmp = curve.with_suffix(".tmp")
+        with open(tmp, "w", newline="") as fh:
+            writer = csv.DictWriter(fh, CURVE_COLUMNS, restval="", extrasaction="ignore")
+            writer.writeheader()
+            writer.writerows(rows)
+        tmp.replace(curve)
+    best = run_dir / "checkpoints" / "best.pt"
+    if best.exists() and int(load_checkpoint(best)["state"]["iteration"]) > iteration:
+        best.unlink()
+
+
+def code_version() -> dict[str, str]:
+    """What code made a run: the package version and, in a git checkout, the commit (``+dirty`` when
+    the working tree had changes)."""
+    import subprocess
+
+    from aamsim import __version__
+
+    out = {"aamsim": __version__}
+    root = Path(__file__).resolve().parents[2]
+    try:
+        commit = subprocess.run(["git", "-C", str(root), "rev-parse", "HEAD"], capture_output=True, text=True,
+                                timeout=10, check=True).stdout.strip()
+        dirty = subprocess.run(["git", "-C", str(root), "status", "--porcelain", "--untracked-files=no"],
+                               capture_output=True, text=True, timeout=10, check=True).stdout.strip()
+    except (OSError, subprocess.SubprocessError):
+        return out
+    if commit:
+        out["commit"] = commit + ("+dirty" if dirty else "")
+    return out
+
+
 def run_training(cfg: DictConfig, run_dir: str | Path) -> dict[str, Any]:
     """Train ``cfg.algorithm`` on ``cfg.scenario``; everything goes to ``run_dir``."""
     run_dir = Path(run_dir)
     run_dir.mkdir(parents=True, exist_ok=True)
-    (run_dir / "resolved_config.yaml").write_text(OmegaConf.to_yaml(cfg, resolve=True))
+    if not (cfg.train.resume and (run_dir / "resolved_config.yaml").exists()):
+        # A run continued in place keeps the configuration it started with (no resume path in it).
+        (run_dir / "resolved_config.yaml").write_text(OmegaConf.to_yaml(cfg, resolve=True))
     tc = cfg.train
     torch.set_num_threads(learner_threads(tc.torch_threads, int(cfg.workers)))
     device = resolve_device(str(cfg.device))
@@ -245,7 +289,7 @@ def run_training(cfg: DictConfig, run_dir: str | Path) -> dict[str, Any]:
         "algorithm": {"name": str(algo.name), "kind": str(algo.kind), "label": str(algo.get("label", algo.name)),
                       "params": params},
         "dims": dims, "env": asdict(env), "seed": int(cfg.seed), "run_dir": str(run_dir.resolve()),
-        "config": OmegaConf.to_container(cfg, resolve=True)}
+        "config": OmegaConf.to_container(cfg, resolve=True), "code": [code_version()]}
     ckpt_dir = run_dir / "checkpoints"
     if tc.resume:
         src = find_checkpoint(str(tc.resume), "last")
@@ -254,11 +298,15 @@ def run_training(cfg: DictConfig, run_dir: str | Path) -> dict[str, Any]:
             raise ValueError(f"cannot resume a {ckpt['algorithm']['kind']} checkpoint as {algo.kind}")
         learner.load_state_dict(ckpt["learner"])
         torch.set_rng_state(ckpt["torch_rng"])
+        # Every code version that trained part of this run (a study resumed across commits lists each).
+        meta["code"] = [c for c in ckpt.get("code", []) if c != meta["code"][0]] + meta["code"]
         state = TrainState(**ckpt["state"])
         if overlap and "behaviour_weights" in ckpt:  # the weights the next iteration was to be played with
             resumed_behaviour = {k: v.numpy() for k, v in ckpt["behaviour_weights"].items()}
         src_run = Path(ckpt["run_dir"])
-        if src_run.resolve() != run_dir.resolve():
+        if src_run.resolve() == run_dir.resolve():
+            discard_after(run_dir, state.iteration)
+        else:
             copy_curve(src_run / "learning_curve.csv", run_dir / "learning_curve.csv", state.iteration)
             for name in ("baseline.json",):
                 if (src_run / name).exists():
@@ -389,7 +437,8 @@ def run_training(cfg: DictConfig, run_dir: str | Path) -> dict[str, Any]:
                "rollout_s": state.rollout_s,
                "rollout_states_per_s": state.transitions / state.rollout_s if state.rollout_s > 0 else None,
                "this_session_s": elapsed, "stopped_by": reason, "best_rolling_reward": state.best,
-               "best_iteration": state.best_iteration, "best_window": int(tc.best_window), "device": device}
+               "best_iteration": state.best_iteration, "best_window": int(tc.best_window), "device": device,
+               "code": meta["code"]}
     (run_dir / "training_summary.json").write_text(json.dumps(summary, indent=2) + "\n")
     log.info("done: %d iterations, %d aircraft-states in %.0f s (%.0f states/s); best rolling reward %.4f at "
              "iteration %d", state.iteration, state.transitions, state.wall_s, summary["states_per_s"] or 0.0,
