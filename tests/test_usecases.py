@@ -58,7 +58,7 @@ def test_possible_agents_include_mcre_pcall_schedule(mixed_scenario):
 
 def test_second_usecase_gymnasium_and_pettingzoo_checkers():
     gym_id = env_id("reach_destination")
-    assert gym_id == "aamgym/ReachDestination-v0" and gym_id in gymnasium.registry
+    assert gym_id == "aamgym/ReachDestination-v1" and gym_id in gymnasium.registry
     env = gymnasium.make(gym_id, scenario=THREE_WAY, time_limit_s=300)
     check_env(env.unwrapped)
     obs, info = env.reset(seed=1)
