@@ -51,7 +51,9 @@ def test_smoke_study_runs_the_whole_pipeline(tmp_path):
     for sfx in ("", "_v1"):  # the paper's use case and the corrected variant, in separate tables
         table = rows(out / f"risk_ratio{sfx}.csv")
         names = {r["Algorithm"].split(" — ")[0] for r in table}
-        assert names == labels | {f"{lb}, sampled actions" for lb in labels} | {"MVP speed-only (rule-based)"}
+        sampled = {"D2MAV-A No Shared Layers, sampled actions", "D2MAV-A Shared Layers, sampled actions",
+                   "DDQN, epsilon-greedy 0.05"}  # a value-based policy's "sampled" evaluation is named as what it is
+        assert names == labels | sampled | {"MVP speed-only (rule-based)"}
         for r in table:  # two training seeds x two evaluation episodes per learned row
             expected = "(n=2)" if r["Algorithm"].startswith("MVP") else "(n=4)"
             assert expected in r["Risk Ratio - tiny_conflict"]
@@ -134,3 +136,25 @@ def test_a_study_interrupted_inside_a_training_run_continues_it_exactly(tmp_path
     provenance = json.loads((exported / "policy.json").read_text())["provenance"]
     assert provenance["seed"] == 0 and provenance["aircraft_states_budget"] == 200
     assert provenance["training_scenario"] == "tiny_conflict"
+
+
+def test_baseline_episodes_are_played_once_per_study_and_ddqn_sampled_means_epsilon_005(tmp_path, monkeypatch):
+    """The greedy and the sampled evaluation of a run share the unequipped episodes (cached, keyed by the code's
+    commit); a DDQN's sampled evaluation is epsilon-greedy 0.05 (before: its training's final 1e-4, i.e. greedy)."""
+    from rlbridge.experiment import study as study_module
+    from rlbridge.experiment import train as train_module
+
+    monkeypatch.setattr(train_module, "code_version", lambda: {"aamsim": "test", "commit": "f" * 40})
+    plan = _tiny_plan(contenders=["ddqn"], actions=["greedy", "sampled"], baselines=["mvp_speed"], episodes=2)
+    index = study_module.run_study(plan, tmp_path / "work", tmp_path / "out", ("train", "evaluate"))
+    assert len(index["evaluations"]) == 2
+    greedy, sampled = (json.loads((tmp_path / "work" / e / "evaluation.json").read_text()) for e in index["evaluations"])
+    assert greedy["explore"] == {"epsilon": 0.0} and sampled["explore"] == {"epsilon": 0.05}
+    assert sampled["policies"]["ddqn"]["label"] == "DDQN, epsilon-greedy 0.05"
+    cache = tmp_path / "work" / "baselines"
+    kinds = sorted(d.name.split("-")[0] for d in cache.iterdir())
+    assert kinds == ["mvp_speed", "unequipped"]  # one entry each: the sampled evaluation reused unequipped
+    for e in index["evaluations"]:  # the very same unequipped episodes in both evaluations
+        assert (tmp_path / "work" / e / "episodes/unequipped/seed-0000/summary.json").read_text() == \
+            (tmp_path / "work" / index["evaluations"][0] / "episodes/unequipped/seed-0000/summary.json").read_text()
+    assert len(list(next(d for d in cache.iterdir() if d.name.startswith("unequipped")).glob("seed-*.json"))) == 2

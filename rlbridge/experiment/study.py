@@ -110,11 +110,35 @@ def train_overrides(plan: StudyPlan, usecase: str, algo: str, seed: int) -> list
     return over + list(plan.overrides)
 
 
-def eval_overrides(plan: StudyPlan, run: Path, scenario: str, actions: str, label: str) -> list[str]:
+def start_ray(plan: StudyPlan) -> None:
+    """One Ray for the whole study's evaluations (each pool then finds it running instead of starting its own)."""
+    if plan.workers <= 0:
+        return
+    import os
+
+    import ray
+
+    if not ray.is_initialized():
+        from rlbridge.experiment.workers import _code_root
+
+        paths = [_code_root()] + [p for p in os.environ.get("PYTHONPATH", "").split(os.pathsep) if p]
+        os.environ.setdefault("RAY_worker_niceness", "0")
+        ray.init(num_cpus=max(os.cpu_count() or 1, plan.workers), include_dashboard=False, log_to_driver=True,
+                 runtime_env={"env_vars": {"PYTHONPATH": os.pathsep.join(dict.fromkeys(paths))}})
+
+
+def sampled_label(label: str, algo: str) -> str:
+    """The label of a policy's non-greedy evaluation: what "sampled" means for it."""
+    kind = str(_compose("config", [f"algorithm={algo}"]).algorithm.kind)
+    return f"{label}, epsilon-greedy 0.05" if kind == "dqn" else f"{label}, sampled actions"
+
+
+def eval_overrides(plan: StudyPlan, run: Path, scenario: str, actions: str, label: str, algo: str = "d2mava_a"
+                   ) -> list[str]:
     greedy = actions == "greedy"
     # Baselines once per seed set (with the greedy evaluation); unequipped always (the ratios' reference).
     baselines = plan.baselines if greedy else []
-    name = label if greedy else f"{label}, sampled actions"
+    name = label if greedy else sampled_label(label, algo)
     return [f"run={run}", f"scenario={scenario}", f"episodes={plan.episodes}", f"workers={plan.workers}",
             f"greedy={str(greedy).lower()}", f"baselines=[{','.join(baselines)}]", f"name='{name}'"]
 
@@ -166,7 +190,9 @@ def run_study(plan: StudyPlan, work: Path, out: Path, stages: tuple[str, ...] = 
                 ev = work / "eval" / uc / f"{algo}_s{seed}" / f"{Path(scen).stem}_{actions}"
                 if "evaluate" in stages and not (ev / "evaluation.json").exists():
                     log.info("evaluating %s seed %d on %s (%s actions)", algo, seed, scen, actions)
-                    run_evaluation(_compose("evaluate", eval_overrides(plan, run, scen, actions, label)), ev)
+                    start_ray(plan)
+                    run_evaluation(_compose("evaluate", eval_overrides(plan, run, scen, actions, label, algo)), ev,
+                                   baseline_cache=work / "baselines")
                 if (ev / "evaluation.json").exists():
                     eval_dirs.append(ev)
     out.mkdir(parents=True, exist_ok=True)
