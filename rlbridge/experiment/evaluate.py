@@ -191,14 +191,19 @@ def run_evaluation(cfg: DictConfig, out_dir: str | Path, baseline_cache: str | P
     out = Path(out_dir)
     has_run = cfg.get("run") not in (None, "")
     subject = cfg.get("baseline")
-    if has_run == (subject is not None):
-        raise ValueError("give run=<training run> (a trained policy against the baselines) or baseline=<name> "
-                         f"(a baseline against the others), not {'both' if has_run else 'neither'}; "
+    pretrained = cfg.get("policy")
+    given = [k for k, v in (("run", has_run), ("baseline", subject is not None), ("policy", pretrained)) if v]
+    if len(given) != 1:
+        raise ValueError("give one of run=<training run> (a trained policy against the baselines), "
+                         "policy=pretrained:<name> or policy=<exported policy folder>, or baseline=<name> (a baseline "
+                         f"against the others), not {' and '.join(given) if given else 'none'}; "
                          f"baselines: {', '.join(BASELINE_KINDS)}")
     check_baselines(([str(b) for b in cfg.baselines] if cfg.baselines is not None else [])
                     + ([str(subject)] if subject is not None else []))
     out.mkdir(parents=True, exist_ok=True)
     (out / "resolved_config.yaml").write_text(OmegaConf.to_yaml(cfg, resolve=True))
+    if pretrained:
+        return evaluate_pretrained(cfg, out, str(pretrained), baseline_cache)
     weights: dict[str, np.ndarray] | None = None
     ckpt: dict[str, Any] = {"state": {}}
     ckpt_path: Path | None = None
@@ -226,6 +231,40 @@ def run_evaluation(cfg: DictConfig, out_dir: str | Path, baseline_cache: str | P
         env = evaluation_env(cfg, baseline_env(cfg))
         greedy, explore = True, {}
         actors = {name: {"kind": name}}
+    return play_and_report(cfg, out, env, name, label, actors, weights, explore, greedy, has_run, ckpt, ckpt_path,
+                           baseline_cache)
+
+
+def evaluate_pretrained(cfg: DictConfig, out: Path, which: str, baseline_cache: str | Path | None) -> dict[str, Any]:
+    """``policy=pretrained:<name>`` (or an exported policy folder): the shipped weights against the baselines,
+    on ``scenario`` (default: the policy's training scenario), in the use case it was trained for."""
+    from rlbridge.experiment.export import policy_env
+    from rlbridge.pretrained import load
+
+    policy = load(which)
+    exported = policy.exported
+    trained_env = policy_env(exported, str(cfg.scenario or exported.provenance["training_scenario"]))
+    env = evaluation_env(cfg, trained_env)
+    name, kind = exported.name, exported.actor_spec["kind"]
+    label = str(cfg.name or exported.label)
+    greedy = True if cfg.greedy is None else bool(cfg.greedy)
+    if kind == "d2mava":
+        explore: dict[str, Any] = {"greedy": greedy}
+    else:
+        explore = {"epsilon": 0.0 if greedy else float(cfg.get("sampled_epsilon", SAMPLED_EPSILON))}
+    actors = {name: dict(exported.actor_spec)}
+    prov = exported.provenance
+    ckpt = {"state": {"best_iteration": prov.get("best_iteration"), "iteration": prov.get("iterations")},
+            "run_dir": f"pretrained:{name}" if which.removeprefix("pretrained:") == name else Path(which).name}
+    return play_and_report(cfg, out, env, name, label, actors, exported.weights, explore, greedy, True, ckpt, None,
+                           baseline_cache)
+
+
+def play_and_report(cfg: DictConfig, out: Path, env: EnvSpec, name: str, label: str,
+                    actors: dict[str, dict[str, Any]], weights: dict[str, np.ndarray] | None,
+                    explore: dict[str, Any], greedy: bool, has_run: bool, ckpt: dict[str, Any],
+                    ckpt_path: Path | None, baseline_cache: str | Path | None) -> dict[str, Any]:
+    """Play the policy and the baselines on the same seeds; write the episodes, episodes.csv, evaluation.json."""
     scenario = env.scenario
     actors.setdefault("unequipped", {"kind": "unequipped"})
     for b in evaluation_baselines(cfg, env):
