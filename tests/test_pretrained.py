@@ -51,8 +51,8 @@ def test_an_exported_policy_acts_on_a_pettingzoo_env_as_its_network_does(exporte
 
 
 def test_a_shipped_policy_records_figures_that_replay_exactly_and_evaluates_by_name(exported, tmp_path, monkeypatch):
-    import rlbridge.pretrained as pretrained
     import rlbridge.pretrained.ship as ship_module
+    from rlbridge import pretrained
 
     monkeypatch.setattr(pretrained, "SHIPPED_DIR", tmp_path / "shipped")
     monkeypatch.setattr(ship_module, "SHIPPED_DIR", tmp_path / "shipped")
@@ -85,7 +85,7 @@ def test_bad_policy_files_are_refused_with_what_is_wrong(exported, tmp_path):
     (bad / "policy.json").write_text((exported["ddqn"] / "policy.json").read_text())
     with np.load(exported["ddqn"] / "policy.npz") as npz:
         weights = {k: npz[k] for k in npz.files}
-    first = sorted(weights)[0]
+    first = min(weights)
     weights[first] = weights[first][..., :1]
     np.savez(bad / "policy.npz", **weights)
     with pytest.raises(ValueError, match="wrong shape"):

@@ -38,7 +38,7 @@ def available() -> list[str]:
 def policy_dir(name_or_path: str | Path) -> Path:
     """The folder of a shipped policy (``d2mava_a`` or ``pretrained:d2mava_a``), or a folder given as a path."""
     text = str(name_or_path)
-    name = text[len(PREFIX):] if text.startswith(PREFIX) else text
+    name = text.removeprefix(PREFIX)
     shipped = SHIPPED_DIR / name
     if "/" not in name and (shipped / "policy.json").is_file():
         return shipped
