@@ -6,6 +6,7 @@ import csv
 import json
 import os
 import subprocess
+import sys
 from pathlib import Path
 
 import pytest
@@ -158,3 +159,26 @@ def test_baseline_episodes_are_played_once_per_study_and_ddqn_sampled_means_epsi
         assert (tmp_path / "work" / e / "episodes/unequipped/seed-0000/summary.json").read_text() == \
             (tmp_path / "work" / index["evaluations"][0] / "episodes/unequipped/seed-0000/summary.json").read_text()
     assert len(list(next(d for d in cache.iterdir() if d.name.startswith("unequipped")).glob("seed-*.json"))) == 2
+
+
+def test_the_reference_scores_table_has_every_use_case_its_baselines_and_intervals(tmp_path):
+    """`aamgym scores` as a user runs it (tiny traffic, 2 seeds): one row per contender that fits each use case."""
+    env = dict(os.environ, PYTHONPATH=str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", ""))
+    proc = subprocess.run([sys.executable, "-m", "rlbridge.experiment", "scores", "--usecases", "corridor_sa",
+                           "reach_destination", "--scenario", str(ROOT / TINY), "--episodes", "2",
+                           "--work", str(tmp_path / "work"), "--out", str(tmp_path / "out")],
+                          env=env, capture_output=True, text=True, timeout=1800, check=False)
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    table = rows(tmp_path / "out" / "scores.csv")
+    got = [(r["environment"], r["contender"]) for r in table]
+    assert got == [("aamgym/CorridorSA-v1", "Unequipped"), ("aamgym/CorridorSA-v1", "MVP speed-only (rule-based)"),
+                   ("aamgym/CorridorSA-v1", "DAA speed-only (DO-365/DAIDALUS)"),
+                   ("aamgym/ReachDestination-v1", "Unequipped"),
+                   ("aamgym/ReachDestination-v1", "DAA speed-only (DO-365/DAIDALUS)")]
+    assert all(r["episodes"] == "2" for r in table)
+    assert " ± " in table[0]["NMAC / episode"] or table[0]["NMAC / episode"].count(".") == 1
+    md = (tmp_path / "out" / "scores.md").read_text()
+    assert "aamgym scores --usecases corridor_sa reach_destination" in md and str(tmp_path) not in md
+    bad = subprocess.run([sys.executable, "-m", "rlbridge.experiment", "scores", "--usecases", "nope"], env=env,
+                         capture_output=True, text=True, timeout=300, check=False)
+    assert bad.returncode == 2 and "unknown use case(s) nope" in bad.stderr
