@@ -104,7 +104,7 @@ def run_scores(usecases: list[str], scenario: str, episodes: int, out: Path, wor
             figures = _episode_figures(d, policy)
             label = ev["policies"][policy]["label"] + (" (pretrained)" if policy in learned else "")
             rows.append([env_id(uc), label, str(len(figures))]
-                        + [_cell([f.get(k) for f in figures if f.get(k) is not None], dg) for k, _, dg in COLUMNS])
+                        + [_cell([f[k] for f in figures if f.get(k) is not None], dg) for k, _, dg in COLUMNS])
     out.mkdir(parents=True, exist_ok=True)
     header = ["environment", "contender", "episodes", *[t for _, t, _ in COLUMNS]]
     with open(out / "scores.csv", "w", newline="") as fh:
@@ -113,19 +113,20 @@ def run_scores(usecases: list[str], scenario: str, episodes: int, out: Path, wor
         w.writerows(rows)
     stem = Path(scenario).stem
     command = (f"aamgym scores --usecases {' '.join(usecases)} --scenario {stem} --episodes {episodes}")
-    lines = ["# Reference scores", "",
-             f"Held-out traffic `{stem}`, seeds {SEEDS_START} .. {SEEDS_START + episodes - 1} (the same for every "
-             "contender), each use case with its configuration in `rlbridge/conf/usecase` and the episode variation of "
-             "its `-v1` environment (docs/usecases.md, \"Episode variation\"). Each cell: mean ± half-width of the "
-             "95 % interval over the episodes (Student's t). Safety figures sit beside what they cost: unfinished "
-             "flights count in the delay (to the end of the episode) and the holding. A change of an environment's "
-             "behaviour bumps its version; compare rows of the same version only.", "",
-             f"Made by `{command}` ({time.strftime('%Y-%m-%d')}); add your policy's row with "
-             "`aamgym evaluate policy=<exported policy> scenario=" + stem + f" episodes={episodes} seed={SEEDS_START}`.",
-             "", "| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
+    intro = (f"Held-out traffic `{stem}`, seeds {SEEDS_START} .. {SEEDS_START + episodes - 1} (the same for every "
+             "contender), each use case with its configuration in `rlbridge/conf/usecase` and the episode variation "
+             "of its `-v1` environment (docs/usecases.md, \"Episode variation\"). Each cell: mean ± half-width of "
+             "the 95 % interval over the episodes (Student's t). Safety figures sit beside what they cost: "
+             "unfinished flights count in the delay (to the end of the episode) and the holding. A change of an "
+             "environment's behaviour bumps its version; compare rows of the same version only.")
+    made = (f"Made by `{command}` ({time.strftime('%Y-%m-%d')}); add your policy's row with "
+            f"`aamgym evaluate policy=<exported policy> scenario={stem} episodes={episodes} seed={SEEDS_START}`.")
+    lines = ["# Reference scores", "", intro, "", made, "",
+             "| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
     lines += ["| " + " | ".join(r) + " |" for r in rows]
-    lines += ["", f"Wall time of this table's evaluations on the machine that made it: "
-                  f"{(time.perf_counter() - t0) / 60:.1f} min (cached episodes not counted)."]
+    wall = f"{(time.perf_counter() - t0) / 60:.1f}"
+    lines += ["", f"Wall time of this table's evaluations on the machine that made it: {wall} min "
+                  "(cached episodes not counted)."]
     (out / "scores.md").write_text("\n".join(lines) + "\n")
     return out / "scores.md"
 
