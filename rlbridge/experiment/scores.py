@@ -125,8 +125,8 @@ def run_scores(usecases: list[str], scenario: str, episodes: int, out: Path, wor
              "| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
     lines += ["| " + " | ".join(r) + " |" for r in rows]
     wall = f"{(time.perf_counter() - t0) / 60:.1f}"
-    lines += ["", f"Wall time of this table's evaluations on the machine that made it: {wall} min "
-                  "(cached episodes not counted)."]
+    note = f"Wall time of this table's evaluations on the machine that made it: {wall} min (cached episodes not counted)."
+    lines += ["", note]
     (out / "scores.md").write_text("\n".join(lines) + "\n")
     return out / "scores.md"
 
