@@ -73,7 +73,7 @@ def test_aamgym_evaluate_takes_an_exported_policy_folder(exported, tmp_path):
                            f"hydra.run.dir={out}"], env=env, capture_output=True, text=True, timeout=900, check=False)
     assert proc.returncode == 0, proc.stderr[-3000:]
     ev = json.loads((out / "evaluation.json").read_text())
-    assert ev["policies"]["ddqn"]["learned"] is True and ev["policies"]["ddqn"]["label"] == "DDQN"
+    assert ev["policies"]["ddqn"]["learned"] is True and ev["policies"]["ddqn"]["label"] == "DDQN (RLlib update ratio)"
     assert set(ev["policies"]) == {"ddqn", "unequipped"} and ev["episodes"] == 2
 
 

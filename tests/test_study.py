@@ -53,7 +53,7 @@ def test_smoke_study_runs_the_whole_pipeline(tmp_path):
         table = rows(out / f"risk_ratio{sfx}.csv")
         names = {r["Algorithm"].split(" — ")[0] for r in table}
         sampled = {"D2MAV-A No Shared Layers, sampled actions", "D2MAV-A Shared Layers, sampled actions",
-                   "DDQN, epsilon-greedy 0.05"}  # a value-based policy's "sampled" evaluation is named as what it is
+                   "DDQN (RLlib update ratio), epsilon-greedy 0.05"}  # a value-based policy's "sampled" evaluation is named as what it is
         assert names == labels | sampled | {"MVP speed-only (rule-based)"}
         for r in table:  # two training seeds x two evaluation episodes per learned row
             expected = "(n=2)" if r["Algorithm"].startswith("MVP") else "(n=4)"
@@ -151,7 +151,7 @@ def test_baseline_episodes_are_played_once_per_study_and_ddqn_sampled_means_epsi
     assert len(index["evaluations"]) == 2
     greedy, sampled = (json.loads((tmp_path / "work" / e / "evaluation.json").read_text()) for e in index["evaluations"])
     assert greedy["explore"] == {"epsilon": 0.0} and sampled["explore"] == {"epsilon": 0.05}
-    assert sampled["policies"]["ddqn"]["label"] == "DDQN, epsilon-greedy 0.05"
+    assert sampled["policies"]["ddqn"]["label"] == "DDQN (RLlib update ratio), epsilon-greedy 0.05"
     cache = tmp_path / "work" / "baselines"
     kinds = sorted(d.name.split("-")[0] for d in cache.iterdir())
     assert kinds == ["mvp_speed", "unequipped"]  # one entry each: the sampled evaluation reused unequipped
