@@ -65,6 +65,9 @@ def test_smoke_study_runs_the_whole_pipeline(tmp_path):
     for r in training:  # the equal budget: no run stops before it (iterations are whole episodes)
         assert int(r["aircraft-states"].replace(",", "")) >= 60
     assert (out / "reward_curve.png").read_bytes()[:4] == b"\x89PNG"
+    report = (out / "report.md").read_text()  # every departure from the paper named where the ratios are read
+    assert report.count("**Departures from the paper in these results:**") == 4  # 2 ratio tables x 2 variants
+    assert "training budget: 60 aircraft-states per run" in report and "epsilon 0.05" in report
     paper = (out / "paper.md").read_text()
     assert "quoted, not measured here" in paper and "0.0107 ± 0.0343" in paper and "0.4875 ± 0.0303" in paper
     index = json.loads((out / "study.json").read_text())

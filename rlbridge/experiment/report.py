@@ -542,9 +542,13 @@ def config_title(config: tuple[str, str]) -> str:
     return f"{config[0]} (the paper's reward)" if config[1] == "paper" else f"{config[0]} variant {config[1]}"
 
 
-def make_report(eval_dirs: list[Path], train_dirs: list[Path], out: Path, window: int = 1) -> list[Path]:
+def make_report(eval_dirs: list[Path], train_dirs: list[Path], out: Path, window: int = 1,
+                departures: list[str] | None = None) -> list[Path]:
+    """Write the tables, figures and ``report.md``; ``departures`` (what differs from the paper's setup)
+    is printed under every ratio table, where its results are read."""
     out.mkdir(parents=True, exist_ok=True)
     parts: list[str] = ["# AAM-Gym report", ""]
+    departure_text = ["**Departures from the paper in these results:**", ""] + [f"- {d}" for d in departures or []]
     written: list[Path] = []
     groups = group_by_config(eval_dirs)
     for config, dirs in groups.items():
@@ -564,6 +568,8 @@ def make_report(eval_dirs: list[Path], train_dirs: list[Path], out: Path, window
             parts += [f"## Use case {config_title(config)}", ""]
         for name in names:
             parts += [(out / f"{name}{sfx}.md").read_text(), ""]
+            if departures and name in ("risk_ratio", "lowc_ratio"):
+                parts += [*departure_text, ""]
         # Run names only: a report is meant to be committed, the machine's paths are not.
         parts += ["Evaluation runs: " + ", ".join(d.resolve().name for d in dirs), ""]
     if train_dirs:

@@ -201,7 +201,7 @@ def run_study(plan: StudyPlan, work: Path, out: Path, stages: tuple[str, ...] = 
                     eval_dirs.append(ev)
     out.mkdir(parents=True, exist_ok=True)
     if "report" in stages and eval_dirs:
-        make_report(eval_dirs, train_dirs, out, plan.smooth)
+        make_report(eval_dirs, train_dirs, out, plan.smooth, departures(plan))
         copy_configs(work, train_dirs + eval_dirs, out / "configs")
         (out / "paper.md").write_text(paper_tables_md())
     index = {"plan": asdict(plan), "training_runs": [str(d.relative_to(work)) for d in train_dirs],
@@ -231,6 +231,28 @@ def export_run(work: Path, run: Path, dest: Path) -> None:
                 dest / "resolved_config.yaml")
     shutil.rmtree(dest.parent / ".configs")
     export_policy(run / "checkpoints" / "best.pt", dest)
+
+
+def departures(plan: StudyPlan) -> list[str]:
+    """What this study does differently from the paper (named under every table that shows its results)."""
+    out = [f"training budget: {plan.budget:,} aircraft-states per run, the same for every contender (the paper: "
+           "100 h on 40 workers; 342 M aircraft-states for D2MAV-A No Shared Layers)",
+           f"{max(plan.workers, 1)} rollout worker(s), one episode per iteration (the paper: 40 workers, one "
+           f"episode each per iteration), so each update learns from {max(plan.workers, 1)} episode(s) and the "
+           f"best weights are chosen by the {plan.best_window}-iteration rolling mean over that many episodes",
+           "altitude noise drawn per episode seed (uniform ±100 ft about the lanes, the paper's distribution), in "
+           "training and evaluation (the paper: the scenario's single draw)",
+           "DDQN is updated as RLlib's DQN updated the paper's run (one gradient step of 512 per 160 environment "
+           "steps; learning_starts 1,000 environment steps, RLlib's default: not in the paper); DDQN's 'sampled' "
+           "evaluation is epsilon-greedy with epsilon 0.05 (Mnih et al. 2015), not in the paper",
+           "hyper-parameters the paper does not give: D2MAV-A value coefficient 0.5, gradient clip 0.5 (actor and "
+           "critic apart), per-minibatch advantage normalisation; a decision every 10 s; intruders within 10 km"]
+    if plan.mode == "overlap":
+        out.append("train.mode=overlap: the workers play iteration k+1 while the learner updates on iteration k "
+                   "(the episodes of an iteration come from the weights one update older than the paper's loop)")
+    if "corridor_sa_v1" in plan.usecases:
+        out.append("the _v1 tables: use case variant v1, the paper's reward plus a hover cost (not the paper's)")
+    return out
 
 
 def copy_configs(work: Path, dirs: list[Path], dest: Path) -> None:
