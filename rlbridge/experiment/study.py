@@ -235,18 +235,18 @@ def export_run(work: Path, run: Path, dest: Path) -> None:
 
 def departures(plan: StudyPlan) -> list[str]:
     """What this study does differently from the paper (named under every table that shows its results)."""
-    out = [f"training budget: {plan.budget:,} aircraft-states per run, the same for every contender (the paper: "
-           "100 h on 40 workers; 342 M aircraft-states for D2MAV-A No Shared Layers)",
-           f"{max(plan.workers, 1)} rollout worker(s), one episode per iteration (the paper: 40 workers, one "
+    out = [(f"training budget: {plan.budget:,} aircraft-states per run, the same for every contender (the paper: "
+           "100 h on 40 workers; 342 M aircraft-states for D2MAV-A No Shared Layers)"),
+           (f"{max(plan.workers, 1)} rollout worker(s), one episode per iteration (the paper: 40 workers, one "
            f"episode each per iteration), so each update learns from {max(plan.workers, 1)} episode(s) and the "
-           f"best weights are chosen by the {plan.best_window}-iteration rolling mean over that many episodes",
-           "altitude noise drawn per episode seed (uniform ±100 ft about the lanes, the paper's distribution), in "
-           "training and evaluation (the paper: the scenario's single draw)",
-           "DDQN is updated as RLlib's DQN updated the paper's run (one gradient step of 512 per 160 environment "
+           f"best weights are chosen by the {plan.best_window}-iteration rolling mean over that many episodes"),
+           ("altitude noise drawn per episode seed (uniform ±100 ft about the lanes, the paper's distribution), in "
+           "training and evaluation (the paper: the scenario's single draw)"),
+           ("DDQN is updated as RLlib's DQN updated the paper's run (one gradient step of 512 per 160 environment "
            "steps; learning_starts 1,000 environment steps, RLlib's default: not in the paper); DDQN's 'sampled' "
-           "evaluation is epsilon-greedy with epsilon 0.05 (Mnih et al. 2015), not in the paper",
-           "hyper-parameters the paper does not give: D2MAV-A value coefficient 0.5, gradient clip 0.5 (actor and "
-           "critic apart), per-minibatch advantage normalisation; a decision every 10 s; intruders within 10 km"]
+           "evaluation is epsilon-greedy with epsilon 0.05 (Mnih et al. 2015), not in the paper"),
+           ("hyper-parameters the paper does not give: D2MAV-A value coefficient 0.5, gradient clip 0.5 (actor and "
+           "critic apart), per-minibatch advantage normalisation; a decision every 10 s; intruders within 10 km")]
     if plan.mode == "overlap":
         out.append("train.mode=overlap: the workers play iteration k+1 while the learner updates on iteration k "
                    "(the episodes of an iteration come from the weights one update older than the paper's loop)")
