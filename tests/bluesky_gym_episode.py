@@ -1,12 +1,15 @@
 """Run one bluesky-gym environment on BlueSky or on aamsim and save what it returned (used by the tests).
 
-Usage: python bluesky_gym_episode.py ENV_ID {bluesky,aamsim} STEPS SEED OUT.npz
+Usage: python bluesky_gym_episode.py ENV_ID {bluesky,aamsim} STEPS SEED OUT.npz [WARMUP]
 
 BlueSky keeps process-wide state, so each side runs in a fresh subprocess. The
 actions are fixed (drawn from ``numpy.random.default_rng(SEED)``); the
 environments draw their scenarios from Python's and numpy's global generators,
 seeded with SEED before the first reset, so both sides see the same traffic.
-An episode that ends is followed by a reset, as a training loop does.
+An episode that ends is followed by a reset, as a training loop does. The file
+also holds the time taken by the steps after the first WARMUP (default 0) and
+by the start (imports, ``gym.make``, first reset): ``bench/bench_bluesky_gym.py``
+reads them.
 
 Two things make BlueSky 1.1.1 run under NumPy 2 here, both on the BlueSky side
 only and neither changing what it computes (docs/bluesky-api.md):
@@ -55,7 +58,8 @@ def actions(env_id: str, space, steps: int, seed: int) -> list[np.ndarray]:  # t
     return out
 
 
-def run(env_id: str, backend: str, steps: int, seed: int) -> dict[str, np.ndarray]:
+def run(env_id: str, backend: str, steps: int, seed: int, warmup: int = 0) -> dict[str, np.ndarray]:
+    start = time.perf_counter()
     if backend == "aamsim":
         import aamsim.compat.bluesky
 
@@ -75,15 +79,17 @@ def run(env_id: str, backend: str, steps: int, seed: int) -> dict[str, np.ndarra
     obs, _ = env.reset()
     keys = sorted(obs)
     rows: dict[str, list[np.ndarray]] = {k: [np.ravel(obs[k]).astype(float)] for k in keys}
-    rewards, ends, resets = [], [], []
+    rewards, ends = [], []
+    startup = time.perf_counter() - start
     t0 = time.perf_counter()
-    for action in plan:
+    for k, action in enumerate(plan):
+        if k == warmup:
+            t0 = time.perf_counter()
         obs, reward, terminated, truncated, _ = env.step(action)
         for k in keys:
             rows[k].append(np.ravel(obs[k]).astype(float))
         rewards.append(float(reward))
         ends.append((bool(terminated), bool(truncated)))
-        resets.append(bool(terminated or truncated))
         if terminated or truncated:
             env.reset()  # the step's own observation is the one kept
     elapsed = time.perf_counter() - t0
@@ -92,13 +98,16 @@ def run(env_id: str, backend: str, steps: int, seed: int) -> dict[str, np.ndarra
     out["reward"] = np.array(rewards)
     out["terminated"] = np.array([e[0] for e in ends])
     out["truncated"] = np.array([e[1] for e in ends])
-    out["seconds"] = np.array(elapsed)
+    out["seconds"] = np.array(elapsed)  # the steps after the warm-up
+    out["timed_steps"] = np.array(max(0, steps - warmup))
+    out["startup_seconds"] = np.array(startup)
     return out
 
 
 def main() -> None:
     env_id, backend, steps, seed, path = sys.argv[1], sys.argv[2], int(sys.argv[3]), int(sys.argv[4]), sys.argv[5]
-    out = run(env_id, backend, steps, seed)
+    warmup = int(sys.argv[6]) if len(sys.argv) > 6 else 0
+    out = run(env_id, backend, steps, seed, warmup)
     np.savez(path, keys=json.dumps(sorted(out)), **out)
 
 

@@ -66,47 +66,61 @@ def view_field(view_name: str) -> Source:
 
 
 class ArrayStore:
-    """The arrays handed out since the last change, and the copies that show what was written."""
+    """The arrays handed out since the last change, and the copies that show what was written.
+
+    An array, once built, is put in its owner's ``__dict__`` (``bs.traf.__dict__['lat']``), so that
+    reading it again is a plain attribute lookup; the store removes it there when the simulation
+    changes. Assigning a whole array (``bs.traf.alt = a``) goes through :meth:`assign`.
+    """
 
     def __init__(self, session: Session) -> None:
         self._session = session
-        self._arrays: dict[str, np.ndarray] = {}
-        self._given: dict[str, tuple[Field, np.ndarray]] = {}  # writable field -> (field, copy handed out)
+        self._held: list[tuple[Any, str]] = []  # (owner, attribute) of the arrays handed out
+        self._given: list[tuple[Any, str, Field, np.ndarray]] = []  # writable ones and a copy of what was handed out
 
-    def get(self, field: Field) -> np.ndarray:
-        """The field's array (the same object until the next flush or invalidation)."""
-        arr = self._arrays.get(field.name)
-        if arr is None:
-            session = self._session
-            values = field.source(session.view, session.order(), session)
-            if field.target is None:
-                values.flags.writeable = False  # a write would change nothing: refuse it instead
-                arr = values
-            else:
-                arr = values.view(FieldArray)
-                self._given[field.name] = (field, values.copy())
-            self._arrays[field.name] = arr
+    def get(self, owner: Any, attr: str, field: Field) -> np.ndarray:
+        """Build the field's array and keep it as ``owner.<attr>`` until the next flush or invalidation."""
+        session = self._session
+        values = field.source(session.view, session.order(), session)
+        if field.target is None:
+            values.flags.writeable = False  # a write would change nothing: refuse it instead
+            arr = values
+        else:
+            arr = values.view(FieldArray)
+            self._given.append((owner, attr, field, values.copy()))
+        owner.__dict__[attr] = arr
+        self._held.append((owner, attr))
         return arr
+
+    def assign(self, owner: Any, attr: str, field: Field, value: Any) -> None:
+        """``owner.<attr> = value``: every element of the field is written."""
+        arr = owner.__dict__.get(attr)
+        if arr is None:
+            arr = self.get(owner, attr, field)
+        arr[...] = value
 
     def flush(self) -> None:
         """Pass every element written since the arrays were handed out to the simulation, then forget them."""
         if self._given:
             session = self._session
             order = session.order()
-            for name, (field, before) in self._given.items():
-                after = self._arrays[name]
-                if after.shape != before.shape:
+            for owner, attr, field, before in self._given:
+                after = owner.__dict__.get(attr)
+                if after is None or after.shape != before.shape:
                     continue  # handed out before aircraft came or went: stale, as in BlueSky
                 changed = after != before
                 if after.dtype.kind == "f":
                     changed &= ~(np.isnan(after) & np.isnan(before))
                 if changed.any():
                     idx = np.flatnonzero(changed)
-                    session.write(field.target or name, order[idx], np.asarray(after)[idx])
+                    session.write(field.target or field.name, order[idx], np.asarray(after)[idx])
             self._given.clear()
-        self._arrays.clear()
+        self.invalidate()
 
     def invalidate(self) -> None:
         """Forget the arrays without passing their writes (after the simulation has moved on)."""
-        self._arrays.clear()
+        if self._held:
+            for owner, attr in self._held:
+                owner.__dict__.pop(attr, None)
+            self._held.clear()
         self._given.clear()

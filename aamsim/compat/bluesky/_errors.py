@@ -34,7 +34,9 @@ def not_provided(name: str, hint: str = "") -> NotProvided:
 
 def not_provided_module(name: str, hint: str = "") -> NotProvidedModule:
     """The exception for module ``name`` (``bluesky.network``, ...)."""
-    return NotProvidedModule(_message(name, hint), name=name)
+    exc = NotProvidedModule(_message(name, hint))
+    exc.name = name
+    return exc
 
 
 class Unprovided:

@@ -143,7 +143,7 @@ class Session:
             self.set_state(OP)
         self.process()
         if self.state == OP:
-            sim.step()
+            sim.step_bluesky()
         self.changed()
 
     # ------------------------------------------------------------------ the stack

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Collection
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, ClassVar
 
 import numpy as np
 
@@ -81,30 +81,43 @@ PERF_FIELDS = _fields("perf.", {
 
 
 class _Array:
-    """A traffic array as an attribute: read from the store; assigning a whole array writes every element."""
+    """A traffic array as an attribute, built by the store on first read (then an instance attribute)."""
 
-    def __init__(self, field: Field) -> None:
+    def __init__(self, attr: str, field: Field) -> None:
+        self.attr = attr
         self.field = field
 
     def __get__(self, obj: Any, owner: type | None = None) -> Any:
         if obj is None:
             return self
-        return obj._session.arrays.get(self.field)
-
-    def __set__(self, obj: Any, value: Any) -> None:
-        obj._session.arrays.get(self.field)[...] = value
+        return obj._session.arrays.get(obj, self.attr, self.field)
 
 
 def _with_arrays(fields: dict[str, Field]) -> Any:
     def decorate(cls: type) -> type:
-        for name, field in fields.items():
-            setattr(cls, name, _Array(field))
+        cls._arrays = {name: _Array(name, field) for name, field in fields.items()}
+        for name, descriptor in cls._arrays.items():
+            setattr(cls, name, descriptor)
         return cls
 
     return decorate
 
 
-class _Part:
+class _WithArrays:
+    """Objects whose traffic arrays are attributes: assigning a whole array writes each element."""
+
+    _arrays: ClassVar[dict[str, _Array]] = {}
+    _session: Session
+
+    def __setattr__(self, name: str, value: Any) -> None:
+        descriptor = type(self)._arrays.get(name)
+        if descriptor is None:
+            object.__setattr__(self, name, value)
+        else:
+            self._session.arrays.assign(self, name, descriptor.field, value)
+
+
+class _Part(_WithArrays):
     """A part of ``bs.traf`` (``ap``, ``wind``, ``perf``): unknown names are not provided."""
 
     _path = "bluesky.traf"
@@ -300,7 +313,7 @@ _UNPROVIDED_PARTS = {
 
 
 @_with_arrays(TRAFFIC_FIELDS)
-class Traffic:
+class Traffic(_WithArrays):
     """``bs.traf``: the aircraft in BlueSky's order, their arrays and BlueSky's traffic methods."""
 
     def __init__(self, session: Session) -> None:
@@ -356,7 +369,7 @@ class Traffic:
         s = self._session
         if isinstance(acid, str):
             if acid.upper() in s.ids:
-                return False, acid + " already exists."
+                return False, acid + " already exists."  # BlueSky's answer, word for word
             acids = [acid]
         else:
             acids = [str(a) for a in acid]
