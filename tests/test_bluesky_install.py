@@ -126,8 +126,8 @@ def test_the_environment_variable_installs_the_shim_at_startup(tmp_path, value, 
 
 def test_an_environment_value_not_understood_is_reported_and_ignored(tmp_path):
     site_dir = _startup_dir(tmp_path)
-    proc = subprocess.run([sys.executable, "-c", f"import site; site.addsitedir({str(site_dir)!r}); "
-                           "import aamsim.compat.bluesky as s; print(s.installed())"],
+    code = f"import site; site.addsitedir({str(site_dir)!r}); import aamsim.compat.bluesky as s; print(s.installed())"
+    proc = subprocess.run([sys.executable, "-c", code],
                           capture_output=True, text=True, timeout=300, check=False,
                           env={**os.environ, "AAMSIM_BLUESKY": "maybe", "PYTHONPATH": str(ROOT)})
     assert proc.stdout.strip() == "False" and "AAMSIM_BLUESKY='maybe' is not understood" in proc.stderr

@@ -95,8 +95,9 @@ class _Array:
 
 def _with_arrays(fields: dict[str, Field]) -> Any:
     def decorate(cls: type) -> type:
-        cls._arrays = {name: _Array(name, field) for name, field in fields.items()}
-        for name, descriptor in cls._arrays.items():
+        arrays = {name: _Array(name, field) for name, field in fields.items()}
+        cls._arrays = arrays  # type: ignore[attr-defined]
+        for name, descriptor in arrays.items():
             setattr(cls, name, descriptor)
         return cls
 
