@@ -108,6 +108,8 @@ class ArrayStore:
                 after = owner.__dict__.get(attr)
                 if after is None or after.shape != before.shape:
                     continue  # handed out before aircraft came or went: stale, as in BlueSky
+                if after.tobytes() == before.tobytes():
+                    continue  # nothing written (a byte comparison: the common case, and cheap)
                 changed = after != before
                 if after.dtype.kind == "f":
                     changed &= ~(np.isnan(after) & np.isnan(before))

@@ -66,7 +66,9 @@ def defineArea(name: str, shape: str, coordinates: Any, top: float = UNBOUNDED_T
 
 def checkInside(areaname: str, lat: Any, lon: Any, alt: Any) -> np.ndarray:
     """Which points [deg, deg, m] are inside area ``areaname`` (all False when there is no such area)."""
-    return _shapes("checkInside").contains(areaname, np.atleast_1d(lat), np.atleast_1d(lon), np.atleast_1d(alt))
+    return _shapes("checkInside").contains(areaname, np.asarray(lat, dtype=float).reshape(-1),
+                                           np.asarray(lon, dtype=float).reshape(-1),
+                                           np.asarray(alt, dtype=float).reshape(-1))
 
 
 def deleteArea(areaname: str) -> None:
