@@ -13,7 +13,7 @@ import datetime
 from typing import TYPE_CHECKING, Any
 
 from aamsim.compat.bluesky._errors import not_provided
-from aamsim.compat.bluesky._session import HOLD, INIT, OP
+from aamsim.compat.bluesky._session import HOLD, OP
 
 if TYPE_CHECKING:
     from aamsim.compat.bluesky._session import Session
@@ -115,7 +115,3 @@ class Simulation:
     def setseed(self, value: int) -> None:
         """Seed Python's and numpy's global generators (as BlueSky) and the simulation's own."""
         self._session.seed(value)
-
-    @property
-    def is_initialised(self) -> bool:
-        return self._session.state != INIT
