@@ -10,7 +10,7 @@
     print(bs.traf.id, bs.traf.lat, bs.traf.hdg)   # numpy arrays in BlueSky's order
 
 :func:`install` (or ``AAMSIM_BLUESKY=1`` in the environment, see
-:mod:`aamsim.compat.bluesky._startup`) makes ``import bluesky`` resolve to this
+:func:`install_from_environment`) makes ``import bluesky`` resolve to this
 package in the process, so that unchanged code (bluesky-gym's environments)
 runs on aamsim. ``docs/bluesky-api.md`` lists every name: the same as BlueSky,
 the same within a stated difference, or not provided (a ``NotImplementedError``
