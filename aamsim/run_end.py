@@ -29,8 +29,6 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from aamsim.traffic import fields as f
-
 if TYPE_CHECKING:
     from aamsim.simulation import Simulation
 
@@ -46,7 +44,7 @@ class OpenEndWatch:
     idle_s: float = 0.0  # time without progress since the last command
     _layout: int = -1
     _conditions: int = -1
-    _closest: dict[str, tuple[float, float, float]] = field(default_factory=dict)  # callsign: wp lat, lon, dist
+    _closest: dict[str, tuple[int, float]] = field(default_factory=dict)  # callsign: active waypoint, closest [m]
 
     def check(self, sim: Simulation, chunk_s: float) -> tuple[str, str] | None:
         """Called after each chunk of ``chunk_s`` seconds: ``(reason, message)`` to stop, or None to go on.
@@ -82,24 +80,22 @@ class OpenEndWatch:
 
     def _progressed(self, sim: Simulation) -> bool:
         """True when something changed since the previous check (and remembers the state for the next)."""
-        traffic = sim.traffic
-        n = traffic.n
+        traffic, view = sim.traffic, sim.view
         moved = traffic.layout_version != self._layout or len(sim.conditions) != self._conditions
         self._layout, self._conditions = traffic.layout_version, len(sim.conditions)
-        lnav = np.flatnonzero(traffic.B[f.B_SWLNAV, :n])
-        wp_lat = traffic.F[f.WP_LAT, lnav].tolist()
-        wp_lon = traffic.F[f.WP_LON, lnav].tolist()
-        dist = traffic.F[f.DIST2WP, lnav].tolist()
-        closest: dict[str, tuple[float, float, float]] = {}
+        lnav = np.flatnonzero(np.asarray(view.lnav))
+        dist = np.asarray(view.dist2wp)[lnav].tolist()
+        ids = view.ids
+        closest: dict[str, tuple[int, float]] = {}
         for k, slot in enumerate(lnav.tolist()):
-            acid = traffic.ids[slot]
+            acid, active = ids[slot], int(view.route(slot).iactwp)
             before = self._closest.get(acid)
-            if before is None or before[0] != wp_lat[k] or before[1] != wp_lon[k]:
+            if before is None or before[0] != active:
                 moved = True  # on a route since the last check, or a waypoint reached
-                closest[acid] = (wp_lat[k], wp_lon[k], dist[k])
-            elif dist[k] < before[2] - APPROACH_M:
+                closest[acid] = (active, dist[k])
+            elif dist[k] < before[1] - APPROACH_M:
                 moved = True
-                closest[acid] = (wp_lat[k], wp_lon[k], dist[k])
+                closest[acid] = (active, dist[k])
             else:
                 closest[acid] = before
         self._closest = closest
