@@ -47,7 +47,7 @@ def test_smoke_study_runs_the_whole_pipeline(tmp_path):
     run_script(["usecase.params.n_intruders=4", "env.time_limit_s=600", "--smoke", "--work", str(work),
                 "--workers", "0", "--budget", "60", "--train-scenario", TINY, "--eval-scenarios", TINY], timeout=1800)
     out = work / "report"
-    labels = {"D2MAV-A No Shared Layers", "D2MAV-A Shared Layers", "DDQN"}
+    labels = {"D2MAV-A No Shared Layers", "D2MAV-A Shared Layers", "DDQN (RLlib update ratio)"}
     for sfx in ("", "_v1"):  # the paper's use case and the corrected variant, in separate tables
         table = rows(out / f"risk_ratio{sfx}.csv")
         names = {r["Algorithm"].split(" — ")[0] for r in table}

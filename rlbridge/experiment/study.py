@@ -49,7 +49,11 @@ PAPER_TABLES = {
 # Aircraft-states per second after the first iteration on the 2-core development machine with
 # train.mode=overlap and one worker, load average 2-4 (bench/bench_train.py, docs/algorithms.md
 # "Learning throughput"): the plan's time estimate. Pass --rates to use a machine's own figures.
-DEFAULT_RATES = {"d2mava_a": 5678.0, "d2mava_a_shared": 5691.0, "ddqn": 1024.0}
+# DDQN with RLlib's update ratio (one gradient step per 160 environment steps) is bound by its
+# rollouts: measured 1,065 at load 13-15 in the same invocation as D2MAV-A's 413
+# (`bench/bench_train.py --against 5349319 --paths new --algorithms ddqn d2mava_a --iterations 6`),
+# scaled by D2MAV-A's 5,678 / 413 to the load of the other figures: 14,600.
+DEFAULT_RATES = {"d2mava_a": 5678.0, "d2mava_a_shared": 5691.0, "ddqn": 14600.0}
 
 
 @dataclass
