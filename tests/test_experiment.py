@@ -357,3 +357,10 @@ def test_evaluation_keeps_the_training_runs_time_limit_and_dt_unless_overridden(
     assert (env.time_limit_s, env.dt) == (90.0, 0.25)
     # A training run on the engine's default stays on it.
     assert evaluation_env(default, EnvSpec(TINY)).time_limit_s is None
+
+
+def test_d2mava_on_a_flat_observation_is_refused_naming_the_algorithm_that_fits():
+    # reach_destination observes its own aircraft only: no intruders for D2MAV-A's attention to read.
+    dims = usecase_dims("reach_destination", {})
+    with pytest.raises(ValueError, match="needs an observation of an ownship and its intruders.*algorithm=ddqn"):
+        make_learner("d2mava", {}, dims, "cpu", 0)
