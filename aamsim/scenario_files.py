@@ -27,6 +27,18 @@ class ScenarioFiles:
         # File -> the chain of files whose PCALL/IC loaded it (kept across IC's reset, so that
         # files that IC each other are caught as a cycle too).
         self.call_chains: dict[str, tuple[str, ...]] = {}
+        # Commands PCALL has queued and files it has loaded since the last reset, and the PCALLs
+        # refused once either reached its budget (aamsim.stack.commands.sim_cmds.MAX_PCALL_COMMANDS): a fan-out of files that
+        # each PCALL the next ten times grows tenfold per level.
+        self.pcall_commands = 0
+        self.pcall_files = 0
+        self.pcall_refused = 0
+
+    def reset_budget(self) -> None:
+        """A new scenario (RESET, IC): PCALL's budget starts again."""
+        self.pcall_commands = 0
+        self.pcall_files = 0
+        self.pcall_refused = 0
 
     def loaded(self, path: Path, text: str) -> None:
         """Note a file whose commands were queued: the first one names the scenario."""

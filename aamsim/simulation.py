@@ -359,7 +359,12 @@ class Simulation(SimulationAPI):
             due = queue.pop_due(clock.simt_us)
             if not due:
                 return
-            for cmd in due:
+            for k, cmd in enumerate(due):
+                if self.quit_requested:
+                    # QUIT, or a signal while a fan-out of PCALLs loads at one instant: stop here,
+                    # the rest stays queued (a stop used to wait for every file to load).
+                    queue.push_front(due[k:])
+                    return
                 self.executor.execute(cmd.command, cmd.source)
 
     def _boundary(self) -> None:
@@ -543,6 +548,7 @@ class Simulation(SimulationAPI):
         for i in range(self.traffic.n - 1, -1, -1):
             self.delete_aircraft(i, arrived=False)
         self.scheduler.reset()  # time 0, nothing pending; the step is kept
+        self.files.reset_budget()
         self.conditions.clear()
         self.navdb.clear()
         self.wind.clear()
