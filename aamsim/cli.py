@@ -346,7 +346,8 @@ def view(run_dir: Path, host: str, port: int, allow_hosts: tuple[str, ...], open
     if t_from is not None or t_to is not None:
         raise click.UsageError("--from and --to go with --video")
     try:
-        serve_replay(str(run_dir), host, port, lambda url: _announce_viewer(url, host, open_browser), allow_hosts)
+        serve_replay(str(run_dir), host, port, lambda url: _announce_viewer(url, host, open_browser), allow_hosts,
+                     on_warning=lambda text: click.echo(f"warning: {text}", err=True))
     except ReplayError as exc:
         click.echo(f"error: {exc}", err=True)
         sys.exit(2)

@@ -46,7 +46,7 @@ from aamsim.traffic.kernel import STATUS_CONDITION, STATUS_NONFINITE, STATUS_REA
 from aamsim.traffic.performance import PerformanceTable
 from aamsim.traffic.traffic import FlightRecord, Traffic
 from aamsim.traffic.wind import WindField
-from aamsim.units import FT, KTS, MAX_ALTITUDE_FT, MIN_ALTITUDE_FT, Speed
+from aamsim.units import FT, KTS, MAX_ALTITUDE_FT, MAX_CALLSIGN_CHARS, MIN_ALTITUDE_FT, Speed
 
 # Fewest aircraft for which the parallel kernel is used. Measured on a shared
 # 2-core machine: no gain up to a few thousand aircraft, 1.3-1.8x at 10,000.
@@ -268,6 +268,9 @@ class Simulation(SimulationAPI):
             raise CommandError(f"aircraft {acid} already exists")
         if not acid or any(c in acid for c in " ,;#>'\""):
             raise CommandError(f'"{acid}" is not a valid callsign')
+        if len(acid) > MAX_CALLSIGN_CHARS:
+            raise CommandError(f'"{acid[:20]}...": a callsign has at most {MAX_CALLSIGN_CHARS} characters, '
+                               f"not {len(acid):,}")
         envelope, known = self.performance.lookup(actype)
         if not known and not noncooperative:
             self.note_once(

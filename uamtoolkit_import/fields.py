@@ -25,8 +25,10 @@ from __future__ import annotations
 import re
 import unicodedata
 
+from aamsim.units import MAX_CALLSIGN_CHARS
+
 AIRCRAFT_TYPE_MAX_CHARS = 16
-CALLSIGN_MAX_CHARS = 32
+CALLSIGN_MAX_CHARS = MAX_CALLSIGN_CHARS  # what CRE accepts
 POINT_ID_MAX_CHARS = 64
 NAME_MAX_CHARS = 200
 
