@@ -23,6 +23,7 @@ class ScenarioFiles:
         self.text = ""
         self.search_path: list[Path] = []
         # Called with every file PCALL/IC resolve; raises CommandError to refuse it (the ZMQ server's roots).
+        # A refused file is answered as a missing one, so that its existence is not told.
         self.guard: Callable[[Path], None] | None = None
         # File -> the chain of files whose PCALL/IC loaded it (kept across IC's reset, so that
         # files that IC each other are caught as a cycle too).
@@ -52,7 +53,10 @@ class ScenarioFiles:
         """Resolve a scenario file name (PCALL, IC) against the search path, then ``guard`` it."""
         found = self._find(name)
         if found is not None and self.guard is not None:
-            self.guard(found)
+            try:
+                self.guard(found)
+            except CommandError:
+                return None  # "not found", like a file that is not there
         return found
 
     def _find(self, name: str) -> Path | None:

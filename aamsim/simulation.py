@@ -29,6 +29,7 @@ from aamsim.clock import Clock, TimeStepError
 from aamsim.errors import CommandError, SourceRef
 from aamsim.geo import qdrdist
 from aamsim.hooks import Hooks
+from aamsim.limits import SimulationLimits
 from aamsim.messages import Reporter
 from aamsim.navdb import NavDatabase
 from aamsim.scenario_files import ScenarioFiles
@@ -98,6 +99,7 @@ class Simulation(SimulationAPI):
         self.reporter = Reporter()
         self.executor = CommandExecutor(self, self.commands, self.scheduler.queue, self.report)
         self.files = ScenarioFiles()
+        self.limits = SimulationLimits()  # a server's limits on its client's session (none here)
         self.conditions = Conditions()
         self.navdb = NavDatabase(use_bluesky_data=use_bluesky_navdata)
         self.performance = performance or PerformanceTable()
@@ -268,6 +270,10 @@ class Simulation(SimulationAPI):
             raise CommandError(f"aircraft {acid} already exists")
         if not acid or any(c in acid for c in " ,;#>'\""):
             raise CommandError(f'"{acid}" is not a valid callsign')
+        limit = self.limits.max_aircraft
+        if limit is not None and self.traffic.n >= limit:
+            raise CommandError(self.limits.refusal(f"{acid}: this simulation flies at most {limit:,} aircraft at "
+                                                   "once"))
         if len(acid) > MAX_CALLSIGN_CHARS:
             raise CommandError(f'"{acid[:20]}...": a callsign has at most {MAX_CALLSIGN_CHARS} characters, '
                                f"not {len(acid):,}")
