@@ -243,11 +243,22 @@ def run(scenario: str, until: str | None, out_dir: Path | None, dt: float, seed:
             click.echo(str(err), err=True)
         click.echo(f"{path}: {len(exc.errors)} error(s); nothing simulated (--strict)", err=True)
         sys.exit(2)
+    except OSError as exc:  # a full disk while the run directory is written: a message, not a traceback
+        progress.close()
+        where = f" {exc.filename}" if exc.filename else ""
+        click.echo(f"error: cannot write the run directory{where}: {exc.strerror or exc}", err=True)
+        sys.exit(1)
     except Exception:
         progress.close()
         raise
     progress.close()
     s = result.summary
+    from aamsim.output.recorder import WRITE_FAILURES
+
+    if result.sim.extensions.get(WRITE_FAILURES):
+        click.echo(f"error: the run stopped at sim time {s['sim_time_s']:.1f} s: an output file could not be "
+                   f"written (see above); {result.out_dir} holds the run up to there", err=True)
+        sys.exit(1)
     if s.get("interrupted"):
         click.echo(f"{s['interrupted_by']}: stopped at sim time {s['sim_time_s']:.1f} s; the run directory "
                    f"{result.out_dir} is complete up to there", err=True)
