@@ -12,7 +12,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from bridge_util import raw_socket, thread_server, write_scenario
+from bridge_util import REPLY_TIMEOUT_MS, raw_socket, thread_server, write_scenario
 
 from aamsim import Simulation
 from aamsim.conflicts import conflicts_of
@@ -24,8 +24,6 @@ from rlbridge.protocol import decode, request
 from rlbridge.scenario_access import ScenarioRoots
 from rlbridge.usecases.reservation import probe_intents
 from rlbridge.usecases.schedule import split_schedule
-
-LONG_MS = 300_000  # a reply under load: the server answers or the test fails, never a hang
 
 
 @pytest.fixture
@@ -43,7 +41,7 @@ def ask(sock, op: str, **fields):  # type: ignore[no-untyped-def]
 
 
 def test_a_client_cannot_start_live_polling_unless_the_server_allows_it(root: Path) -> None:
-    with thread_server() as server, raw_socket(server.endpoint, timeout_ms=LONG_MS) as sock:
+    with thread_server() as server, raw_socket(server.endpoint, timeout_ms=REPLY_TIMEOUT_MS) as sock:
         assert ask(sock, "reset", scenario="conflicts.scn", seed=1)["ok"]
         messages = ask(sock, "stack", text="REPLAY OPENSKY,,47.2,8.3,47.6,8.8")["messages"]
         assert any("live OpenSky overlays are not allowed in this simulation" in m and "--allow-live-overlays" in m
@@ -71,7 +69,7 @@ def test_the_server_option_lets_live_overlays_through_to_the_simulation() -> Non
 
 
 def test_a_session_flies_at_most_max_aircraft(root: Path) -> None:
-    with thread_server(max_aircraft=40) as server, raw_socket(server.endpoint, timeout_ms=LONG_MS) as sock:
+    with thread_server(max_aircraft=40) as server, raw_socket(server.endpoint, timeout_ms=REPLY_TIMEOUT_MS) as sock:
         assert ask(sock, "reset", scenario="conflicts.scn", seed=1)["ok"]
         sim = next(iter(server.sessions.values())).core.sim
         before = sim.traffic.n
@@ -148,7 +146,7 @@ def test_involved_since_by_hand() -> None:
 def test_open_answers_a_file_outside_the_roots_as_a_missing_one(root: Path, tmp_path: Path) -> None:
     outside = tmp_path / "exists.scn"
     outside.write_text("00:00:00.00>ECHO secret\n")
-    with thread_server() as server, raw_socket(server.endpoint, timeout_ms=LONG_MS) as sock:
+    with thread_server() as server, raw_socket(server.endpoint, timeout_ms=REPLY_TIMEOUT_MS) as sock:
         there = ask(sock, "open", scenario=str(outside))
         missing = ask(sock, "open", scenario=str(tmp_path / "missing.scn"))
         assert (there["code"], missing["code"]) == ("not_found", "not_found")
