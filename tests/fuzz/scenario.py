@@ -184,6 +184,9 @@ class Harness:
     slowest_s: float = 0.0
     failures: list[Failure] = field(default_factory=list)
     log_path: Path | None = None  # failures are appended here as JSON lines as they happen
+    # Lines that were slow among the others but not when run again alone, in a fresh simulation
+    # (a loaded machine, Numba compiling on the first line): counted, never a failure.
+    unconfirmed_slow: list[Failure] = field(default_factory=list)
     _sim: Simulation | None = None
 
     max_aircraft: int = 200  # a line that made more (MCRE 100000) is followed by a fresh simulation
@@ -191,12 +194,45 @@ class Harness:
     def _simulation(self) -> Simulation:
         crowded = self._sim is not None and self._sim.traffic.n > self.max_aircraft
         if self._sim is None or crowded or self.lines_run % self.fresh_every == 0:
-            sim = Simulation(seed=1, use_bluesky_navdata=False)
-            sim.files.search_path.insert(0, self.folder)
-            sim.load_text(SETUP, "setup.scn")
-            sim.run_until(sim.simt)  # the setup line runs now
-            self._sim = sim
+            self._sim = self._fresh()
         return self._sim
+
+    def _fresh(self) -> Simulation:
+        sim = Simulation(seed=1, use_bluesky_navdata=False)
+        sim.files.search_path.insert(0, self.folder)
+        sim.load_text(SETUP, "setup.scn")
+        sim.run_until(sim.simt)  # the setup line runs now
+        return sim
+
+    def _slow_alone(self, line: str) -> float | None:
+        """Seconds the line takes run again alone in a fresh simulation, None when within the budget."""
+        sim = self._fresh()
+        t0 = time.perf_counter()
+        previous = signal.signal(signal.SIGALRM, _alarm) if hasattr(signal, "SIGALRM") else None
+        if previous is not None:
+            signal.setitimer(signal.ITIMER_REAL, self.hard_limit_s)
+        try:
+            sim.load_text(line, "fuzz.scn")
+            sim.run_until(sim.simt + 2.0)
+        except LineTimeout:
+            return time.perf_counter() - t0
+        except Exception:  # noqa: BLE001, S110 - alone it crashes: the time it took counts (the crash was not seen)
+            pass
+        finally:
+            if previous is not None:
+                signal.setitimer(signal.ITIMER_REAL, 0)
+                signal.signal(signal.SIGALRM, previous)
+        elapsed = time.perf_counter() - t0
+        heavy = sim.traffic.n > HEAVY_AIRCRAFT
+        return elapsed if elapsed > self.budget_s and not heavy else None
+
+    def _slow(self, line: str, detail: str, elapsed: float) -> None:
+        """A slow line is a failure only when it is slow again alone (then both times are given)."""
+        again = self._slow_alone(line)
+        if again is None:
+            self.unconfirmed_slow.append(Failure("slow", line, detail, elapsed))
+        else:
+            self.failures.append(Failure("slow", line, f"{detail}; again alone: {again:.2f} s", elapsed))
 
     def run(self, line: str) -> None:
         """Run one line, written to ``fuzz.scn`` in the harness folder first (PCALL/IC of it is a case too)."""
@@ -207,6 +243,7 @@ class Harness:
         """Run one line in the harness's simulation; record a crash or a line over the budget."""
         sim = self._simulation()
         known_before = len(self.failures)
+        timed_out = ""
         t0 = time.perf_counter()
         previous = signal.signal(signal.SIGALRM, _alarm) if hasattr(signal, "SIGALRM") else None
         if previous is not None:
@@ -215,9 +252,8 @@ class Harness:
             sim.load_text(line, "fuzz.scn")
             sim.run_until(sim.simt + 2.0)
         except LineTimeout:
-            self.failures.append(Failure("slow", line, f"still running after {self.hard_limit_s:g} s",
-                                         time.perf_counter() - t0))
             self._sim = None
+            timed_out = f"still running after {self.hard_limit_s:g} s"
         except Exception as exc:  # noqa: BLE001 - that is what the harness looks for
             self.failures.append(Failure("crash", line, f"{type(exc).__name__}: {exc}"[:500],
                                          time.perf_counter() - t0))
@@ -229,10 +265,12 @@ class Harness:
         elapsed = time.perf_counter() - t0
         self.slowest_s = max(self.slowest_s, elapsed)
         crowd = self._sim.traffic.n if self._sim is not None else 0
-        if crowd > HEAVY_AIRCRAFT:
+        if timed_out:
+            self._slow(line, timed_out, elapsed)
+        elif crowd > HEAVY_AIRCRAFT:
             self.heavy_lines += 1  # its work grows with the traffic it made (MCRE 100000): not a hang
         elif elapsed > self.budget_s and not any(f.line == line for f in self.failures[-1:]):
-            self.failures.append(Failure("slow", line, f"took {elapsed:.2f} s", elapsed))
+            self._slow(line, f"took {elapsed:.2f} s", elapsed)
         if self.log_path is not None and len(self.failures) > known_before:
             with open(self.log_path, "a", encoding="utf-8") as fh:
                 fh.writelines(json.dumps(f.__dict__) + "\n" for f in self.failures[known_before:])
