@@ -87,6 +87,21 @@ def test_scen_names_that_are_paths_are_renamed_with_a_warning(tmp_path: Path) ->
     assert all((root / j.relpath).resolve().is_relative_to(root) for j in jobs)
 
 
+def test_a_setting_given_twice_is_refused() -> None:
+    """Found by the batch fuzzer: both runs went to one folder, the second overwriting the first."""
+    with pytest.raises(BatchError, match='--set "lowc=450,76": given twice'):
+        parse_settings(["lowc=450,76", "nmac=150", "lowc=450,76"])
+
+
+def test_long_scenario_names_cut_to_one_folder_name_stay_apart(tmp_path: Path) -> None:
+    """Found by the batch fuzzer: two names cut to the same 120 characters shared a folder."""
+    text = "".join(f"00:00:00.00>SCEN {'x' * 200}{tail}\n00:00:00.00>CRE A B744 0 0 0 FL100 250\n"
+                   for tail in ("", "-rf", "+1"))
+    sources, _ = scenario_sources(tmp_path / "b.scn", text)
+    folders = [j.relpath for j in plan_jobs(sources, parse_settings([]), [0])]
+    assert len(set(folders)) == 3 and all(len(f.split("/")[0]) <= 120 for f in folders)
+
+
 def test_settings_are_the_cartesian_product_of_repeated_keys() -> None:
     points = parse_settings(["lowc=450", "nmac=150", "lowc=600", "nmac=100,50"])
     assert [p.label for p in points] == ["lowc=450,nmac=150", "lowc=450,nmac=100,50",

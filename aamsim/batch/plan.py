@@ -43,6 +43,7 @@ class ScenarioSource:
 
 _UNSAFE_IN_FOLDER_NAME = re.compile(r"[^A-Za-z0-9_.,=+-]+")
 FOLDER_NAME_MAX_CHARS = 120
+NAME_MAX_CHARS = FOLDER_NAME_MAX_CHARS - 10  # a scenario's name, before a "-k" making it unique
 
 
 def folder_name(text: str) -> str:
@@ -104,7 +105,7 @@ def _safe_name(name: str, where: str, warnings: list[str]) -> str:
 
     A ``SCEN ../../x`` or ``SCEN /tmp/x`` line must not put run directories outside ``--out``.
     """
-    safe = folder_name(name)
+    safe = folder_name(name)[:NAME_MAX_CHARS]  # room for the "-2" that makes a repeated name unique
     if safe != name:
         warnings.append(f"{where}: scenario name {name[:80]!r} is not a plain folder name; the scenario is named "
                         f"{safe!r}")
@@ -243,6 +244,8 @@ def parse_settings(items: Sequence[str]) -> list[Setting]:
             raise BatchError(f'--set "{item}": expected KEY=VALUE')
         if key not in SETTINGS:
             raise BatchError(f'--set "{item}": unknown key {key!r}; known: {", ".join(SETTINGS)}')
+        if value.strip() in axes.get(key, []):  # the same run twice, in one folder: the second overwrote the first
+            raise BatchError(f'--set "{item}": given twice')
         axes.setdefault(key, []).append(value.strip())
     points = [Setting(tuple(zip(axes, combo))) for combo in itertools.product(*axes.values())]
     for point in points:  # refuse bad values before anything runs
