@@ -7,6 +7,7 @@ because CI machines are shared (the long run reports lines over 1 s).
 from __future__ import annotations
 
 import logging
+import time
 from pathlib import Path
 
 from hypothesis import given, settings
@@ -77,6 +78,57 @@ def test_a_slow_line_fails_the_harness_only_when_it_is_slow_again_alone(tmp_path
     strict._slow("00:00:00.00>ECHO quick", "took 45.00 s", 45.0)
     assert [(f.kind, f.line) for f in strict.failures] == [("slow", "00:00:00.00>ECHO quick")]
     assert "again alone" in strict.failures[0].detail
+
+
+class _HangingHarness(Harness):
+    """A harness whose simulations know one more command, HANG, that never returns (a real hang)."""
+
+    def _fresh(self) -> Simulation:
+        sim = super()._fresh()
+
+        def hang(sim: object) -> None:
+            while True:
+                time.sleep(0.01)
+
+        sim.commands.add(hang, name="HANG")
+        return sim
+
+
+def test_a_line_that_hangs_fails_the_harness_also_when_rerun_alone(tmp_path: Path) -> None:
+    """The rerun alone does not excuse a real hang: it is stopped by its own limit and reported."""
+    harness = _HangingHarness(tmp_path, budget_s=0.5, hard_limit_s=1.0, rerun_limit_s=2.0)
+    harness.run("00:00:00.00>ECHO before")
+    harness.run("00:00:00.00>HANG")
+    harness.run("00:00:00.00>ECHO after")
+    assert harness.lines_run == 3
+    assert [(f.kind, f.line) for f in harness.failures] == [("slow", "00:00:00.00>HANG")]
+    assert "still running after 1 s; again alone: still running after 2." in harness.failures[0].detail
+
+
+def test_the_kernels_are_warm_before_the_first_line_is_timed(tmp_path: Path) -> None:
+    """Numba compiling on a cold cache (over a minute on a loaded 2-core machine) is paid by the warm-up,
+    never by the first timed line: once it is warm, a line with traffic runs no compilation."""
+    harness = Harness(tmp_path)
+    harness.warm_up()
+    assert harness._warm
+    before = _compiled_signatures()
+    harness.run("00:00:00.00>CRE X1 EC35 40.70 -74.00 90 1500 60; ASAS ON; CRE X2 EC35 40.70 -73.99 270 1500 60")
+    assert harness.failures == [] and _compiled_signatures() == before
+
+
+def _compiled_signatures() -> int:
+    """How many compiled signatures the Numba dispatchers of aamsim hold (compiled or loaded from the cache)."""
+    import sys
+
+    from numba.core.registry import CPUDispatcher
+
+    count = 0
+    for name, module in list(sys.modules.items()):
+        if name.startswith("aamsim"):
+            for value in list(vars(module).values()):
+                if isinstance(value, CPUDispatcher):
+                    count += len(value.overloads)
+    return count
 
 
 def test_batch_files_with_hostile_scen_names_and_settings() -> None:

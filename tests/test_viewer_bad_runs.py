@@ -55,6 +55,18 @@ def test_an_id_of_the_longest_callsign_is_read(tmp_path: Path) -> None:
     assert RunReplay(tmp_path).callsigns.tolist() == [long_id]
 
 
+def test_cre_refuses_a_callsign_longer_than_a_callsign_can_be() -> None:
+    """The simulation never writes an id the viewer would refuse: CRE stops at MAX_CALLSIGN_CHARS too."""
+    from aamsim import Simulation
+
+    sim = Simulation(use_bluesky_navdata=False)
+    sim.stack(f"CRE {'L' * MAX_CALLSIGN_CHARS} EC35 40.7 -74.0 0 500 10")
+    sim.stack(f"CRE {'X' * 20_000} EC35 40.7 -74.0 0 500 10")
+    assert sim.traffic.n == 1
+    assert sim.reporter.errors()[-1].text.endswith(
+        f"a callsign has at most {MAX_CALLSIGN_CHARS} characters, not 20,000")
+
+
 def test_a_last_row_cut_short_is_left_out_with_a_warning(run_dir: Path) -> None:  # noqa: F811
     path = run_dir / "trajectories.csv"
     path.write_text(path.read_text() + "A1,13.00,40.00269")  # the disk filled up here
