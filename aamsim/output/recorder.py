@@ -128,6 +128,13 @@ class TrajectoryRecorder:
             sim.extensions.setdefault(WRITE_FAILURES, []).append(text)  # aamsim run exits 1 on them
             sim.quit_requested = True
 
+    def sync(self) -> None:
+        """Write every buffered row and hand them to the operating system (a run killed after this
+        leaves them all in the file, complete)."""
+        self.flush()
+        if self._file is not None:
+            self._file.flush()
+
     def close(self) -> None:
         if self._file is not None:
             self.flush()
