@@ -22,6 +22,7 @@ import random
 import tempfile
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from functools import partial
 from pathlib import Path
 from typing import Any
 
@@ -178,13 +179,22 @@ def fuzz_batch(cases: int, seed: int = 0, run_every: int = 25) -> FileFuzzResult
                 problem = check_batch(text, sets, folder, run=k % run_every == 0)
             except Exception as exc:  # noqa: BLE001 - that is what the harness looks for
                 problem = f"crash: {type(exc).__name__}: {exc}"[:500]
-            if problem == REFUSED:
-                result.refused += 1
-            elif problem:
-                result.failures.append(Failure("crash" if problem.startswith("crash") else "wrong",
-                                               json.dumps({"file": text, "set": sets}), problem, 0.0))
-            result.cases += 1
+            _tally(result, problem, partial(dict, file=text, set=sets))
     return result
+
+
+def _tally(result: FileFuzzResult, problem: str, case: Callable[[], object]) -> None:
+    """Count one case: refused by the tool, failed (``case()`` is the input, as JSON), or passed."""
+    if problem == REFUSED:
+        result.refused += 1
+    elif problem:
+        result.failures.append(Failure("crash" if problem.startswith("crash") else "wrong", json.dumps(case()),
+                                       problem, 0.0))
+    result.cases += 1
+
+
+def _uam2scn_input(network: dict[str, Any], data: dict[str, Any], schedule_text: str) -> dict[str, Any]:
+    return {"network_changes": _changes(network, data), "schedule": schedule_text}
 
 
 def fuzz_uam2scn(cases: int, seed: int = 0) -> FileFuzzResult:
@@ -200,13 +210,7 @@ def fuzz_uam2scn(cases: int, seed: int = 0) -> FileFuzzResult:
             problem = check_uam2scn(data, schedule_text, registry.__contains__)
         except Exception as exc:  # noqa: BLE001 - that is what the harness looks for
             problem = f"crash: {type(exc).__name__}: {exc}"[:500]
-        if problem == REFUSED:
-            result.refused += 1
-        elif problem:
-            result.failures.append(Failure("crash" if problem.startswith("crash") else "wrong",
-                                           json.dumps({"network_changes": _changes(network, data),
-                                                       "schedule": schedule_text}), problem, 0.0))
-        result.cases += 1
+        _tally(result, problem, partial(_uam2scn_input, network, data, schedule_text))
     return result
 
 
