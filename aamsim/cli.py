@@ -10,6 +10,7 @@ from typing import Any
 import click
 
 from aamsim.errors import CommandError
+from aamsim.limits import DEFAULT_MAX_AIRCRAFT
 from aamsim.units import UnitParseError, parse_time
 
 
@@ -242,11 +243,22 @@ def run(scenario: str, until: str | None, out_dir: Path | None, dt: float, seed:
             click.echo(str(err), err=True)
         click.echo(f"{path}: {len(exc.errors)} error(s); nothing simulated (--strict)", err=True)
         sys.exit(2)
+    except OSError as exc:  # a full disk while the run directory is written: a message, not a traceback
+        progress.close()
+        where = f" {exc.filename}" if exc.filename else ""
+        click.echo(f"error: cannot write the run directory{where}: {exc.strerror or exc}", err=True)
+        sys.exit(1)
     except Exception:
         progress.close()
         raise
     progress.close()
     s = result.summary
+    from aamsim.output.recorder import WRITE_FAILURES
+
+    if result.sim.extensions.get(WRITE_FAILURES):
+        click.echo(f"error: the run stopped at sim time {s['sim_time_s']:.1f} s: an output file could not be "
+                   f"written (see above); {result.out_dir} holds the run up to there", err=True)
+        sys.exit(1)
     if s.get("interrupted"):
         click.echo(f"{s['interrupted_by']}: stopped at sim time {s['sim_time_s']:.1f} s; the run directory "
                    f"{result.out_dir} is complete up to there", err=True)
@@ -347,7 +359,8 @@ def view(run_dir: Path, host: str, port: int, allow_hosts: tuple[str, ...], open
     if t_from is not None or t_to is not None:
         raise click.UsageError("--from and --to go with --video")
     try:
-        serve_replay(str(run_dir), host, port, lambda url: _announce_viewer(url, host, open_browser), allow_hosts)
+        serve_replay(str(run_dir), host, port, lambda url: _announce_viewer(url, host, open_browser), allow_hosts,
+                     on_warning=lambda text: click.echo(f"warning: {text}", err=True))
     except ReplayError as exc:
         click.echo(f"error: {exc}", err=True)
         sys.exit(2)
@@ -564,14 +577,20 @@ def commands(group: str | None) -> None:
               help="Folder clients may load scenarios from (repeatable; default: the working directory). "
                    "Shipped scenarios are always allowed.")
 @click.option("--allow-shutdown", is_flag=True, help="Let a client stop the server with a shutdown request.")
+@click.option("--allow-live-overlays", is_flag=True,
+              help="Let clients start live OpenSky overlays (REPLAY OPENSKY, overlay=opensky:...): the server "
+                   "then polls the network for them.")
+@click.option("--max-aircraft", type=click.IntRange(min=1), default=DEFAULT_MAX_AIRCRAFT, show_default=True,
+              help="Most aircraft one session may fly at once; creating more is refused.")
 @click.option("--log-level", type=click.Choice(["DEBUG", "INFO", "WARNING", "ERROR"], case_sensitive=False),
               default="INFO", show_default=True)
 @click.option("--view", "show_view", is_flag=True,
               help="Show the traffic of the session that stepped last in the web viewer (read-only).")
 @_viewer_options
 def serve(bind: str, plugins: tuple[str, ...], max_message_bytes: int, session_timeout: float, max_sessions: int,
-          scenario_roots: tuple[Path, ...], allow_shutdown: bool, log_level: str, show_view: bool, host: str,
-          port: int, allow_hosts: tuple[str, ...], open_browser: bool) -> None:
+          scenario_roots: tuple[Path, ...], allow_shutdown: bool, allow_live_overlays: bool, max_aircraft: int,
+          log_level: str, show_view: bool, host: str, port: int, allow_hosts: tuple[str, ...],
+          open_browser: bool) -> None:
     """Run a headless simulation server for RL environments (ZeroMQ, docs/protocol.md).
 
     Each client gets its own simulation. Ctrl-C or SIGTERM stops the server.
@@ -613,6 +632,7 @@ def serve(bind: str, plugins: tuple[str, ...], max_message_bytes: int, session_t
         code = bridge.serve(bind, tuple(plugins), on_ready=ready, max_message_bytes=max_message_bytes,
                             session_timeout_s=session_timeout, max_sessions=max_sessions,
                             scenario_roots=scenario_roots, allow_shutdown=allow_shutdown,
+                            allow_live_overlays=allow_live_overlays, max_aircraft=max_aircraft,
                             on_traffic=live.show_episode if live is not None else None)
     except zmq.ZMQError as exc:
         click.echo(f"error: cannot listen on {bind}: {exc}", err=True)

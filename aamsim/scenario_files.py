@@ -23,10 +23,23 @@ class ScenarioFiles:
         self.text = ""
         self.search_path: list[Path] = []
         # Called with every file PCALL/IC resolve; raises CommandError to refuse it (the ZMQ server's roots).
+        # A refused file is answered as a missing one, so that its existence is not told.
         self.guard: Callable[[Path], None] | None = None
         # File -> the chain of files whose PCALL/IC loaded it (kept across IC's reset, so that
         # files that IC each other are caught as a cycle too).
         self.call_chains: dict[str, tuple[str, ...]] = {}
+        # Commands PCALL has queued and files it has loaded since the last reset, and the PCALLs
+        # refused once either reached its budget (aamsim.stack.commands.sim_cmds.MAX_PCALL_COMMANDS): a fan-out of files that
+        # each PCALL the next ten times grows tenfold per level.
+        self.pcall_commands = 0
+        self.pcall_files = 0
+        self.pcall_refused = 0
+
+    def reset_budget(self) -> None:
+        """A new scenario (RESET, IC): PCALL's budget starts again."""
+        self.pcall_commands = 0
+        self.pcall_files = 0
+        self.pcall_refused = 0
 
     def loaded(self, path: Path, text: str) -> None:
         """Note a file whose commands were queued: the first one names the scenario."""
@@ -40,7 +53,10 @@ class ScenarioFiles:
         """Resolve a scenario file name (PCALL, IC) against the search path, then ``guard`` it."""
         found = self._find(name)
         if found is not None and self.guard is not None:
-            self.guard(found)
+            try:
+                self.guard(found)
+            except CommandError:
+                return None  # "not found", like a file that is not there
         return found
 
     def _find(self, name: str) -> Path | None:

@@ -29,6 +29,7 @@ from aamsim.clock import Clock, TimeStepError
 from aamsim.errors import CommandError, SourceRef
 from aamsim.geo import qdrdist
 from aamsim.hooks import Hooks
+from aamsim.limits import SimulationLimits
 from aamsim.messages import Reporter
 from aamsim.navdb import NavDatabase
 from aamsim.scenario_files import ScenarioFiles
@@ -46,7 +47,7 @@ from aamsim.traffic.kernel import STATUS_CONDITION, STATUS_NONFINITE, STATUS_REA
 from aamsim.traffic.performance import PerformanceTable
 from aamsim.traffic.traffic import FlightRecord, Traffic
 from aamsim.traffic.wind import WindField
-from aamsim.units import FT, KTS, MAX_ALTITUDE_FT, MIN_ALTITUDE_FT, Speed
+from aamsim.units import FT, KTS, MAX_ALTITUDE_FT, MAX_CALLSIGN_CHARS, MIN_ALTITUDE_FT, Speed
 
 # Fewest aircraft for which the parallel kernel is used. Measured on a shared
 # 2-core machine: no gain up to a few thousand aircraft, 1.3-1.8x at 10,000.
@@ -97,6 +98,7 @@ class Simulation(SimulationAPI):
         self.reporter = Reporter()
         self.executor = CommandExecutor(self, self.commands, self.scheduler.queue, self.report)
         self.files = ScenarioFiles()
+        self.limits = SimulationLimits()  # a server's limits on its client's session (none here)
         self.conditions = Conditions()
         self.navdb = NavDatabase(use_bluesky_data=use_bluesky_navdata)
         self.performance = performance or PerformanceTable()
@@ -267,6 +269,13 @@ class Simulation(SimulationAPI):
             raise CommandError(f"aircraft {acid} already exists")
         if not acid or any(c in acid for c in " ,;#>'\""):
             raise CommandError(f'"{acid}" is not a valid callsign')
+        limit = self.limits.max_aircraft
+        if limit is not None and self.traffic.n >= limit:
+            raise CommandError(self.limits.refusal(f"{acid}: this simulation flies at most {limit:,} aircraft at "
+                                                   "once"))
+        if len(acid) > MAX_CALLSIGN_CHARS:
+            raise CommandError(f'"{acid[:20]}...": a callsign has at most {MAX_CALLSIGN_CHARS} characters, '
+                               f"not {len(acid):,}")
         envelope, known = self.performance.lookup(actype)
         if not known and not noncooperative:
             self.note_once(
@@ -358,7 +367,12 @@ class Simulation(SimulationAPI):
             due = queue.pop_due(clock.simt_us)
             if not due:
                 return
-            for cmd in due:
+            for k, cmd in enumerate(due):
+                if self.quit_requested:
+                    # QUIT, or a signal while a fan-out of PCALLs loads at one instant: stop here,
+                    # the rest stays queued (a stop used to wait for every file to load).
+                    queue.push_front(due[k:])
+                    return
                 self.executor.execute(cmd.command, cmd.source)
 
     def _boundary(self) -> None:
@@ -552,6 +566,7 @@ class Simulation(SimulationAPI):
         for i in range(self.traffic.n - 1, -1, -1):
             self.delete_aircraft(i, arrived=False)
         self.scheduler.reset()  # time 0, nothing pending; the step is kept
+        self.files.reset_budget()
         self.conditions.clear()
         self.navdb.clear()
         self.wind.clear()

@@ -51,6 +51,9 @@ MAX_TIME_S = 100 * 365.25 * 86400.0
 MIN_ALTITUDE_FT = -2000.0
 MAX_ALTITUDE_FT = 200_000.0
 MAX_FLIGHT_LEVEL = 2000
+# The longest callsign an aircraft may have (ICAO's are 7 characters, OpenSky's 8). Every output
+# and viewer holds callsigns in fixed-width arrays: one 20,000-character id widened all of them.
+MAX_CALLSIGN_CHARS = 32
 
 
 def parse_altitude(text: str) -> float:

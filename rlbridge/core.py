@@ -24,6 +24,7 @@ import numpy as np
 from aamsim import Simulation
 from aamsim.conflicts import conflicts_of
 from aamsim.errors import SourceRef
+from aamsim.limits import SimulationLimits
 from aamsim.metrics import metrics_of
 from aamsim.scenarios import resolve_scenario
 from aamsim.services import build_services
@@ -111,6 +112,7 @@ class EpisodeCore:
         dt: float = 0.05,
         plugins: tuple[str, ...] = (),
         file_guard: Callable[[Path], None] | None = None,
+        limits: SimulationLimits | None = None,
     ):
         path = resolve_scenario(scenario)
         if path is None:
@@ -121,6 +123,7 @@ class EpisodeCore:
         self.dt = dt
         self.plugins = tuple(plugins)
         self.file_guard = file_guard
+        self.limits = limits or SimulationLimits()  # a server's limits on each episode's simulation
         template = Simulation(use_bluesky_navdata=True)
         self._parsed = template.parse(self.text, str(path))
         self.parse_errors = [str(e) for e in self._parsed.errors]
@@ -154,6 +157,7 @@ class EpisodeCore:
         sim.files.text = self.text
         sim.files.search_path.insert(0, self.path.parent)
         sim.files.guard = self.file_guard
+        sim.limits = self.limits  # before the use case attaches: its overlay parameters obey them too
         build_services(sim)
         self.usecase.attach(sim)
         from aamsim.plugins import load_plugin

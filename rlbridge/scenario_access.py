@@ -5,7 +5,9 @@ a scenario shipped with aamsim (``demo.scn``, ``scn/demo.scn``). The server
 resolves it on its side and only reads ``.scn`` files that lie, after
 resolving symbolic links and ``..``, inside one of its scenario roots (by
 default its working directory) or among the shipped scenarios. The same
-check guards the files that PCALL and IC open inside a remote session.
+check guards the files that PCALL and IC open inside a remote session. A file
+it refuses is answered exactly as a file that does not exist, so that a client
+cannot learn which files exist elsewhere on the server.
 """
 
 from __future__ import annotations
@@ -51,24 +53,17 @@ class ScenarioRoots:
         bases = [given] if given.is_absolute() else [root / given for root in self.roots]
         candidates = [c for base in bases for c in ((base,) if base.suffix else (base, base.with_suffix(".scn")))]
         for candidate in candidates:
-            try:
-                exists = candidate.is_file()
-            except OSError:  # a name the file system rejects (too long, ...)
-                exists = False
-            if exists:
-                if not self.allowed(candidate):
-                    raise ScenarioAccessError(
-                        f"scenario {name} is outside the server's scenario roots "
-                        f"({', '.join(map(str, self.roots))}) or not a .scn file", "forbidden")
+            # A file outside the roots is answered as one that does not exist: a different answer
+            # ("forbidden") told a client which files exist anywhere on the server.
+            if self.allowed(candidate):
                 return candidate.resolve()
         shipped = None if given.is_absolute() else packaged_scenario(name)
         if shipped is not None and self.allowed(shipped):  # the same check as every other file
             return shipped.resolve()
-        raise ScenarioAccessError(f"scenario not found on the server: {name} (looked in "
-                                  f"{', '.join(map(str, self.roots))} and the shipped scenarios)", "not_found")
+        raise ScenarioAccessError(f"scenario not found on the server: {name} (a client may open the .scn files "
+                                  f"in {', '.join(map(str, self.roots))} and the shipped scenarios)", "not_found")
 
     def guard(self, path: Path) -> None:
-        """``ScenarioFiles.guard``: refuse PCALL/IC of files outside the roots."""
+        """``ScenarioFiles.guard``: refuse PCALL/IC of files outside the roots (as files that do not exist)."""
         if not self.allowed(path):
-            raise ScenarioAccessError(f"{path}: outside the server's scenario roots or not a .scn file",
-                                      "forbidden")
+            raise ScenarioAccessError(f"{path.name}: not found", "not_found")

@@ -28,6 +28,7 @@ import zmq
 
 from aamsim.clock import DT_MAX_S, DT_MIN_S
 from aamsim.errors import CommandError
+from aamsim.limits import DEFAULT_MAX_AIRCRAFT, SimulationLimits
 from rlbridge.core import EpisodeCore, ScenarioError
 from rlbridge.protocol import (
     DEFAULT_MAX_MESSAGE_BYTES,
@@ -58,10 +59,17 @@ class ServerOptions:
     max_sessions: int = 64
     scenario_roots: tuple[Path, ...] = ()  # empty: the working directory
     allow_shutdown: bool = False  # honour the shutdown request
+    allow_live_overlays: bool = False  # clients may start live OpenSky overlays (the server polls the network)
+    max_aircraft: int = DEFAULT_MAX_AIRCRAFT  # aircraft flying at once in one session
     poll_interval_s: float = 0.1  # how often the loop checks the stop flag and idle sessions
     # Called with (session number, episode) after every reset and step that moved a simulation
     # (``aamsim serve --view`` shows the traffic of the session that moved last).
     on_traffic: Callable[[int, EpisodeCore], None] | None = None
+
+    def session_limits(self) -> SimulationLimits:
+        """What every client's simulation may do (see :class:`aamsim.limits.SimulationLimits`)."""
+        return SimulationLimits(live_data=self.allow_live_overlays, max_aircraft=self.max_aircraft,
+                                why="a limit of this server (aamsim serve --allow-live-overlays, --max-aircraft)")
 
     def transport_limit_bytes(self) -> int:
         """zmq MAXMSGSIZE: a frame above it makes zmq drop the connection (no reply possible)."""
@@ -371,7 +379,7 @@ class SimulationServer:
         dt = float(message.get("dt", 0.05))  # within FIELD_BOUNDS (check_bounds)
         core = EpisodeCore(path, message.get("usecase", "corridor_sa"), message.get("params") or {},
                            time_limit_s=message.get("time_limit_s"), dt=dt, plugins=self.options.plugins,
-                           file_guard=self.roots.guard)
+                           file_guard=self.roots.guard, limits=self.options.session_limits())
         if session is None:
             session = self.sessions[identity] = Session(identity, time.monotonic())
             log.info("session %s opened: %s", identity.hex(), path.name)

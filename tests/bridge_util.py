@@ -87,6 +87,12 @@ def stop_process(proc: subprocess.Popen) -> None:
     proc.wait(10)
 
 
+# How long a test waits for a reply that needs real work (a reset): the first reset of a process loads
+# or compiles the Numba kernels, 68 s measured on a machine at load 19. A test asserts what the reply
+# says; a reply that never comes still fails it, after this long instead of hanging.
+REPLY_TIMEOUT_MS = 600_000
+
+
 @contextlib.contextmanager
 def raw_socket(endpoint: str, kind: int = zmq.DEALER, timeout_ms: int = 5000) -> Iterator[zmq.Socket]:
     """A plain pyzmq socket with linger 0 and send/receive timeouts."""

@@ -18,7 +18,7 @@ import pytest
 
 from aamsim.batch import BatchError, load_sources, parse_settings, plan_jobs
 from aamsim.batch.aggregate import describe, flatten_metrics
-from aamsim.batch.plan import scenario_sources
+from aamsim.batch.plan import folder_name, scenario_sources
 
 # Random traffic (seeded by --seed) dense enough for separation events at one level.
 RANDOM_TRAFFIC = "00:00:00.00>MCRE 60 B744 FL100 300\n"
@@ -67,6 +67,41 @@ def test_scenario_names_are_unique_across_files(tmp_path: Path) -> None:
     assert [s.name for s in sources] == ["same", "same-2"]
 
 
+@pytest.mark.parametrize("given, folder", [
+    ("../../../../tmp/x", "_.._.._.._.._tmp_x"), ("/tmp/x", "_tmp_x"), ("..", "_.."), (".", "_."),
+    (".hidden", "_.hidden"), ("a\\..\\b", "a_.._b"), ("ONE", "ONE"), ("lowc=450,76", "lowc=450,76"),
+])
+def test_folder_names_stay_inside_the_batch_folder(given: str, folder: str) -> None:
+    assert folder_name(given) == folder
+
+
+def test_scen_names_that_are_paths_are_renamed_with_a_warning(tmp_path: Path) -> None:
+    text = "".join(f"00:00:00.00>SCEN {name}\n00:00:00.00>CRE A B744 0 0 0 FL100 250\n"
+                   for name in ("../../../../tmp/x", "/tmp/x", "..", "OK"))
+    sources, warnings = scenario_sources(tmp_path / "b.scn", text)
+    assert [s.name for s in sources] == ["_.._.._.._.._tmp_x", "_tmp_x", "_..", "OK"]
+    assert [w.split(": ")[0] for w in warnings] == [f"{tmp_path / 'b.scn'}:{k}" for k in (1, 3, 5)]
+    assert "'/tmp/x' is not a plain folder name; the scenario is named '_tmp_x'" in warnings[1]
+    jobs = plan_jobs(sources, parse_settings([]), [0])
+    root = (tmp_path / "out").resolve()
+    assert all((root / j.relpath).resolve().is_relative_to(root) for j in jobs)
+
+
+def test_a_setting_given_twice_is_refused() -> None:
+    """Found by the batch fuzzer: both runs went to one folder, the second overwriting the first."""
+    with pytest.raises(BatchError, match='--set "lowc=450,76": given twice'):
+        parse_settings(["lowc=450,76", "nmac=150", "lowc=450,76"])
+
+
+def test_long_scenario_names_cut_to_one_folder_name_stay_apart(tmp_path: Path) -> None:
+    """Found by the batch fuzzer: two names cut to the same 120 characters shared a folder."""
+    text = "".join(f"00:00:00.00>SCEN {'x' * 200}{tail}\n00:00:00.00>CRE A B744 0 0 0 FL100 250\n"
+                   for tail in ("", "-rf", "+1"))
+    sources, _ = scenario_sources(tmp_path / "b.scn", text)
+    folders = [j.relpath for j in plan_jobs(sources, parse_settings([]), [0])]
+    assert len(set(folders)) == 3 and all(len(f.split("/")[0]) <= 120 for f in folders)
+
+
 def test_settings_are_the_cartesian_product_of_repeated_keys() -> None:
     points = parse_settings(["lowc=450", "nmac=150", "lowc=600", "nmac=100,50"])
     assert [p.label for p in points] == ["lowc=450,nmac=150", "lowc=450,nmac=100,50",
@@ -82,6 +117,8 @@ def test_settings_are_the_cartesian_product_of_repeated_keys() -> None:
     ("lowc", "expected KEY=VALUE"),
     ("dt=-1", 'dt="-1": must be a positive number'),
     ("dt=nan", 'dt="nan": must be a positive number'),
+    ("dt=1e300", 'dt="1e300": time step must be between 0.0001 s and 10 s'),  # docs/batch.md promised it
+    ("dt=0.00001", 'dt="0.00001": time step must be between 0.0001 s and 10 s'),
     ("lowc=0", "positive metres"),
     ("until=soon", "until:"),
     ("delete_on_arrival=maybe", "expected true or false"),
@@ -141,6 +178,34 @@ def test_batch_file_runs_each_block_and_reports_errors_with_file_lines(tmp_path:
     assert "b.scn:8:" in log and "NOSUCHCOMMAND" in log
     summary = json.loads((tmp_path / "out" / "ONE" / "default" / "seed-0" / "summary.json").read_text())
     assert summary["scenario"] == "ONE"
+
+
+def test_batch_file_scen_paths_write_nothing_outside_out(tmp_path: Path) -> None:
+    """Issue 26 item 2: ``SCEN ../../x``, ``SCEN /abs`` and ``SCEN ..`` wrote run directories outside --out."""
+    work = tmp_path / "a" / "b"
+    work.mkdir(parents=True)
+    outside = tmp_path / "abs"
+    names = ["../../escaped", str(outside), "..", "fine"]
+    (work / "b.scn").write_text("".join(f"00:00:00.00>SCEN {name}\n00:00:00.00>CRE A B744 0 0 0 FL100 250\n"
+                                        "00:00:05.00>QUIT\n" for name in names))
+    before = sorted(p.relative_to(tmp_path) for p in tmp_path.rglob("*"))
+    proc = _aamsim("batch", "b.scn", "--no-ray", "--quiet", "--out", "out", cwd=work)
+    assert proc.returncode == 0, proc.stderr
+    after = sorted(p.relative_to(tmp_path) for p in tmp_path.rglob("*"))
+    new = [p for p in after if p not in before]
+    assert new and all(p.parts[:3] == ("a", "b", "out") for p in new), new
+    assert not outside.exists() and not (tmp_path / "escaped").exists()
+    runs = _read_csv(work / "out" / "runs.csv")
+    assert [r["scenario"] for r in runs] == ["_.._.._escaped", "_" + str(outside)[1:].replace("/", "_"), "_..", "fine"]
+    assert all((work / "out" / r["run_dir"] / "summary.json").is_file() for r in runs)
+    assert proc.stderr.count("is not a plain folder name") == 3
+
+
+def test_batch_refuses_a_huge_time_step_before_running(tmp_path: Path) -> None:
+    (tmp_path / "r.scn").write_text(RANDOM_TRAFFIC)
+    proc = _aamsim("batch", "r.scn", "--set", "dt=1e300", "--no-ray", "--out", "out", cwd=tmp_path)
+    assert proc.returncode == 2 and "time step must be between" in proc.stderr
+    assert not (tmp_path / "out").exists()
 
 
 def test_unknown_scenario_and_bad_set_exit_2(tmp_path: Path) -> None:

@@ -16,6 +16,7 @@ from typing import Any
 import click
 
 from aamsim.cli import draw_figure, figure_options
+from uamtoolkit_import.fields import aircraft_type_problem
 from uamtoolkit_import.netfile import NetworkError, load_network, nyc_network
 from uamtoolkit_import.network import Network
 from uamtoolkit_import.times import TimeParseError, format_clock, parse_clock
@@ -118,8 +119,8 @@ def convert_command(
 
     if start is not None and end is not None and end <= start:
         raise click.BadParameter(f"--end {format_clock(end)} is not after --start {format_clock(start)}")
-    if not actype.isalnum():
-        raise click.BadParameter(f"--type {actype!r}: an aircraft type is letters and digits")
+    if actype.upper() != "SCHEDULE" and (problem := aircraft_type_problem(actype)):
+        raise click.BadParameter(f"--type: {problem}")
     network = _network(network_path)
     try:
         schedule = read_schedule(schedule_path, network)
@@ -214,6 +215,8 @@ def synth_command(
     from uamtoolkit_import.schedule import write_schedule
     from uamtoolkit_import.synth import SynthConfig, synthesize
 
+    if problem := aircraft_type_problem(actype):
+        raise click.BadParameter(f"--type: {problem}")
     network = _network(network_path)
     config = SynthConfig(
         fleet_size=fleet,

@@ -29,6 +29,7 @@ import numpy as np
 
 from aamsim.geo import qdrdist
 from aamsim.units import format_time
+from uamtoolkit_import.fields import aircraft_type_problem, comment_text
 from uamtoolkit_import.network import Network
 from uamtoolkit_import.schedule import Schedule, ScheduledFlight
 from uamtoolkit_import.times import format_clock
@@ -158,6 +159,8 @@ def write_scenario(
     arrays, not by sorting objects.
     """
     options = options or ConvertOptions()
+    if options.aircraft_type.upper() != "SCHEDULE" and (problem := aircraft_type_problem(options.aircraft_type)):
+        raise ValueError(f"aircraft type: {problem}")
     names = scenario_names(network)
     draws = _noise_draws(schedule, options)
     window = [f for f in schedule.flights if in_window(f.departure_s, options)]
@@ -190,10 +193,11 @@ def _header(
     used: set[str],
 ) -> list[str]:
     window = f"{format_clock(options.start_s)} to {'end' if options.end_s is None else format_clock(options.end_s)}"
-    lines = [f"# {line}" for line in options.header]
+    # Comment text is escaped as well as checked where it is read: a line break in it would start a command.
+    lines = [f"# {comment_text(line)}" for line in options.header]
     lines += [
-        f"# Converted by uam2scn from {schedule.path}",
-        f"# with network '{network.name}'.",
+        f"# Converted by uam2scn from {comment_text(schedule.path)}",
+        f"# with network '{comment_text(network.name)}'.",
         f"# {len(kept)} flights departing {window} (times rebased: {format_clock(options.start_s)} -> 00:00:00);",
         f"# altitude noise uniform +-{_fmt(options.alt_noise_ft, 1)} ft (seed {options.seed});",
         f"# aircraft removed within {ARRIVAL_RADIUS_NM} NM of their destination.",
@@ -202,5 +206,5 @@ def _header(
     for pid in network.point_ids:
         if pid in used:
             label = network.vertiports[pid].name if pid in network.vertiports else network.nodes[pid].corridor
-            lines.append(f"#   {names[pid]} = {pid} ({label})")
+            lines.append(f"#   {names[pid]} = {comment_text(pid)} ({comment_text(label)})")
     return lines

@@ -14,6 +14,7 @@ from importlib import resources
 from pathlib import Path
 from typing import Any
 
+from uamtoolkit_import.fields import NAME_MAX_CHARS, POINT_ID_MAX_CHARS, text_problem
 from uamtoolkit_import.network import Network, RouteNode, Segment, Vertiport
 
 NETWORK_FORMAT = "uamtoolkit-network"
@@ -44,7 +45,16 @@ def _number(value: Any, where: str, source: str, lo: float = -math.inf, hi: floa
 def _ident(value: Any, where: str, source: str) -> str:
     if not isinstance(value, (str, int)) or isinstance(value, bool) or not str(value).strip():
         raise NetworkError(f"{source}: {where}: {value!r} is not an identifier")
-    return str(value).strip()
+    return _text(str(value).strip(), where, source, POINT_ID_MAX_CHARS)
+
+
+def _text(value: Any, where: str, source: str, max_chars: int = NAME_MAX_CHARS) -> str:
+    """A name written into the scenario's comments: one line of printable text (``\\n`` would start a command)."""
+    text = str(value)
+    problem = text_problem(text, max_chars)
+    if problem:
+        raise NetworkError(f"{source}: {where}: {problem}")
+    return text
 
 
 def _lanes(value: Any, where: str, source: str) -> tuple[float, ...]:
@@ -86,12 +96,12 @@ def _parse_vertiports(data: Mapping[str, Any], source: str) -> dict[str, Vertipo
         weight = _number(item.get("demand_weight", 1.0), f"{where}.demand_weight", source, 0.0)
         vertiports[vid] = Vertiport(
             vid,
-            str(item.get("name", vid)),
+            _text(item.get("name", vid), f"{where}.name", source),
             lat,
             lon,
             weight,
             bool(item.get("cbd", False)),
-            str(item.get("kind", "site")),
+            _text(item.get("kind", "site"), f"{where}.kind", source),
         )
     if not vertiports:
         raise NetworkError(f"{source}: vertiports: must be a non-empty list")
@@ -105,7 +115,7 @@ def _parse_nodes(data: Mapping[str, Any], source: str, vertiports: Mapping[str, 
         if nid in nodes or nid in vertiports:
             raise NetworkError(f"{source}: {where}.id: duplicate id '{nid}'")
         lat, lon = _position(item, where, source)
-        nodes[nid] = RouteNode(nid, lat, lon, str(item.get("corridor", "")))
+        nodes[nid] = RouteNode(nid, lat, lon, _text(item.get("corridor", ""), f"{where}.corridor", source))
     return nodes
 
 
@@ -133,7 +143,7 @@ def _parse_segments(data: Mapping[str, Any], source: str, points: Mapping[str, o
             lanes = default_lanes
         else:
             raise NetworkError(f"{source}: {where}: missing key 'lanes_ft' (and no 'default_lanes_ft')")
-        segments.append(Segment(ends[0], ends[1], lanes, str(item.get("corridor", ""))))
+        segments.append(Segment(ends[0], ends[1], lanes, _text(item.get("corridor", ""), f"{where}.corridor", source)))
     return segments
 
 
@@ -157,7 +167,8 @@ def parse_network(data: Mapping[str, Any], source: str = "<network>") -> Network
     prefix = str(data.get("scenario_prefix", "UT")).upper()
     if not (prefix.isalnum() and prefix.isascii() and prefix[:1].isalpha() and len(prefix) <= 4):
         raise NetworkError(f"{source}: scenario_prefix: {prefix!r} must be 1-4 letters/digits, starting with a letter")
-    return Network(str(data.get("name", Path(source).stem)), vertiports, nodes, segments, prefix, source)
+    name = _text(data.get("name", Path(source).stem), "name", source)
+    return Network(name, vertiports, nodes, segments, prefix, source)
 
 
 def _geojson_to_plain(data: Mapping[str, Any], source: str) -> dict[str, Any]:

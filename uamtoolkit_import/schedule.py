@@ -30,6 +30,7 @@ from itertools import pairwise
 from pathlib import Path
 from typing import IO
 
+from uamtoolkit_import.fields import CALLSIGN_MAX_CHARS, aircraft_type_problem
 from uamtoolkit_import.headers import CANONICAL_HEADER, ScheduleFormatError, resolve_headers
 from uamtoolkit_import.network import Network
 from uamtoolkit_import.times import TimeParseError, format_clock, parse_schedule_time
@@ -145,10 +146,16 @@ class _RowReader:
             bad("flight_id", "missing value")
         elif not callsign:
             bad("flight_id", f'"{flight_id}" has no letters or digits to make a callsign')
+        elif len(callsign) > CALLSIGN_MAX_CHARS:
+            bad("flight_id", f"gives a callsign of {len(callsign)} characters; at most {CALLSIGN_MAX_CHARS}")
         elif callsign in self.callsigns:
             bad(
                 "flight_id", f'"{flight_id}" gives callsign {callsign}, already used on line {self.callsigns[callsign]}'
             )
+        actype = self._cell(cells, "aircraft_type")
+        problem = aircraft_type_problem(actype) if actype else None
+        if problem:  # it is written into CRE lines: "EC35;ECHO ..." would be a second command
+            bad("aircraft_type", problem)
         ends = {}
         for name in ("origin", "destination"):
             value = self._cell(cells, name)
@@ -199,7 +206,7 @@ class _RowReader:
             flight_id,
             callsign,
             sys.intern(self._cell(cells, "tail_id")),
-            sys.intern(self._cell(cells, "aircraft_type")),
+            sys.intern(actype),
             origin,
             destination,
             dep,

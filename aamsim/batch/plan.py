@@ -21,6 +21,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from aamsim.clock import TimeStepError, validate_dt
 from aamsim.conflicts.service import SeparationVolume
 from aamsim.stack.parser import scenario_lines
 from aamsim.units import UnitParseError, parse_time
@@ -38,6 +39,23 @@ class ScenarioSource:
     path: Path  # the file it came from: its folder is where PCALL looks
     text: str
     first_line: int = 1  # line of ``path`` where the scenario starts
+
+
+_UNSAFE_IN_FOLDER_NAME = re.compile(r"[^A-Za-z0-9_.,=+-]+")
+FOLDER_NAME_MAX_CHARS = 120
+NAME_MAX_CHARS = FOLDER_NAME_MAX_CHARS - 10  # a scenario's name, before a "-k" making it unique
+
+
+def folder_name(text: str) -> str:
+    """``text`` made safe as the name of one folder inside the batch folder.
+
+    Only letters, digits and ``_.,=+-`` are kept (a run of anything else, ``/`` and
+    ``\\`` included, becomes one ``_``), at most :data:`FOLDER_NAME_MAX_CHARS`, and a
+    name starting with a dot gets a ``_`` in front: ``.``, ``..`` and the empty name
+    never name a folder outside the batch folder or a hidden one.
+    """
+    safe = _UNSAFE_IN_FOLDER_NAME.sub("_", text)[:FOLDER_NAME_MAX_CHARS]
+    return "_" + safe[: FOLDER_NAME_MAX_CHARS - 1] if not safe or safe.startswith(".") else safe
 
 
 def _command_word(line: str) -> str:
@@ -60,9 +78,9 @@ def scenario_sources(path: Path, text: str) -> tuple[list[ScenarioSource], list[
     """
     lines = scenario_lines(text, keepends=True)  # line numbers as an editor shows them
     starts = [k for k, line in enumerate(lines) if _command_word(line) in ("SCEN", "SCENARIO")]
+    warnings: list[str] = []
     if len(starts) < 2:
-        return [ScenarioSource(path.stem, path, text)], []
-    warnings = []
+        return [ScenarioSource(_safe_name(path.stem, str(path), warnings), path, text)], warnings
     stray = [k + 1 for k in range(starts[0]) if _command_word(lines[k])]
     if stray:
         warnings.append(f"{path}:{stray[0]}: {len(stray)} command line(s) before the first SCEN belong to no "
@@ -71,7 +89,8 @@ def scenario_sources(path: Path, text: str) -> tuple[list[ScenarioSource], list[
     seen: dict[str, int] = {}
     for begin, end in zip(starts, [*starts[1:], len(lines)]):
         words = lines[begin].split("#", 1)[0].split(">", 1)[-1].replace(",", " ").split()
-        name = words[1] if len(words) > 1 else f"{path.stem}-{begin + 1}"
+        given = words[1] if len(words) > 1 else f"{path.stem}-{begin + 1}"
+        name = _safe_name(given, f"{path}:{begin + 1}", warnings)
         seen[name] = seen.get(name, 0) + 1
         if seen[name] > 1:
             warnings.append(f"{path}:{begin + 1}: scenario name {name!r} used again; this one is {name}-{seen[name]}")
@@ -79,6 +98,18 @@ def scenario_sources(path: Path, text: str) -> tuple[list[ScenarioSource], list[
         # Blank lines in front keep the parser's line numbers equal to the batch file's.
         sources.append(ScenarioSource(name, path, "\n" * begin + "".join(lines[begin:end]), begin + 1))
     return sources, warnings
+
+
+def _safe_name(name: str, where: str, warnings: list[str]) -> str:
+    """The scenario's name as it names its run folders, with a warning when it had to change.
+
+    A ``SCEN ../../x`` or ``SCEN /tmp/x`` line must not put run directories outside ``--out``.
+    """
+    safe = folder_name(name)[:NAME_MAX_CHARS]  # room for the "-2" that makes a repeated name unique
+    if safe != name:
+        warnings.append(f"{where}: scenario name {name[:80]!r} is not a plain folder name; the scenario is named "
+                        f"{safe!r}")
+    return safe
 
 
 # ---------------------------------------------------------------- settings
@@ -105,6 +136,15 @@ def _positive_float(key: str, text: str, allow_zero: bool = False) -> float:
     return value
 
 
+def _time_step(key: str, text: str) -> float:
+    """The time step [s], checked as ``aamsim run --dt`` checks it (``dt=1e300`` used to run)."""
+    value = _positive_float(key, text)
+    try:
+        return validate_dt(value)
+    except TimeStepError as exc:
+        raise BatchError(f'{key}="{text}": {exc}') from None
+
+
 def _flag(key: str, text: str) -> bool:
     low = text.strip().lower()
     if low in ("1", "true", "yes", "on"):
@@ -123,7 +163,7 @@ def _until(key: str, text: str) -> float:
 
 # key -> (RunConfig field it sets, parser, help)
 SETTINGS: dict[str, tuple[str, Any, str]] = {
-    "dt": ("dt_s", _positive_float, "time step [s]"),
+    "dt": ("dt_s", _time_step, "time step [s]"),
     "until": ("until_s", _until, "stop at this sim time (s or HH:MM:SS)"),
     "nmac": ("nmac", volume_from_text, "NMAC volume [m]: RADIUS or RADIUS,HALF_HEIGHT"),
     "lowc": ("lowc", volume_from_text, "LoWC volume [m]: RADIUS or RADIUS,HALF_HEIGHT"),
@@ -147,7 +187,7 @@ class Setting:
     @property
     def dirname(self) -> str:
         """The label made safe as one folder name."""
-        return re.sub(r"[^A-Za-z0-9_.,=+-]+", "_", self.label)[:120]
+        return folder_name(self.label)
 
     def run_config_fields(self) -> dict[str, Any]:
         """RunConfig keyword arguments for this setting (values parsed)."""
@@ -204,6 +244,8 @@ def parse_settings(items: Sequence[str]) -> list[Setting]:
             raise BatchError(f'--set "{item}": expected KEY=VALUE')
         if key not in SETTINGS:
             raise BatchError(f'--set "{item}": unknown key {key!r}; known: {", ".join(SETTINGS)}')
+        if value.strip() in axes.get(key, []):  # the same run twice, in one folder: the second overwrote the first
+            raise BatchError(f'--set "{item}": given twice')
         axes.setdefault(key, []).append(value.strip())
     points = [Setting(tuple(zip(axes, combo))) for combo in itertools.product(*axes.values())]
     for point in points:  # refuse bad values before anything runs
@@ -223,8 +265,8 @@ class BatchJob:
 
     @property
     def relpath(self) -> str:
-        """Where its run directory goes inside the batch folder."""
-        return f"{self.source.name}/{self.setting.dirname}/seed-{self.seed}"
+        """Where its run directory goes inside the batch folder (always inside it, whatever the names)."""
+        return f"{folder_name(self.source.name)}/{self.setting.dirname}/seed-{int(self.seed)}"
 
 
 def plan_jobs(sources: Sequence[ScenarioSource], settings: Sequence[Setting], seeds: Sequence[int],

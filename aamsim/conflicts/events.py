@@ -155,7 +155,8 @@ _NO_KEYS = np.empty(0, dtype=np.int64)
 def _grow(arr: np.ndarray, need: int) -> np.ndarray:
     if need <= len(arr):
         return arr
-    new = np.full((max(need, 2 * len(arr), 64),) + arr.shape[1:], np.nan, dtype=arr.dtype)
+    fill = np.nan if arr.dtype.kind == "f" else -1
+    new = np.full((max(need, 2 * len(arr), 64),) + arr.shape[1:], fill, dtype=arr.dtype)
     new[: len(arr)] = arr
     return new
 
@@ -174,6 +175,8 @@ class EventLog:
     tmin: np.ndarray = field(default_factory=lambda: np.empty(0))
     # State at the closest point: lat1, lon1, alt1, lat2, lon2, alt2, then east, north, up velocity of ac1, of ac2.
     cpa: np.ndarray = field(default_factory=lambda: np.empty((0, 12)))
+    serial1: np.ndarray = field(default_factory=lambda: np.empty(0, dtype=np.int64))  # ac1's serial (per run)
+    serial2: np.ndarray = field(default_factory=lambda: np.empty(0, dtype=np.int64))
     open_keys: np.ndarray = field(default_factory=lambda: np.empty(0, dtype=np.int64))  # sorted
     open_rows: np.ndarray = field(default_factory=lambda: np.empty(0, dtype=np.int64))
     _cursor: int = 0  # rows before it ended before the last interval query
@@ -214,6 +217,8 @@ class EventLog:
         for a, b in zip(first.tolist(), second.tolist()):
             self.ac1.append(ids[a])
             self.ac2.append(ids[b])
+        self.serial1[self.n:self.n + len(first)] = serial[first]
+        self.serial2[self.n:self.n + len(first)] = serial[second]
         self.n += len(first)
 
     def _reserve(self, need: int) -> None:
@@ -224,6 +229,8 @@ class EventLog:
         self.dmin = _grow(self.dmin, need)
         self.tmin = _grow(self.tmin, need)
         self.cpa = _grow(self.cpa, need)
+        self.serial1 = _grow(self.serial1, need)
+        self.serial2 = _grow(self.serial2, need)
 
     def close_all(self, now: float, key_filter: np.ndarray | None = None) -> None:
         """End open events (all, or those with keys in ``key_filter``) at ``now``."""
@@ -236,16 +243,21 @@ class EventLog:
         """Callsign -> smallest distance, over events open at some time in [t0, now]."""
         while self._cursor < self.n and not math.isnan(self.end[self._cursor]) and self.end[self._cursor] < t0 - 1e-9:
             self._cursor += 1
-        out: dict[str, float] = {}
-        for r in range(self._cursor, self.n):
-            e = self.end[r]
-            if not math.isnan(e) and e < t0 - 1e-9:
-                continue
-            d = float(self.dmin[r])
-            for a in (self.ac1[r], self.ac2[r]):
-                if d < out.get(a, math.inf):
-                    out[a] = d
-        return out
+        # In arrays, not row by row: a dense check can leave 100,000 events open (MAX_PAIRS_PER_CHECK).
+        lo = self._cursor
+        end = self.end[lo:self.n]
+        rows = lo + np.flatnonzero(~(end < t0 - 1e-9))  # open (NaN) or ended at or after t0
+        if not len(rows):
+            return {}
+        serials = np.concatenate([self.serial1[rows], self.serial2[rows]])
+        dist = np.concatenate([self.dmin[rows], self.dmin[rows]])
+        where = np.concatenate([rows, rows])
+        side = np.repeat(np.array([0, 1]), len(rows))
+        order = np.lexsort((dist, serials))  # by aircraft, then distance: the first of each is its smallest
+        first = order[np.concatenate([[True], serials[order][1:] != serials[order][:-1]])]
+        names = (self.ac1, self.ac2)
+        return {names[s][r]: d for s, r, d in zip(side[first].tolist(), where[first].tolist(),
+                                                   dist[first].tolist())}
 
     def open_callsigns(self) -> set[str]:
         out: set[str] = set()

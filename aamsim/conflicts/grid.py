@@ -100,15 +100,22 @@ def build_strips(xmin: np.ndarray, xmax: np.ndarray, ymin: np.ndarray, ymax: np.
     return sx0, sx1, sy0, sy1, sid, sbk, strip_start, first, x0, inv_qx
 
 
+NO_PAIR_LIMIT = 2**62  # no bound on a pair search
+
+
 @njit(cache=True)
 def candidate_pairs(
-    xmin: np.ndarray, xmax: np.ndarray, ymin: np.ndarray, ymax: np.ndarray, cell: float
+    xmin: np.ndarray, xmax: np.ndarray, ymin: np.ndarray, ymax: np.ndarray, cell: float,
+    limit: int = NO_PAIR_LIMIT,
 ) -> tuple[np.ndarray, np.ndarray]:
-    """All pairs (i < j) whose boxes overlap, each once.
+    """All pairs (i < j) whose boxes overlap, each once; or, past ``limit`` pairs, those found so far.
 
     Args:
         xmin, xmax, ymin, ymax: box per aircraft [m].
         cell: strip height [m]; about the typical box size is best.
+        limit: the search stops once it has found this many pairs (with the pairs of the box it was
+            at, so at most ``limit`` plus the number of boxes): a caller tells a cut search by
+            ``len(pi) >= limit``. Aircraft all on one spot make every pair a candidate.
     """
     if xmin.shape[0] < 2:
         return np.empty(0, dtype=np.int64), np.empty(0, dtype=np.int64)
@@ -116,20 +123,22 @@ def candidate_pairs(
     # Arrays are never grown inside the sweep: that makes Numba keep reference
     # counts in the loop (measured 4x slower). A generous first guess is filled;
     # when it is too small the sweep runs again with the exact size.
-    cap = 32 * strips[0].shape[0] + 1024
+    cap = min(32 * strips[0].shape[0] + 1024, limit + strips[0].shape[0])
     pi = np.empty(cap, dtype=np.int64)
     pj = np.empty(cap, dtype=np.int64)
-    m = _sweep(strips, pi, pj)
+    m = _sweep(strips, pi, pj, limit)
     if m > cap:
         pi = np.empty(m, dtype=np.int64)
         pj = np.empty(m, dtype=np.int64)
-        _sweep(strips, pi, pj)
+        _sweep(strips, pi, pj, limit)
     return pi[:m], pj[:m]
 
 
 @njit(cache=True)
-def _sweep(strips: Strips, pi: np.ndarray, pj: np.ndarray) -> int:
-    """Overlapping pairs of the sorted entries, per strip, written to pi, pj while they fit. Returns their number."""
+def _sweep(strips: Strips, pi: np.ndarray, pj: np.ndarray, limit: int) -> int:
+    """Overlapping pairs of the sorted entries, per strip, written to pi, pj while they fit. Returns their number.
+
+    Stops after the entry whose pairs reach ``limit`` (the same place on a second run)."""
     sx0, sx1, sy0, sy1, sid, sbk, strip_start, first, x0, inv_qx = strips
     buf = np.empty(sid.shape[0], dtype=np.int64)
     cap = pi.shape[0]
@@ -162,6 +171,8 @@ def _sweep(strips: Strips, pi: np.ndarray, pj: np.ndarray) -> int:
                     pi[m] = min(i, j)
                     pj[m] = max(i, j)
                 m += 1
+            if m >= limit:
+                return m
     return m
 
 

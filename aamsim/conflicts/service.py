@@ -28,7 +28,7 @@ import numpy as np
 
 from aamsim.conflicts.events import EventLog, SeparationEvent
 from aamsim.conflicts.fused import detect_all, new_pair_count, volume_pass
-from aamsim.conflicts.grid import candidate_pairs, snapshot_arrays, swept_boxes
+from aamsim.conflicts.grid import NO_PAIR_LIMIT, candidate_pairs, snapshot_arrays, swept_boxes
 from aamsim.conflicts.pairs import nearest_per_aircraft, slant_distances
 from aamsim.conflicts.zone_advice import zone_advice
 from aamsim.traffic.view import field_rows, kinematic_matrix
@@ -37,6 +37,11 @@ from aamsim.units import R_EARTH
 if TYPE_CHECKING:
     from aamsim.simulation import Simulation
     from aamsim.traffic.traffic import Traffic
+
+# Pairs one check handles, per search (conflicts, losses of separation, pairs near enough for a volume).
+# Normal traffic has far fewer. Aircraft created on one spot put every pair in conflict: 3,000 of them (4.5 million pairs) made one step take 53 s and
+# 4.5 GB; past the bound a check stops, with an error, and the step's work stays bounded.
+MAX_PAIRS_PER_CHECK = 100_000
 
 # The state the compiled passes read, in the order they expect it.
 _KINEMATIC_FIELDS = ("lat", "lon", "alt", "gseast", "gsnorth", "vs")
@@ -112,13 +117,17 @@ def traffic_snapshot(sim: Simulation) -> TrafficSnapshot:
     return TrafficSnapshot(list(t.ids), lat, lon, alt, u, v, w, x, y, err, tuple(frame))  # type: ignore[arg-type]
 
 
-def search_pairs(s: TrafficSnapshot, t0: np.ndarray, t1: np.ndarray, radius: float) -> tuple[np.ndarray, np.ndarray]:
-    """Candidate pairs whose straight paths over [t0, t1] come within ``radius`` (superset)."""
+def search_pairs(s: TrafficSnapshot, t0: np.ndarray, t1: np.ndarray, radius: float,
+                 limit: int = NO_PAIR_LIMIT) -> tuple[np.ndarray, np.ndarray]:
+    """Candidate pairs whose straight paths over [t0, t1] come within ``radius`` (superset).
+
+    ``limit``: stop once this many are found (see :func:`aamsim.conflicts.grid.candidate_pairs`).
+    """
     if len(s.ids) < 2:
         empty = np.empty(0, dtype=np.int64)
         return empty, empty
     xmin, xmax, ymin, ymax, cell = swept_boxes(s.x, s.y, s.u, s.v, t0, t1, radius, s.frame_err)
-    return candidate_pairs(xmin, xmax, ymin, ymax, cell)
+    return candidate_pairs(xmin, xmax, ymin, ymax, cell, limit)
 
 
 @dataclass
@@ -130,6 +139,7 @@ class ConflictService:
     logs: dict[str, EventLog] = field(default_factory=dict)
     state: ConflictState | None = None
     conflict_pairs_total: int = 0  # new conflict pairs (i<j) over the run
+    checks_cut: int = 0  # checks whose pair search stopped at MAX_PAIRS_PER_CHECK
     min_separation_m: float = math.inf
     _closest_ids: tuple[str, ...] = ()
     _closest_arr: np.ndarray = field(default_factory=lambda: np.empty(0))
@@ -186,10 +196,17 @@ class ConflictService:
         radii, cylinder, half_heights = self._volume_arrays()
         matrix, rows = kinematic_matrix(t, _KINEMATIC_FIELDS)
         (ci, cj, tcpa, dcpa, tin, li, lj, inconf, tcpamax, _eq, ei, ej, e_in, e_out, e_dmin, e_tmin, e_pos, count,
-         closest, dnow) = detect_all(matrix, n, rows, R_EARTH, self._lookback(sim, n), cd_on, st.zoner_m,
-                                     st.zonedh_m, st.dtlook_s, radii, cylinder, half_heights, self.closest_range_m,
-                                     self._conflicts_hint)
+         closest, dnow, cut) = detect_all(matrix, n, rows, R_EARTH, self._lookback(sim, n), cd_on, st.zoner_m,
+                                          st.zonedh_m, st.dtlook_s, radii, cylinder, half_heights,
+                                          self.closest_range_m, self._conflicts_hint, MAX_PAIRS_PER_CHECK)
         self._conflicts_hint = len(ci) + len(ci) // 4
+        if cut:
+            self.checks_cut += 1
+            if self.checks_cut == 1:
+                sim.report("error", f"conflict detection: over {MAX_PAIRS_PER_CHECK:,} aircraft pairs close together "
+                                    f"at t = {sim.simt:.2f} s ({n:,} aircraft); each check stops at "
+                                    f"{MAX_PAIRS_PER_CHECK:,} pairs, so conflicts and separation events past them "
+                                    "are missing (traffic created on one spot?)")
         ids_now = tuple(t.ids)
         if cd_on and not self._zone_advised and n:
             advice = zone_advice(sim)
@@ -354,11 +371,16 @@ def closest_intruders(sim: Simulation, max_range_m: float = 3000.0) -> tuple[np.
 def pairs_within(sim: Simulation, radius_m: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Aircraft pairs (slots ``pi < pj``) now within ``radius_m`` horizontally or closer, and their 3-D distances.
 
-    The pair search is a superset: filter on the distances for an exact radius.
+    The pair search is a superset: filter on the distances for an exact radius. It stops at
+    :data:`MAX_PAIRS_PER_CHECK` pairs, with an error the first time (aircraft piled on one spot).
     """
     s = traffic_snapshot(sim)
     zeros = np.zeros(len(s.ids))
-    pi, pj = search_pairs(s, zeros, zeros, radius_m)
+    pi, pj = search_pairs(s, zeros, zeros, radius_m, MAX_PAIRS_PER_CHECK)
+    if len(pi) >= MAX_PAIRS_PER_CHECK:
+        sim.note_once("pairs_within:cut", f"over {MAX_PAIRS_PER_CHECK:,} aircraft pairs within {radius_m:g} m at "
+                                          f"t = {sim.simt:.2f} s; searches for near aircraft stop there, so some "
+                                          "near aircraft are left out (traffic created on one spot?)")
     return pi, pj, slant_distances(s.lat, s.lon, s.alt, pi, pj)
 
 

@@ -5,12 +5,18 @@ commands due at T ran (an aircraft created at T appears with its initial
 state, one deleted at T does not). Rows are buffered as arrays and written
 in blocks, so memory stays bounded on long runs.
 
+A write that fails (a full disk, a file-size limit) does not end the run with a
+traceback: the file is cut back to its last whole row, recording stops, and the
+run stops with an error naming the file, so that the run directory is still
+written and read back (``aamsim view`` of a half-written row used to fail).
+
 Columns: ``id, simt, lat, lon, alt_m, tas_mps, cas_mps, gs_mps, trk_deg, vs_mps``
 with 2, 7, 7, 3, 4, 4, 4, 4, 4 decimals (time in s, angles in degrees).
 """
 
 from __future__ import annotations
 
+import os
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import IO, TYPE_CHECKING
@@ -28,6 +34,7 @@ TRAJECTORY_HEADER = "id,simt,lat,lon,alt_m,tas_mps,cas_mps,gs_mps,trk_deg,vs_mps
 _FIELDS = ("lat", "lon", "alt", "tas", "cas", "gs", "trk", "vs")
 _DECIMALS = np.array([2, 7, 7, 3, 4, 4, 4, 4, 4], dtype=np.int64)
 _FLUSH_ROWS = 500_000
+WRITE_FAILURES = "write_failures"  # sim.extensions key: outputs that could not be written
 
 
 @dataclass
@@ -37,7 +44,10 @@ class TrajectoryRecorder:
     path: Path
     period_s: float = 1.0
     rows_written: int = 0
+    failed: str | None = None  # why writing stopped (the OS error), None while it works
     _file: IO[bytes] | None = field(default=None, repr=False)
+    _sim: Simulation | None = field(default=None, repr=False)
+    _whole: int = 0  # bytes of the file that end with a whole row
     _names: list[str] = field(default_factory=list, repr=False)
     _name_ids: dict[str, int] = field(default_factory=dict, repr=False)
     _chunks: list[tuple[np.ndarray, np.ndarray]] = field(default_factory=list, repr=False)
@@ -46,14 +56,16 @@ class TrajectoryRecorder:
     _last_index: np.ndarray = field(default_factory=lambda: np.empty(0, dtype=np.int64), repr=False)  # ... numbered
 
     def attach(self, sim: Simulation) -> None:
-        self._file = open(self.path, "wb")
-        self._file.write(TRAJECTORY_HEADER.encode())
+        self._sim = sim
+        # Unbuffered, so that what was written is known exactly; open while the recorder is attached.
+        self._file = open(self.path, "wb", buffering=0)  # noqa: SIM115
+        self._write(TRAJECTORY_HEADER.encode())
         services_of(sim).snapshots.subscribe(self.sample, self.period_s, name="trajectory-recorder",
                                              phase="pre_step", priority=900)
 
     def sample(self, snap: TrafficSnapshot) -> None:
         n = len(snap)
-        if n == 0:
+        if n == 0 or self._file is None:
             return
         if snap.ids == self._last_ids:  # the same aircraft as last time (most samples): the same numbers
             ids = self._last_index
@@ -80,10 +92,41 @@ class TrajectoryRecorder:
         ids = np.concatenate([c[0] for c in self._chunks])
         cols = np.concatenate([c[1] for c in self._chunks], axis=1)
         name_bytes, offsets = pack_names(self._names)
-        self._file.write(format_rows(name_bytes, offsets, ids, cols, _DECIMALS).data)  # a view: no 50 MB copy
-        self.rows_written += len(ids)
         self._chunks.clear()
         self._buffered = 0
+        if self._write(format_rows(name_bytes, offsets, ids, cols, _DECIMALS).data):  # a view: no 50 MB copy
+            self.rows_written += len(ids)
+
+    def _write(self, data: bytes | memoryview) -> bool:
+        """Write whole rows; on an OS error cut the file back to its last whole row and stop recording."""
+        assert self._file is not None
+        view = memoryview(data).cast("B")
+        try:
+            while len(view):
+                written = self._file.write(view)
+                view = view[written or 0:]
+        except OSError as exc:
+            self._fail(exc)
+            return False
+        self._whole = self._file.tell()
+        return True
+
+    def _fail(self, exc: OSError) -> None:
+        assert self._file is not None
+        self.failed = exc.strerror or str(exc)
+        try:
+            os.ftruncate(self._file.fileno(), self._whole)  # shrinking works on a full disk
+        except OSError:
+            pass  # the rows up to the error stay; a reader leaves out a cut last line
+        self._file.close()
+        self._file = None
+        if self._sim is not None:
+            sim = self._sim
+            text = (f"{self.path.name}: cannot write ({self.failed}); recording stopped and the run stops at "
+                    f"t = {sim.simt:.2f} s; the file holds {self.rows_written:,} whole rows")
+            sim.report("error", text)
+            sim.extensions.setdefault(WRITE_FAILURES, []).append(text)  # aamsim run exits 1 on them
+            sim.quit_requested = True
 
     def sync(self) -> None:
         """Write every buffered row and hand them to the operating system (a run killed after this
@@ -93,7 +136,8 @@ class TrajectoryRecorder:
             self._file.flush()
 
     def close(self) -> None:
-        self.flush()
+        if self._file is not None:
+            self.flush()
         if self._file is not None:
             self._file.close()
             self._file = None

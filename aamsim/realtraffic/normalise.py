@@ -16,7 +16,7 @@ from typing import Any
 import numpy as np
 
 from aamsim.realtraffic.columns import TO_SI, ColumnPlan
-from aamsim.realtraffic.reports import BoolArray, FloatArray, SkipLog, SkippedRow, StateReports
+from aamsim.realtraffic.reports import MAX_CALLSIGN_CHARS, BoolArray, FloatArray, SkipLog, SkippedRow, StateReports
 
 Values = Sequence[Any] | np.ndarray
 _ICAO24 = re.compile(r"~?[0-9a-f]{6}")
@@ -91,8 +91,17 @@ def _icao24(values: Values) -> tuple[np.ndarray, BoolArray]:
     return np.array(out, dtype="U7"), bad
 
 
-def _texts(values: Values) -> np.ndarray:
-    return np.array(["" if v is None else str(v).strip() for v in values], dtype=str)
+def _callsigns(values: Values) -> tuple[np.ndarray, BoolArray]:
+    """Callsigns, stripped, and a mask of those over :data:`MAX_CALLSIGN_CHARS` (left out as bad rows).
+
+    The array's width is fixed: one 20,000-character callsign used to widen every row of the
+    recording to it (a 2.5 MB file took 5.2 GB).
+    """
+    texts = ["" if v is None else str(v).strip() for v in values]
+    bad = np.fromiter((len(t) > MAX_CALLSIGN_CHARS for t in texts), dtype=bool, count=len(texts))
+    if bad.any():
+        texts = ["" if b else t for t, b in zip(texts, bad.tolist())]
+    return np.array(texts, dtype=f"U{MAX_CALLSIGN_CHARS}"), bad
 
 
 def _bools(values: Values) -> tuple[BoolArray, BoolArray]:
@@ -153,8 +162,12 @@ def normalise(chunk: RawChunk, plan: ColumnPlan, skips: SkipLog) -> StateReports
     values, _, name = column("on_ground")
     on_ground, bad = _bools(values) if values is not None else (np.zeros(n, dtype=bool), np.zeros(n, dtype=bool))
     problems.append((bad, f"bad value in column {name!r}"))
-    callsign_values = column("callsign")[0]
-    callsign = _texts(callsign_values) if callsign_values is not None else np.full(n, "", dtype="U8")
+    callsign_values, _, name = column("callsign")
+    if callsign_values is not None:
+        callsign, bad = _callsigns(callsign_values)
+        problems.append((bad, f"callsign in column {name!r} over {MAX_CALLSIGN_CHARS} characters"))
+    else:
+        callsign = np.full(n, "", dtype="U8")
 
     keep = np.ones(n, dtype=bool)
     for mask, reason in problems:

@@ -23,6 +23,8 @@ def start_overlay(sim: CommandContext, spec: str, offset: str = "", area: BBox |
     """Overlay real traffic: ``spec`` a recording file (a path here, or one the scenario's search path
     finds) or ``opensky:LAT0,LON0,LAT1,LON1`` (live OpenSky state vectors, paced to real time)."""
     if spec.lower().startswith("opensky:"):
+        if not sim.limits.live_data:  # a server's client: no network polls unless the server allows them
+            raise CommandError(sim.limits.refusal("live OpenSky overlays are not allowed in this simulation"))
         try:
             box = parse_area([float(x) for x in spec.split(":", 1)[1].split(",") if x.strip()])
         except ValueError:

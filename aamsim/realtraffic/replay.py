@@ -26,7 +26,7 @@ from typing import TYPE_CHECKING, Protocol
 import numpy as np
 
 from aamsim.errors import CommandError
-from aamsim.realtraffic.readers import DEFAULT_CHUNK_ROWS, RecordingReader
+from aamsim.realtraffic.readers import DEFAULT_CHUNK_ROWS, RecordingReader, decoded_size_above
 from aamsim.realtraffic.reports import RecordingError, SkipLog
 from aamsim.realtraffic.tracks import TrackSet, TrackStates
 from aamsim.realtraffic.window import READ_AHEAD_S, STREAM_ABOVE_BYTES, TrackWindow
@@ -131,7 +131,7 @@ class RecordingFeed(TrackWindow):
 
     def __init__(self, path: Path, *, area: BBox | None = None, max_gap_s: float = 60.0,
                  stream_above_bytes: int = STREAM_ABOVE_BYTES, chunk_rows: int | None = None):
-        streaming = path.stat().st_size > stream_above_bytes
+        streaming = decoded_size_above(path, stream_above_bytes)
         self.reader = RecordingReader(path, bbox=area, chunk_rows=chunk_rows or DEFAULT_CHUNK_ROWS)
         super().__init__(self.reader, max_gap_s=max_gap_s, read_ahead_s=READ_AHEAD_S if streaming else math.inf)
         self.path = path

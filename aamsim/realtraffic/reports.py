@@ -24,7 +24,7 @@ StrArray = NDArray[np.str_]
 REPORT_FIELDS = {
     "t_s": "s since 1970-01-01 UTC (the recording's own clock)",
     "icao24": "lower-case 6-digit hex transponder address",
-    "callsign": "text, stripped; empty when unknown",
+    "callsign": "text, stripped, at most 16 characters (MAX_CALLSIGN_CHARS); empty when unknown",
     "lat": "deg WGS84",
     "lon": "deg WGS84, in [-180, 180]",
     "alt_m": "m (barometric by default, see altitude=); NaN when unknown",
@@ -33,6 +33,9 @@ REPORT_FIELDS = {
     "vs_mps": "m/s vertical rate, positive up; NaN when unknown",
     "on_ground": "bool; False when the source does not say",
 }
+
+#: Longest callsign a report keeps (OpenSky's are 8 characters); a row with a longer one is skipped.
+MAX_CALLSIGN_CHARS = 16
 
 
 class RecordingError(AamsimError):

@@ -34,6 +34,9 @@ REST_FIELDS = 17
 _AFTER_VALUE = frozenset(" \t\r\n,]")
 #: Largest single JSON record accepted in an array before the file is called broken.
 MAX_RECORD_CHARS = 1 << 22
+# Python's decoder recurses once per nesting level: a deeply nested value ends in RecursionError,
+# which used to end the run with no outputs.
+_TOO_DEEP = "JSON nested too deep to be a state report"
 
 
 def csv_chunks(path: str, stream: TextIO, plan_for: PlanFor, chunk_rows: int, skips: SkipLog) -> Iterator[RawChunk]:
@@ -142,12 +145,16 @@ def json_chunks(
     head = stream.readline()
     try:
         json.loads(head)
+    except RecursionError:
+        raise RecordingError(path, f"line 1: {_TOO_DEEP}") from None
     except json.JSONDecodeError:
         # An object over several lines: the whole file is one document.
         try:
             document = json.loads(head + stream.read())
         except json.JSONDecodeError as err:
             raise RecordingError(path, f"broken JSON at line {err.lineno} column {err.colno}: {err.msg}") from err
+        except RecursionError:
+            raise RecordingError(path, _TOO_DEEP) from None
         yield from batcher.add_all(_object_records(path, document, 1, skips))
         return
     stream.seek(start)
@@ -163,6 +170,9 @@ def _lines_records(path: str, stream: TextIO, skips: SkipLog) -> Iterator[tuple[
             value = json.loads(line)
         except json.JSONDecodeError as err:
             skips.add(SkippedRow(path, str(number), f"broken JSON: {err.msg}"))
+            continue
+        except RecursionError:
+            skips.add(SkippedRow(path, str(number), _TOO_DEEP))
             continue
         yield from _line_records(path, value, number, skips)
 
@@ -239,6 +249,8 @@ def _array_records(path: str, stream: TextIO, block: int = 1 << 20) -> Iterator[
                 value, end = decoder.raw_decode(buf, pos)
             except json.JSONDecodeError as err:
                 value, end = err, -1
+            except RecursionError:
+                raise RecordingError(path, f"record {count + 1}: {_TOO_DEEP}") from None
             # A value is complete once what follows it can only follow a value: a number cut at
             # the end of the buffer ("12" of "12.5") decodes too early otherwise.
             if end != -1 and (eof or (end < len(buf) and buf[end] in _AFTER_VALUE)):

@@ -2,7 +2,7 @@
 
 A replay asks :meth:`TrackWindow.tracks_at` once per update. A small recording is read whole
 at the first call (its order in the file does not matter: the traffic library's files are
-grouped by flight). A big one (over ``stream_above_bytes`` on disk) is streamed: blocks are
+grouped by flight). A big one (over ``stream_above_bytes`` decompressed) is streamed: blocks are
 read until the reports reach ``read_ahead_s`` past the asked time, and reports older than
 ``max_gap_s`` before it are dropped, so memory holds a few minutes of the recording whatever
 its size. Streaming needs the file in time order (as OpenSky's exports are); a report that
@@ -22,7 +22,7 @@ import numpy as np
 from aamsim.realtraffic.reports import StateReports
 from aamsim.realtraffic.tracks import TrackSet, build_tracks
 
-#: Recordings larger than this on disk are streamed rather than read whole.
+#: Recordings larger than this once decompressed are streamed rather than read whole.
 STREAM_ABOVE_BYTES = 16 * 1024 * 1024
 #: How far past the replay's time a streamed recording is read [s of the recording's clock].
 READ_AHEAD_S = 300.0

@@ -19,6 +19,7 @@ from aamsim.stack.argtypes import Position
 
 if TYPE_CHECKING:
     from aamsim.hooks import Hooks
+    from aamsim.limits import SimulationLimits
     from aamsim.navdb import NavDatabase
     from aamsim.scenario_files import ScenarioFiles
     from aamsim.services import Services
@@ -128,6 +129,7 @@ class CommandContext(Protocol):
     settings: SimSettings
     commands: CommandRegistry
     files: ScenarioFiles
+    limits: SimulationLimits
     navdb: NavDatabase
     conditions: Conditions
     hooks: Hooks

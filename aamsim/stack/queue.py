@@ -25,10 +25,16 @@ class CommandQueue:
 
     _heap: list[tuple[int, int, TimedCommand]] = field(default_factory=list)
     _seq: itertools.count = field(default_factory=itertools.count)
+    _front_seq: itertools.count = field(default_factory=lambda: itertools.count(-1, -1))
     last_due_us: int | None = None  # due time of the last command popped (when the scenario last acted)
 
     def push(self, cmd: TimedCommand) -> None:
         heapq.heappush(self._heap, (to_us(cmd.time_s), next(self._seq), cmd))
+
+    def push_front(self, cmds: list[TimedCommand]) -> None:
+        """Put commands back ahead of every pending command due at the same time, in their order."""
+        for cmd in reversed(cmds):
+            heapq.heappush(self._heap, (to_us(cmd.time_s), next(self._front_seq), cmd))
 
     def extend(self, cmds: list[TimedCommand]) -> None:
         for cmd in cmds:

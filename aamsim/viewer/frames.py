@@ -29,6 +29,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from aamsim.settings import SimSettings
+from aamsim.units import MAX_CALLSIGN_CHARS
 
 if TYPE_CHECKING:
     from aamsim.simulation import Simulation
@@ -88,21 +89,39 @@ class TrafficFrame:
         return len(self.ids)
 
     def to_json(self) -> dict[str, Any]:
-        """A JSON-ready dict, positions rounded to about 1 m (what the browser page reads)."""
+        """A JSON-ready dict, positions rounded to about 1 m (what the browser page reads).
+
+        A value that is not finite (NaN or inf in a run's CSV) is ``null``: JSON has no NaN, and
+        a ``NaN`` token made the page's parser, and the WebSocket stream, stop.
+        """
         return {
-            "simt": round(float(self.simt), 3),
+            "simt": _finite(self.simt, 3),
             "ids": list(self.ids),
-            "lat": np.round(self.lat, 5).tolist(),
-            "lon": np.round(self.lon, 5).tolist(),
-            "alt": np.round(self.alt, 1).tolist(),
-            "trk": np.round(self.trk, 1).tolist(),
-            "tas": np.round(self.tas, 1).tolist(),
+            "lat": _finite_list(self.lat, 5),
+            "lon": _finite_list(self.lon, 5),
+            "alt": _finite_list(self.alt, 1),
+            "trk": _finite_list(self.trk, 1),
+            "tas": _finite_list(self.tas, 1),
             "status": self.status.astype(int).tolist(),
-            "events": [{"kind": e.kind, "t": round(e.t, 2), "ids": list(e.ids), "lat": round(e.lat, 5),
-                        "lon": round(e.lon, 5)} for e in self.events],
-            "metrics": {k: (round(v, 3) if isinstance(v, float) else v) for k, v in self.metrics.items()},
+            "events": [{"kind": e.kind, "t": _finite(e.t, 2), "ids": list(e.ids), "lat": _finite(e.lat, 5),
+                        "lon": _finite(e.lon, 5)} for e in self.events],
+            "metrics": {k: (_finite(v, 3) if isinstance(v, float) else v) for k, v in self.metrics.items()},
             "advisories": self.advisories,
         }
+
+
+def _finite(value: float, decimals: int) -> float | None:
+    """``value`` rounded, or None when it is not finite (JSON has no NaN or infinity)."""
+    value = float(value)
+    return round(value, decimals) if math.isfinite(value) else None
+
+
+def _finite_list(values: np.ndarray, decimals: int) -> list[float | None]:
+    rounded = np.round(np.asarray(values, dtype=np.float64), decimals)
+    finite = np.isfinite(rounded)
+    if finite.all():
+        return rounded.tolist()  # type: ignore[no-any-return]
+    return [v if ok else None for v, ok in zip(rounded.tolist(), finite.tolist())]
 
 
 @dataclass(frozen=True)
@@ -127,12 +146,13 @@ class MapLayout:
 _SPLIT = re.compile(r"[\s,]+")
 
 
-def _number(text: str) -> float | None:
+def _number(text: str, limit: float = 180.0) -> float | None:
+    """A latitude or longitude of the scenario text [deg], or None (not a number, not on the earth)."""
     try:
         x = float(text)
     except ValueError:
         return None
-    return x if math.isfinite(x) else None
+    return x if abs(x) <= limit else None  # NaN fails the comparison too
 
 
 def layout_from_scenario(text: str, extra_lat: np.ndarray | None = None,
@@ -194,8 +214,11 @@ def layout_from_scenario(text: str, extra_lat: np.ndarray | None = None,
     lats += [p[0] for p in created]
     lons += [p[1] for p in created]
     if extra_lat is not None and extra_lon is not None and len(extra_lat):
-        lats += [float(np.min(extra_lat)), float(np.max(extra_lat))]
-        lons += [float(np.min(extra_lon)), float(np.max(extra_lon))]
+        # Only positions on the earth widen the map: NaN or 1e300 in a CSV made the bounds (and /api/meta) NaN.
+        on_earth = (np.abs(extra_lat) <= 90.0) & (np.abs(extra_lon) <= 180.0)
+        if on_earth.any():
+            lats += [float(np.min(extra_lat[on_earth])), float(np.max(extra_lat[on_earth]))]
+            lons += [float(np.min(extra_lon[on_earth])), float(np.max(extra_lon[on_earth]))]
     bounds = padded_bounds(lats, lons)
     outline: tuple[np.ndarray, ...] = ()
     if coastline:
@@ -260,6 +283,45 @@ def frame_from_sim(sim: Simulation, events_since: float | None = None) -> Traffi
 
 # ---------------------------------------------------------------- replay: from a run directory
 _TRAJ_COLUMNS = ("simt", "lat", "lon", "alt_m", "tas_mps", "gs_mps", "trk_deg")
+MAX_SUMMARY_BYTES = 1 << 20
+
+
+def _read_ids(path: Path, column: int, warnings: list[str]) -> tuple[np.ndarray, np.ndarray, int]:
+    """The aircraft ids of ``trajectories.csv``: the sorted distinct ids, each row's code, the row count.
+
+    One pass in Python with a dictionary, never a fixed-width array of every row's id: NumPy sizes
+    such an array by the longest id, so one 20,000-character id in a 1.9 MB file made ``aamsim view``
+    take 8.7 GB. An id longer than a callsign can be (:data:`aamsim.units.MAX_CALLSIGN_CHARS`) is an
+    error naming its line. A last line without its line end (a run killed mid-write, a full disk) is
+    left out with a warning: the rows are those that end in a newline.
+    """
+    index: dict[str, int] = {}
+    codes: list[int] = []
+    with open(path, encoding="utf-8", errors="replace", newline="") as fh:
+        fh.readline()
+        for lineno, line in enumerate(fh, start=2):
+            if not line.endswith("\n"):
+                warnings.append(f"{path}: line {lineno}: cut short (no line end: the run stopped while writing "
+                                "it?); left out")
+                break
+            if not line.strip():
+                continue  # a blank line (loadtxt skips those too)
+            fields = line.split(",", column + 1)
+            if len(fields) <= column:
+                raise ReplayError(f"{path}: line {lineno}: no id (column {column + 1})")
+            name = fields[column]
+            code = index.get(name)
+            if code is None:
+                if len(name) > MAX_CALLSIGN_CHARS:
+                    raise ReplayError(f"{path}: line {lineno}: an id of {len(name):,} characters; a callsign has "
+                                      f"at most {MAX_CALLSIGN_CHARS}")
+                code = index[name] = len(index)
+            codes.append(code)
+    names = sorted(index)
+    recode = np.empty(len(index), dtype=np.int64)
+    recode[[index[n] for n in names]] = np.arange(len(names))
+    return (np.array(names, dtype=f"U{max(1, max(map(len, names), default=1))}"),
+            recode[np.asarray(codes, dtype=np.int64)], len(codes))
 
 
 class RunReplay:
@@ -284,22 +346,40 @@ class RunReplay:
         self._read_trajectories(traj)
         self._read_conflicts(self.run_dir / "conflicts.csv")
         self._read_flights(self.run_dir / "flights.csv")
-        hold = self.summary.get("operational", {}).get("holding_speed_threshold_mps")
+        hold = self.summary.get("operational", {}).get("holding_speed_threshold_mps")  # a dict: _read_summary
         self.hold_speed_mps = float(hold) if isinstance(hold, (int, float)) else DEFAULT_HOLD_SPEED_MPS
         self._layout: MapLayout | None = None
 
     # ------------------------------------------------------------ reading
     def _read_summary(self) -> dict[str, Any]:
+        """``summary.json``, as far as the viewer uses it: the scenario's name and two groups of numbers.
+
+        Whatever else the file holds is left out: a ``safety`` that is a list, not an object, used to end
+        ``aamsim view`` with an AttributeError, and NaN in it made ``/api/meta`` invalid JSON.
+        """
         path = self.run_dir / "summary.json"
         if not path.is_file():
             return {}
+        if path.stat().st_size > MAX_SUMMARY_BYTES:
+            raise ReplayError(f"{path}: {path.stat().st_size:,} bytes; a run's summary is a few kB "
+                              f"(at most {MAX_SUMMARY_BYTES:,} read)")
         try:
             data = json.loads(path.read_text(encoding="utf-8"))
         except (json.JSONDecodeError, UnicodeDecodeError) as exc:
             raise ReplayError(f"{path}: not valid JSON ({exc})") from None
+        except RecursionError:
+            raise ReplayError(f"{path}: not a run summary (JSON nested too deep)") from None
         if not isinstance(data, dict):
             raise ReplayError(f"{path}: expected a JSON object")
-        return data
+        summary: dict[str, Any] = {}
+        if isinstance(data.get("scenario"), str):
+            summary["scenario"] = data["scenario"][:200]
+        for group in ("safety", "operational"):
+            values = data.get(group)
+            if isinstance(values, dict):
+                summary[group] = {str(k)[:100]: (v if not isinstance(v, float) or math.isfinite(v) else None)
+                                  for k, v in values.items() if isinstance(v, (int, float, str, type(None)))}
+        return summary
 
     def _read_trajectories(self, path: Path) -> None:
         with open(path, encoding="utf-8", errors="replace") as fh:
@@ -310,28 +390,33 @@ class RunReplay:
             raise ReplayError(f"{path}: line 1: missing column(s) {', '.join(missing)} "
                               f"(an aamsim trajectories.csv has id,simt,lat,lon,alt_m,tas_mps,...,trk_deg)")
         cols = [header.index(c) for c in _TRAJ_COLUMNS]
+        self.warnings: list[str] = []
         if empty:
-            data, names = np.zeros((0, len(cols))), np.zeros(0, dtype=str)
+            data, codes = np.zeros((0, len(cols))), np.zeros(0, dtype=np.int64)
+            self.callsigns = np.zeros(0, dtype=str)
         else:
-            data, names = self._load(path, header, cols)
-        self._index(data, names)
+            data, codes = self._load(path, header, cols)
+        self._index(data, codes)
 
-    @staticmethod
-    def _load(path: Path, header: list[str], cols: list[int]) -> tuple[np.ndarray, np.ndarray]:
+    def _load(self, path: Path, header: list[str], cols: list[int]) -> tuple[np.ndarray, np.ndarray]:
+        """The numbers of every row, and each row's aircraft as a code into :attr:`callsigns`."""
+        names, codes, rows = _read_ids(path, header.index("id"), self.warnings)
         try:
-            data = np.loadtxt(path, delimiter=",", skiprows=1, usecols=cols, dtype=np.float64, ndmin=2)
-            names = np.loadtxt(path, delimiter=",", skiprows=1, usecols=header.index("id"), dtype=str, ndmin=1)
+            data = np.loadtxt(path, delimiter=",", skiprows=1, usecols=cols, dtype=np.float64, ndmin=2,
+                              comments=None, max_rows=rows)
         except ValueError as exc:
             raise ReplayError(f"{path}: {exc}") from None
+        if len(data) != rows:
+            raise ReplayError(f"{path}: {rows} rows have an id but {len(data)} have numbers")
         if len(data) and not np.isfinite(data[:, 0]).all():
             bad = int(np.flatnonzero(~np.isfinite(data[:, 0]))[0]) + 2
             raise ReplayError(f"{path}: line {bad}: simt is not a number")
-        return data, names
+        self.callsigns = names
+        return data, codes
 
-    def _index(self, data: np.ndarray, names: np.ndarray) -> None:
+    def _index(self, data: np.ndarray, codes: np.ndarray) -> None:
         order = np.argsort(data[:, 0], kind="stable")
-        data, names = data[order], names[order]
-        self.callsigns, self._code = np.unique(names, return_inverse=True)
+        data, self._code = data[order], codes[order]
         self._t, self._lat, self._lon, self._alt, self._tas, self._gs, self._trk = (
             np.ascontiguousarray(data[:, k]) for k in range(7))
         self.times, self._block = np.unique(self._t, return_index=True)

@@ -225,7 +225,7 @@ def parse_control(text: str | bytes, mode: str, allow_commands: bool, token_ok: 
     """
     try:
         msg = json.loads(text)
-    except (json.JSONDecodeError, UnicodeDecodeError, RecursionError):
+    except (ValueError, RecursionError):  # JSONDecodeError, bad UTF-8, an integer past Python's digit limit
         raise ControlError("not JSON: send an object such as {\"op\": \"pause\"}") from None
     if not isinstance(msg, dict):
         raise ControlError("a control message is a JSON object with an \"op\" field")
@@ -235,7 +235,7 @@ def parse_control(text: str | bytes, mode: str, allow_commands: bool, token_ok: 
     if op in ("seek", "speed"):
         key = "t" if op == "seek" else "x"
         value = msg.get(key)
-        if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or not _is_finite(value):
             raise ControlError(f"\"{op}\" needs a finite number in \"{key}\"")
         if mode != "replay":
             raise ControlError(f"\"{op}\" works on a replay; a live simulation runs at its own pace")
@@ -256,6 +256,15 @@ def parse_control(text: str | bytes, mode: str, allow_commands: bool, token_ok: 
             raise ControlError("\"stack\" needs one command line (text, at most 512 characters) in \"line\"")
         return {"op": "stack", "line": line.strip()}
     raise ControlError(f"unknown op {op!r}; known: play, pause, seek, speed, stack")
+
+
+def _is_finite(value: float) -> bool:
+    """``math.isfinite`` that says False for an integer too large for a float (``1`` and 400 zeros):
+    ``math.isfinite`` raised OverflowError there, and the WebSocket stream got an HTTP 500."""
+    try:
+        return math.isfinite(value)
+    except OverflowError:
+        return False
 
 
 # ---------------------------------------------------------------- the application
@@ -372,7 +381,10 @@ class ViewerApp:
         try:
             async for msg in ws:
                 if msg.type == WSMsgType.TEXT:
-                    await self._control(ws, play, msg.data, token_ok)
+                    try:
+                        await self._control(ws, play, msg.data, token_ok)
+                    except Exception as exc:  # noqa: BLE001  (a bug answers this message; the stream goes on)
+                        await _send(ws, {"type": "error", "error": f"internal error: {type(exc).__name__}"})
                 elif msg.type == WSMsgType.BINARY:
                     await _send(ws, {"type": "error", "error": "send control messages as JSON text"})
                 elif msg.type == WSMsgType.ERROR:
@@ -465,9 +477,14 @@ async def start_site(viewer: ViewerApp, host: str, port: int) -> tuple[web.AppRu
     return runner, f"http://{shown}:{bound}/"
 
 
-def serve_replay(run_dir: str, host: str, port: int, on_ready: Any, allow_hosts: tuple[str, ...] = ()) -> None:
-    """``aamsim view RUN_DIR``: serve a replay until interrupted (Ctrl-C)."""
-    viewer = ViewerApp(ReplaySource(RunReplay(run_dir)), access=AccessPolicy.for_server(host, allow_hosts))
+def serve_replay(run_dir: str, host: str, port: int, on_ready: Any, allow_hosts: tuple[str, ...] = (),
+                 on_warning: Any = None) -> None:
+    """``aamsim view RUN_DIR``: serve a replay until interrupted (Ctrl-C); ``on_warning(text)`` hears
+    what was left out of the run directory (a last row cut short)."""
+    replay = RunReplay(run_dir)
+    for warning in replay.warnings if on_warning is not None else ():
+        on_warning(warning)
+    viewer = ViewerApp(ReplaySource(replay), access=AccessPolicy.for_server(host, allow_hosts))
 
     async def main() -> None:
         runner, url = await start_site(viewer, host, port)

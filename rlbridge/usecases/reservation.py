@@ -65,6 +65,8 @@ def probe_intents(sim: Simulation, schedule: Schedule, sample_s: float, limit_s:
 
     probe = Simulation(seed=0, dt=sim.dt)
     probe.files.search_path[:0] = sim.files.search_path
+    probe.files.guard = sim.files.guard  # a server's scenario roots bind the probe's PCALLs too
+    probe.limits = sim.limits
     probe.queue.extend(list(schedule.other))  # waypoints, wind, settings, background traffic
     by_acid: dict[str, list[DepartureRequest]] = {}
     for r in schedule.requests:

@@ -77,6 +77,14 @@ class Tally:
     valid: int = 0
     stuck: list[str] = field(default_factory=list)
     wrong: list[str] = field(default_factory=list)
+    # What to send again, alone on a fresh connection, for each entry of ``stuck``: a request left
+    # unanswered under load is a failure only when it is unanswered again alone.
+    replay: list[list[list[bytes]]] = field(default_factory=list)
+
+    def stuck_on(self, what: str, messages: list[list[bytes]]) -> None:
+        with self.lock:
+            self.stuck.append(what)
+            self.replay.append(messages)
 
     def add(self, sent: int = 0, valid: int = 0) -> None:
         with self.lock:
@@ -100,21 +108,26 @@ def abuser(endpoint: str, count: int, seed: int, tally: Tally, timeout_ms: int) 
     sock = _socket(ctx, endpoint, timeout_ms)
     try:
         for k in range(count):
-            sock.send_multipart(malformed(rng))
+            bad = malformed(rng)
+            sock.send_multipart(bad)
             try:
                 sock.recv_multipart()  # a reply (error) to each; some bad frames get none: drain what comes
             except zmq.Again:
-                tally.stuck.append(f"abuser {seed}: no reply to a malformed message {k}")
+                tally.stuck_on(f"abuser {seed}: no reply to a malformed message {k}", [bad])
                 return
             tally.add(sent=1)
             if k % 50 == 49:  # a valid request among the bad ones, on the same connection
                 sock.send_multipart(request("hello", 10_000 + k))
-                reply = decode(sock.recv_multipart())
+                try:
+                    reply = decode(sock.recv_multipart())
+                except zmq.Again:
+                    tally.stuck_on(f"abuser {seed}: valid hello not answered", [request("hello", 10_000 + k)])
+                    return
                 tally.add(sent=1, valid=1)
                 if reply.get("ok") is not True or reply.get("id") != 10_000 + k:
                     tally.wrong.append(f"abuser {seed}: hello after bad messages answered {reply}")
-    except zmq.Again:
-        tally.stuck.append(f"abuser {seed}: valid hello not answered")
+    except zmq.Again:  # a send that could not go out
+        tally.stuck_on(f"abuser {seed}: a message could not be sent", [request("hello", 1)])
     finally:
         sock.close(0)
         ctx.term()
@@ -126,13 +139,15 @@ def player(endpoint: str, count: int, seed: int, tally: Tally, timeout_ms: int) 
     rng = random.Random(seed)
     sock = _socket(ctx, endpoint, timeout_ms)
     msg_id = 0
+    episode: list[list[bytes]] = []  # this episode's requests so far: what a rerun alone sends again
 
     def ask(frames: list, what: str) -> dict | None:
+        episode.append(frames)
         sock.send_multipart(frames)
         try:
             reply = decode(sock.recv_multipart())
         except zmq.Again:
-            tally.stuck.append(f"player {seed}: {what} not answered within {timeout_ms / 1000:g} s")
+            tally.stuck_on(f"player {seed}: {what} not answered within {timeout_ms / 1000:g} s", list(episode))
             return None
         tally.add(sent=1, valid=1)
         if reply.get("ok") is not True:
@@ -143,6 +158,7 @@ def player(endpoint: str, count: int, seed: int, tally: Tally, timeout_ms: int) 
     try:
         while tally.valid < count and not tally.stuck:
             msg_id += 1
+            episode.clear()
             opened = ask(request("reset", msg_id, scenario="abuse.scn", seed=rng.randint(0, 10**6)), "reset")
             if opened is None:
                 return
@@ -173,11 +189,28 @@ class AbuseResult:
     messages: int
     valid: int
     server_alive: bool
-    stuck: list[str]
+    stuck: list[str]  # unanswered, and unanswered again when sent alone
     wrong: list[str]
     rss_before_mb: float
     rss_after_mb: float
     wall_s: float
+    unconfirmed_stuck: list[str] = field(default_factory=list)  # unanswered under load, answered alone
+
+
+def answered_alone(endpoint: str, messages: list[list[bytes]], timeout_ms: int) -> bool:
+    """Send the messages again, one after the other, on a fresh connection: is the last one answered?"""
+    ctx = zmq.Context()
+    sock = _socket(ctx, endpoint, timeout_ms)
+    try:
+        for frames in messages:
+            sock.send_multipart(frames)
+            sock.recv_multipart()
+        return True
+    except zmq.Again:
+        return False
+    finally:
+        sock.close(0)
+        ctx.term()
 
 
 def abuse(endpoint: str, pid: int, messages: int, clients: int = 4, seed: int = 0,
@@ -200,8 +233,12 @@ def abuse(endpoint: str, pid: int, messages: int, clients: int = 4, seed: int = 
         t.join()
     server_alive = bool(alive()) if callable(alive) else True
     after = rss_mb(pid) if server_alive else float("nan")
-    return AbuseResult(tally.sent, tally.valid, server_alive, tally.stuck, tally.wrong, before, after,
-                       time.perf_counter() - t0)
+    stuck, unconfirmed = [], []
+    for what, sequence in zip(tally.stuck, tally.replay):
+        again = server_alive and answered_alone(endpoint, sequence, timeout_ms)
+        (unconfirmed if again else stuck).append(what)
+    return AbuseResult(tally.sent, tally.valid, server_alive, stuck, tally.wrong, before, after,
+                       time.perf_counter() - t0, unconfirmed)
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -225,8 +262,8 @@ def main(argv: list[str] | None = None) -> int:
             stop_process(proc)
     print(f"{result.messages} messages ({result.valid} valid) in {result.wall_s:.0f} s from {args.clients} abusers "
           f"and {max(1, args.clients // 2)} players: server {'alive' if result.server_alive else 'DEAD'}, "
-          f"{len(result.stuck)} stuck, {len(result.wrong)} wrong replies; server RSS {result.rss_before_mb:.1f} -> "
-          f"{result.rss_after_mb:.1f} MB")
+          f"{len(result.stuck)} stuck (again alone), {len(result.unconfirmed_stuck)} late under load only, "
+          f"{len(result.wrong)} wrong replies; server RSS {result.rss_before_mb:.1f} -> {result.rss_after_mb:.1f} MB")
     for line in (result.stuck + result.wrong)[:20]:
         print("  " + line)
     return 0 if result.server_alive and not result.stuck and not result.wrong else 1

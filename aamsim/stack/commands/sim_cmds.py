@@ -101,6 +101,14 @@ def ic(sim: CommandContext, filename: RestOfLine) -> None:
 
 
 MAX_CALL_DEPTH = 16  # files PCALL/IC may nest; deeper is refused as a runaway
+# Commands PCALL may queue between two resets. Ten files each PCALLing the next ten times expand
+# tenfold per level (10^10 lines at ten levels); the New York day, 4,051 flights, is 41,000
+# commands, so this is the day PCALLed 24 times.
+MAX_PCALL_COMMANDS = 1_000_000
+# Files PCALL may load between two resets: each load costs about a millisecond, so a fan-out is
+# refused after some 10 s; a scenario that PCALLs a template file for every flight of the New York
+# day loads 4,051.
+MAX_PCALL_FILES = 10_000
 
 
 def _file_key(name: str | Path) -> str:
@@ -121,11 +129,14 @@ def enter_file(sim: CommandContext, target: Path, verb: str) -> None:
         else None
     chain = (*sim.files.call_chains.get(caller, ()), caller) if caller else ()
     key = _file_key(target)
-    shown = " -> ".join(Path(c).name for c in (*chain, key))
+
+    def shown() -> str:
+        return " -> ".join(Path(c).name for c in (*chain, key))
+
     if key in chain:
-        raise CommandError(f"{verb} {target.name}: the files call each other in a cycle ({shown})")
+        raise CommandError(f"{verb} {target.name}: the files call each other in a cycle ({shown()})")
     if len(chain) >= MAX_CALL_DEPTH:
-        raise CommandError(f"{verb} {target.name}: files nested more than {MAX_CALL_DEPTH} deep ({shown})")
+        raise CommandError(f"{verb} {target.name}: files nested more than {MAX_CALL_DEPTH} deep ({shown()})")
     sim.files.call_chains[key] = chain
 
 
@@ -160,6 +171,10 @@ def pcall(sim: CommandContext, argtext: RestOfLine) -> None:
     tokens = [t for t in split_args(argtext) if t != ""]
     if not tokens:
         raise CommandError("PCALL needs a scenario file name")
+    files = sim.files
+    if files.pcall_commands >= MAX_PCALL_COMMANDS or files.pcall_files >= MAX_PCALL_FILES:
+        _refuse_over_budget(sim, tokens[0])
+        return
     if len(tokens) > 1 and tokens[0].upper() in sim.view:
         # PCALL acid file args: the callsign becomes %0.
         tokens = [tokens[1], tokens[0].upper(), *tokens[2:]]
@@ -174,11 +189,36 @@ def pcall(sim: CommandContext, argtext: RestOfLine) -> None:
     enter_file(sim, path, "PCALL")
     offset = sim.simt if relative else 0.0
     parsed = sim.parse(_read_scenario(path, "PCALL"), str(path), time_offset_s=offset, substitutions=args)
+    if files.pcall_commands + len(parsed.commands) > MAX_PCALL_COMMANDS:
+        files.pcall_commands = MAX_PCALL_COMMANDS  # spent: later PCALLs are refused before any file is read
+        _refuse_over_budget(sim, name)
+        return
+    files.pcall_commands += len(parsed.commands)
+    files.pcall_files += 1
     for err in parsed.errors:
         sim.report("error", err.message, err.source)
     for cmd in parsed.commands:
         # Commands whose time has passed run now, in file order.
         sim.queue.push(cmd if cmd.time_s >= sim.simt else TimedCommand(sim.simt, cmd.command, cmd.source))
+
+
+def _refuse_over_budget(sim: CommandContext, name: str) -> None:
+    """Refuse a PCALL over the budget: an error for the first ten, then a note at every power of ten.
+
+    A fan-out queues up to the whole budget of PCALLs before it is spent; one error each would be
+    a million messages.
+    """
+    files = sim.files
+    files.pcall_refused += 1
+    count = files.pcall_refused
+    spent = (f"PCALL has loaded {MAX_PCALL_FILES:,} files" if files.pcall_files >= MAX_PCALL_FILES else
+             f"PCALL has queued {MAX_PCALL_COMMANDS:,} commands")
+    if count <= 10:
+        raise CommandError(f"{name}: refused, {spent} since the scenario started (files that PCALL each other "
+                           "many times?)")
+    if math.log10(count).is_integer():
+        sim.report("note", f"{count:,} PCALLs refused so far: {spent} since the scenario started",
+                   sim.current_source)
 
 
 @command("SCHEDULE", group="simulation", nested=True)
