@@ -97,6 +97,13 @@ class Conditions:
         self._cache_n = n
         return self._cache
 
+    def adopt_arrays(self, views: tuple[np.ndarray, ...]) -> tuple[np.ndarray, ...]:
+        """Use ``views`` (kind, target, lastdif, lat, lon, fired: parts of a pool's joint arrays, with the
+        same values) in place of the cached arrays, keeping the slots; returns the new cached arrays."""
+        assert self._cache is not None and len(views) == 6 and len(views[0]) == len(self._cache[0])
+        self._cache = (self._cache[0], *views)
+        return self._cache
+
     def update_after(self, lastdif: np.ndarray, fired: np.ndarray) -> list[Condition]:
         """Remove and return fired conditions (the others keep the kernel's new differences)."""
         if not fired.any():
