@@ -36,6 +36,7 @@ from aamsim.simulation import (
 )
 from aamsim.stack.queue import to_us
 from aamsim.threads import check_threads
+from aamsim.traffic.kernel import STATUS_CONDITION, STATUS_DONE, STATUS_REACHED
 from aamsim.traffic.pool import TrafficPool
 
 
@@ -106,7 +107,9 @@ class WorldSet:
             groups: dict[int, list[int]] = {}
             for w in list(batches):
                 sim = self.sim(w)
-                if sim.wind.active:  # the wind field is per simulation: a kernel call of its own
+                if sim.wind.active or (len(batches) == 1 and batches[w].done == 0):
+                    # Alone (a world whose episode needs more time than the others), or in a wind field
+                    # (a field per simulation): the simulation's own batch, with nothing to share.
                     sim._advance_steps(batches.pop(w).nsteps)
                     at_boundary.append(w)
                 else:
@@ -115,34 +118,72 @@ class WorldSet:
                 at_boundary += self._advance_group(group, batches)
 
     def _advance_group(self, worlds: list[int], batches: dict[int, _Batch]) -> list[int]:
-        """One kernel call for ``worlds`` (same time step); returns the worlds whose batch ended."""
+        """Kernel calls for ``worlds`` (same time step) until some world's batch ends; returns those worlds.
+
+        The per-world book-keeping is in arrays: a call that ended on another world's event costs a
+        world nothing in Python. Its clock takes the steps when it next matters (an event of its own,
+        the end of its batch).
+        """
         sims = [self.sim(w) for w in worlds]
-        steps = min(batches[w].nsteps - batches[w].done for w in worlds)
+        m = len(worlds)
+        nsteps = np.array([batches[w].nsteps for w in worlds], dtype=np.int64)
+        done = np.array([batches[w].done for w in worlds], dtype=np.int64)
         check = np.array([batches[w].check for w in worlds], dtype=np.bool_)
+        pending = np.zeros(m, dtype=np.int64)  # steps not yet on the world's clock
         hold = np.array([s.settings.hold_speed_mps for s in sims], dtype=np.float64)
         airborne = np.array([s.settings.airborne_alt_m for s in sims], dtype=np.float64)
+        dt = sims[0].clock.dt_s
+        pool = self.pool
+        turns = any(s.traffic.turn_speeds_used for s in sims)
+        reso = any(s.traffic.resolution_used for s in sims)
         counts = [s.traffic.n for s in sims]
         threads = self.threads if self.threads > 1 and sum(counts) >= PARALLEL_MIN_AIRCRAFT else 1
-        k, status, conds = self.pool.advance(
-            worlds, check, sims[0].clock.dt_s, steps, hold, airborne,
-            [s.conditions if len(s.conditions) else None for s in sims],
-            any(s.traffic.turn_speeds_used for s in sims), any(s.traffic.resolution_used for s in sims), threads)
-        self.kernel_calls += 1
-        ended = []
-        for w, sim, n, cond, checked in zip(worlds, sims, counts, conds, check.tolist()):
-            if k == 0 and not checked:
-                continue  # another world's waypoint test stopped the call before any step: nothing here ran
-            batch = batches[w]
-            batch.done += k
-            after = sim._after_kernel(k, status, n, _NO_CONDITIONS if cond is None else cond)
-            if after == AFTER_BOUNDARY:
+        conditions = [s.conditions for s in sims]
+        ended: list[int] = []
+        over = np.zeros(m, dtype=np.bool_)
+        while not ended:
+            steps = int((nsteps - done).min())
+            k, status, reached, conds = pool.advance(worlds, check, dt, steps, hold, airborne, conditions, turns,
+                                                      reso, threads)
+            self.kernel_calls += 1
+            done += k
+            pending += k
+            if status == STATUS_REACHED:
+                events = np.flatnonzero(reached).tolist()
+                check[:] = False  # the test of the next step has run (or did not need to)
+            elif status == STATUS_DONE:
+                events = []
+                check[:] = True  # no condition fired anywhere (the call would have stopped)
+            elif status == STATUS_CONDITION:
+                events = [i for i, c in enumerate(conds) if c is not None and c[6].any()]
+                check[:] = True
+            else:  # a non-finite state: every world checks its own
+                events = list(range(m))
+            for i in events:
+                sim = sims[i]
+                cond = conds[i]
+                after = sim._after_kernel(int(pending[i]), status, counts[i], _NO_CONDITIONS if cond is None else cond)
+                pending[i] = 0
+                counts[i] = sim.traffic.n
+                # Passing a waypoint may start a leg with a turn speed: the kernel's part for it.
+                turns = turns or sim.traffic.turn_speeds_used
+                reso = reso or sim.traffic.resolution_used
+                check[i] = after == AFTER_CONTINUE
+                if after == AFTER_LAST_STEP:
+                    nsteps[i] = done[i] + 1
+                elif after == AFTER_BOUNDARY:
+                    over[i] = True
+            finished = over | (done >= nsteps)
+            if finished.any():
+                ended = [worlds[i] for i in np.flatnonzero(finished).tolist()]
+        for i, w in enumerate(worlds):
+            sim = sims[i]
+            if pending[i]:
+                sim.clock.simt_us += int(pending[i]) * sim.clock.dt_us
+                sim.aircraft_steps += int(pending[i]) * counts[i]
+            if over[i] or done[i] >= nsteps[i]:
                 del batches[w]
-                ended.append(w)
-                continue
-            batch.check = after == AFTER_CONTINUE
-            if after == AFTER_LAST_STEP:
-                batch.nsteps = batch.done + 1
-            if batch.done >= batch.nsteps:
-                del batches[w]
-                ended.append(w)
+            else:
+                batch = batches[w]
+                batch.nsteps, batch.done, batch.check = int(nsteps[i]), int(done[i]), bool(check[i])
         return ended

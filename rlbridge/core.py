@@ -305,20 +305,50 @@ class EpisodeCore:
         """:meth:`step` as the sim times to run the simulation to, then its result."""
         if self.sim is None:
             raise RuntimeError("step() before reset()")
+        before, valid = self._begin_step(actions)
+        yield from self._advance_steps()
+        return self._finish_step(before, valid)
+
+    def until_alive_steps(self, agent: str) -> Steps:
+        """Steps without actions until ``agent`` is alive or the scenario is over; the last step's result.
+
+        The same simulation as :meth:`step_steps` with no actions, one decision after the other,
+        without observing anybody in between: for a single-agent view whose ego (``watch``) is not
+        there yet (nobody is watched, so those steps would report nothing).
+        """
+        if self.sim is None:
+            raise RuntimeError("step() before reset()")
+        if self.watch is None or any(a in self.watch for a in self.agents):
+            raise RuntimeError("until_alive_steps skips watched agents' steps")
+        while True:
+            before, valid = self._begin_step({})
+            yield from self._advance_steps()
+            if agent in self._live or self._scenario_over():
+                return self._finish_step(before, valid)
+            self.agents = self._live_agents()
+
+    def _begin_step(self, actions: dict[str, Any]) -> tuple[list[str], dict[str, Any]]:
+        """Apply the actions of agents alive now; returns the watched agents before the step and the actions."""
         sim = self.sim
-        before = self._watched(self.agents)
+        assert sim is not None
         before_set = set(self.agents)
         valid = {a: act for a, act in actions.items() if a in before_set}
         self.usecase.apply_actions(sim, valid)
         self._actions, self._t0 = valid, sim.simt
         self._left = {}
-        yield from self._advance_steps()
+        return self._watched(self.agents), valid
+
+    def _finish_step(self, before: list[str], valid: dict[str, Any]) -> StepResult:
+        """The step's result, after the simulation reached the next decision."""
+        sim = self.sim
+        assert sim is not None
+        known = set(self.agents)
         now_alive = self._live_agents()
         alive_set = set(now_alive)
         over = self._scenario_over()
         truncate = over and bool(now_alive)
         watched_before = set(before)
-        reported = before + [a for a in self._watched(now_alive) if a not in before_set]
+        reported = before + [a for a in self._watched(now_alive) if a not in known]
         stay = [a for a in reported if a in alive_set]
         live_obs = self.usecase.observe(sim, stay) if stay else None
         live_fb = self.usecase.feedback(sim, stay, valid, self._t0)

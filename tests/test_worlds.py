@@ -22,6 +22,8 @@ def _scenario(seed: int, n: int = 12) -> str:
         stamp = f"00:00:{t:02d}.00>"
         lines.append(f"{stamp}CRE W{k} EC35 {lat:.5f} {lon:.5f} {rng.uniform(0, 360):.1f} "
                      f"{rng.uniform(800, 1600):.0f} {rng.uniform(40, 120):.0f}")
+        if seed == 1 and k < 3:  # fly-turn waypoints in one world: the kernel's turn part runs for all of them
+            lines.append(f"{stamp}ADDWPTMODE W{k} TURNSPD 25")
         for _ in range(int(rng.integers(1, 4))):
             lines.append(f"{stamp}ADDWPT W{k} {40.7 + rng.uniform(-0.05, 0.05):.5f} "
                          f"{-74.0 + rng.uniform(-0.06, 0.06):.5f}")

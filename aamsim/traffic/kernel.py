@@ -710,11 +710,11 @@ def advance_parallel(
 def _advance_ranges(
     F: np.ndarray, B: np.ndarray, lo: np.ndarray, hi: np.ndarray, check: np.ndarray, dt: float, nsteps: int,
     hold_speed: np.ndarray, airborne_alt: np.ndarray, scratch: tuple[np.ndarray, ...], cond: tuple[np.ndarray, ...],
-    turns: tuple[()] | None, reso: tuple[()] | None,
+    turns: tuple[()] | None, reso: tuple[()] | None, counts: np.ndarray,
 ) -> tuple[int, int]:
     scratch_qdr, scratch_dist, fresh, reached = scratch
     nblocks = lo.shape[0]
-    counts = np.zeros(nblocks, dtype=np.int64)
+    counts[:] = 0
     # As _advance, with the blocks given: each is a range of slots with its own settings and
     # its own waypoint test at the start (a range whose test already ran skips it).
     if check.any():
@@ -744,7 +744,7 @@ def _advance_ranges(
 def advance_ranges(
     F: np.ndarray, B: np.ndarray, lo: np.ndarray, hi: np.ndarray, check: np.ndarray, dt: float, nsteps: int,
     hold_speed: np.ndarray, airborne_alt: np.ndarray, scratch: tuple[np.ndarray, ...], cond: tuple[np.ndarray, ...],
-    turns: tuple[()] | None, reso: tuple[()] | None,
+    turns: tuple[()] | None, reso: tuple[()] | None, counts: np.ndarray,
 ) -> tuple[int, int]:
     """:func:`advance` on the slot ranges ``lo[b] .. hi[b] - 1`` (no wind), each with its own settings.
 
@@ -753,18 +753,23 @@ def advance_ranges(
             of :func:`advance`; False where the previous call already ran it).
         hold_speed, airborne_alt: per range, the holding-speed [m/s] and airborne [m] thresholds.
         cond: the conditional commands of every range, with slots into ``F``.
+        counts: (out) per range, after a ``STATUS_REACHED`` return, how many of its aircraft reached
+            their waypoint (0: nothing to do there); after a ``STATUS_NONFINITE`` one, at least
+            ``2**40`` for a range with a non-finite state.
 
     Each aircraft is advanced by the same compiled code as in :func:`advance`, so the
     result is the same bit for bit as advancing each range alone.
     """
-    return _advance_ranges(F, B, lo, hi, check, dt, nsteps, hold_speed, airborne_alt, scratch, cond, turns, reso)
+    return _advance_ranges(F, B, lo, hi, check, dt, nsteps, hold_speed, airborne_alt, scratch, cond, turns, reso,
+                           counts)
 
 
 @njit(cache=True, parallel=True, error_model="numpy")
 def advance_ranges_parallel(
     F: np.ndarray, B: np.ndarray, lo: np.ndarray, hi: np.ndarray, check: np.ndarray, dt: float, nsteps: int,
     hold_speed: np.ndarray, airborne_alt: np.ndarray, scratch: tuple[np.ndarray, ...], cond: tuple[np.ndarray, ...],
-    turns: tuple[()] | None, reso: tuple[()] | None,
+    turns: tuple[()] | None, reso: tuple[()] | None, counts: np.ndarray,
 ) -> tuple[int, int]:
     """:func:`advance_ranges` with the ranges over Numba's threads (same results, bit for bit)."""
-    return _advance_ranges(F, B, lo, hi, check, dt, nsteps, hold_speed, airborne_alt, scratch, cond, turns, reso)
+    return _advance_ranges(F, B, lo, hi, check, dt, nsteps, hold_speed, airborne_alt, scratch, cond, turns, reso,
+                           counts)

@@ -95,13 +95,14 @@ class TrafficPool:
         turns: bool,
         resolution: bool,
         threads: int = 1,
-    ) -> tuple[int, int, list[tuple[np.ndarray, ...] | None]]:
+    ) -> tuple[int, int, np.ndarray, list[tuple[np.ndarray, ...] | None]]:
         """Advance the aircraft of ``worlds`` (no wind) by up to ``nsteps`` steps of ``dt`` [s] in one kernel call.
 
         Per world (in the order given): whether its waypoint test runs first, its holding-speed
         and airborne thresholds, and its conditional commands (None: none). ``threads`` > 1 splits
         the worlds over Numba's threads. Returns the kernel's ``(steps_done, status)`` and each
-        world's condition arrays (what :meth:`Conditions.arrays` gives it, None without conditions):
+        world's waypoint count (the kernel's ``counts``: 0 where no aircraft reached its waypoint)
+        and condition arrays (what :meth:`Conditions.arrays` gives it, None without conditions):
         each world reads its own waypoint and condition flags afterwards, as after a call of its own.
         """
         members = self.members
@@ -119,9 +120,10 @@ class TrafficPool:
         if threads > 1:
             numba.set_num_threads(threads)  # a per-thread setting: set it where the kernel runs
             kernel = advance_ranges_parallel
+        counts = np.empty(len(worlds), dtype=np.int64)
         k, status = kernel(self.F, self.B, lo, hi, check, dt, nsteps, hold_speed, airborne_alt, self.scratch, cond,
-                           () if turns else None, () if resolution else None)
-        return k, status, per_world
+                           () if turns else None, () if resolution else None, counts)
+        return k, status, counts, per_world
 
 
 class _JointConditions:

@@ -131,6 +131,9 @@ class AamVectorEnv(VectorEnv):
         episode_seed = int(ep.seed_rng.integers(SEED_BOUND)) if seed is None else int(seed)
         result = yield from ep.core.reset_steps(episode_seed)
         self._take(ep, result)
+        if self.traffic_policy is None and ep.ego not in result.alive and not result.done:
+            # Nobody acts or is observed until the ego exists: fly there without the steps' reports.
+            result = yield from ep.core.until_alive_steps(ep.ego)
         while ep.ego not in result.alive:
             if not result.alive and result.done:
                 raise RuntimeError(f"the scenario ended before {ep.ego} was created")
