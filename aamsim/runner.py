@@ -147,27 +147,31 @@ def run_scenario(
     wall0 = time.perf_counter()
     with StopOnSignal(sim) as stop:
         try:
-            sim.run(
-                until_s=cfg.until_s,
-                progress=(lambda s: progress(s, time.perf_counter() - wall0)) if progress else None,
-                progress_interval_s=10.0,
-            )
+            try:
+                sim.run(
+                    until_s=cfg.until_s,
+                    progress=(lambda s: progress(s, time.perf_counter() - wall0)) if progress else None,
+                    progress_interval_s=10.0,
+                )
+            finally:
+                wall = time.perf_counter() - wall0
+                if recorder is not None:
+                    recorder.flush()  # its thread writes the last rows while the other outputs are made
+            stop.hold()  # a second signal now would leave half-written files: the outputs come first
+            summary = make_summary(sim, cfg, path, wall)
+            summary["interrupted"] = stop.signal_name is not None
+            if stop.signal_name is not None:
+                summary["interrupted_by"] = stop.signal_name
+                sim.report("note", f"{stop.signal_name}: run stopped at sim time {sim.simt:.2f} s; outputs written")
+            for finish in sim.extensions.get("run_outputs", []):
+                finish(sim, out_dir, summary)
+            write_flights(out_dir / "flights.csv", iter_flights(sim))
+            (out_dir / "summary.json").write_text(json.dumps(summary, indent=2, sort_keys=False) + "\n")
+            with open(out_dir / "messages.log", "w", encoding="utf-8") as fh:
+                fh.writelines(f"{msg.simt:10.2f} {msg}\n" for msg in sim.reporter.messages)
         finally:
-            wall = time.perf_counter() - wall0
             if recorder is not None:
-                recorder.close()
-        stop.hold()  # a second signal now would leave half-written files: the outputs come first
-        summary = make_summary(sim, cfg, path, wall)
-        summary["interrupted"] = stop.signal_name is not None
-        if stop.signal_name is not None:
-            summary["interrupted_by"] = stop.signal_name
-            sim.report("note", f"{stop.signal_name}: run stopped at sim time {sim.simt:.2f} s; outputs written")
-        for finish in sim.extensions.get("run_outputs", []):
-            finish(sim, out_dir, summary)
-        write_flights(out_dir / "flights.csv", iter_flights(sim))
-        (out_dir / "summary.json").write_text(json.dumps(summary, indent=2, sort_keys=False) + "\n")
-        with open(out_dir / "messages.log", "w", encoding="utf-8") as fh:
-            fh.writelines(f"{msg.simt:10.2f} {msg}\n" for msg in sim.reporter.messages)
+                recorder.close()  # waits for its last rows
     return RunResult(sim, out_dir, summary, wall)
 
 
