@@ -27,7 +27,8 @@ def available_cores() -> int:
 
 def check_threads(threads: int | None = None) -> int:
     """The thread count to use: ``threads``, or ``AAMSIM_THREADS`` when None (default 1); a clear error
-    (ValueError) when it is not a whole number between 1 and the cores available."""
+    when it is not a whole number (TypeError; ValueError for the variable's text) or not between 1 and
+    the cores available (ValueError)."""
     source = "threads"
     if threads is None:
         text = os.environ.get(THREADS_ENV, "").strip()
@@ -39,7 +40,7 @@ def check_threads(threads: int | None = None) -> int:
         except ValueError:
             raise ValueError(f"{THREADS_ENV}={text!r} is not a whole number of threads") from None
     if isinstance(threads, bool) or not isinstance(threads, int):
-        raise ValueError(f"{source} must be a whole number, not {threads!r}")
+        raise TypeError(f"{source} must be a whole number, not {threads!r}")
     cores = available_cores()
     if not 1 <= threads <= cores:
         raise ValueError(f"{source} = {threads}: must be between 1 and {cores}, the CPU cores available "

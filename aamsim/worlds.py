@@ -27,12 +27,12 @@ from typing import Any
 import numpy as np
 
 from aamsim.simulation import (
+    _NO_CONDITIONS,
     AFTER_BOUNDARY,
     AFTER_CONTINUE,
     AFTER_LAST_STEP,
     PARALLEL_MIN_AIRCRAFT,
     Simulation,
-    _NO_CONDITIONS,
 )
 from aamsim.stack.queue import to_us
 from aamsim.threads import check_threads

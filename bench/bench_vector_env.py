@@ -32,10 +32,10 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-import gymnasium  # noqa: E402
+import gymnasium
 
-import rlbridge  # noqa: E402
-from rlbridge.vector import AamParallelVectorEnv  # noqa: E402
+import rlbridge
+from rlbridge.vector import AamParallelVectorEnv
 
 Timing = tuple[float, float, int]  # wall s, CPU s, transitions
 
@@ -138,8 +138,8 @@ def main() -> None:
     print(f"multi agent, corridor_sa:{'':21} transitions     wall         per s      per CPU-s")
     runs: dict[str, list[Timing]] = {"arrays": [], "dicts": [], "separate": []}
     for _ in range(args.repeat):
-        for kind in runs:
-            runs[kind].append(multi_agent(kind, n, args.steps, args.seed, kwargs))
+        for kind, timings in runs.items():
+            timings.append(multi_agent(kind, n, args.steps, args.seed, kwargs))
     a = _row(f"AamParallelVectorEnv, N = {n}, arrays", runs["arrays"], "agent-trans.")
     d = _row(f"AamParallelVectorEnv, N = {n}, dicts", runs["dicts"], "agent-trans.")
     b = _row(f"{n} separate parallel_env", runs["separate"], "agent-trans.")

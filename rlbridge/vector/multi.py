@@ -16,7 +16,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from pathlib import Path
-from typing import Any
+from typing import Any, ClassVar
 
 import gymnasium as gym
 import numpy as np
@@ -37,7 +37,7 @@ class AamParallelVectorEnv:
         threads: Numba threads stepping every sub-environment's aircraft (None: ``AAMSIM_THREADS``, else 1).
     """
 
-    metadata = {"name": "aamgym_parallel_vector", "is_parallelizable": True}
+    metadata: ClassVar[dict[str, Any]] = {"name": "aamgym_parallel_vector", "is_parallelizable": True}
 
     def __init__(self, num_envs: int = 1, scenario: str | Path | Sequence[str | Path] = "nyc_train_100.scn",
                  usecase: str = "corridor_sa", time_limit_s: float | None = None, dt: float = 0.05,
@@ -84,9 +84,10 @@ class AamParallelVectorEnv:
                 raise ValueError(f"options['reset_mask'] must be {n} booleans, at least one True")
         episode_seeds: dict[int, int] = {}
         for w in np.flatnonzero(mask).tolist():
-            if seeds[w] is not None:
-                self._seed_rngs[w] = np.random.default_rng(seeds[w])
-            episode_seeds[w] = int(self._seed_rngs[w].integers(SEED_BOUND)) if seeds[w] is None else int(seeds[w])
+            given = seeds[w]
+            if given is not None:
+                self._seed_rngs[w] = np.random.default_rng(given)
+            episode_seeds[w] = int(self._seed_rngs[w].integers(SEED_BOUND)) if given is None else int(given)
         results = self.engine.reset(episode_seeds)
         for w, result in results.items():
             self._take(w, result)
