@@ -7,6 +7,7 @@ import pytest
 
 from aamsim import Simulation
 from aamsim.services import build_services
+from aamsim.simulation import PARALLEL_MIN_AIRCRAFT
 from aamsim.threads import THREADS_ENV, available_cores, check_threads
 from aamsim.traffic.pool import TrafficPool
 from aamsim.worlds import WorldSet
@@ -141,3 +142,20 @@ def test_thread_counts_above_the_cores_and_bad_environment_values_are_clear_erro
     assert Simulation(threads=1, use_bluesky_navdata=False).threads == 1  # the argument wins
     monkeypatch.delenv(THREADS_ENV)
     assert check_threads(None) == 1
+
+
+@pytest.mark.slow
+@pytest.mark.skipif(available_cores() < 2, reason="needs two CPU cores")
+def test_worlds_on_two_threads_give_the_bits_of_one_thread():
+    """Above PARALLEL_MIN_AIRCRAFT in all, the worlds' ranges run on Numba's threads: the same bits."""
+    texts = [_scenario(s, n=PARALLEL_MIN_AIRCRAFT // 2 + 100) for s in (11, 12)]
+    runs = []
+    for threads in (1, 2):
+        worlds = WorldSet(2, threads=threads)
+        for k, text in enumerate(texts):
+            _fresh(worlds.new_simulation(k, seed=k, use_bluesky_navdata=False), text)
+        worlds.run_until({0: 45.0, 1: 50.0})
+        runs.append([_state(worlds.sim(k)) for k in range(2)])
+    assert sum(s.traffic.n for s in worlds.sims if s is not None) >= PARALLEL_MIN_AIRCRAFT
+    for a, b in zip(*runs):
+        _same(a, b)
