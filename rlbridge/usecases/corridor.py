@@ -171,8 +171,13 @@ class CorridorSA(UseCaseBase):
         start_overlay(sim, p.overlay, p.overlay_offset, p.overlay_area)
 
     # ------------------------------------------------------------ observation
-    def _route_arrays(self, sim: Simulation) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-        """Destination and next ``n_wpt`` waypoints of every aircraft (the destination repeats at the end)."""
+    def _route_arrays(self, sim: Simulation, slots: np.ndarray | None = None
+                      ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """Destination and next ``n_wpt`` waypoints of every aircraft (the destination repeats at the end).
+
+        ``slots``: only these aircraft's rows are filled (the others are not read: an observation of a
+        few agents needs them and their intruders only; the routes are read one aircraft at a time).
+        """
         t = sim.traffic
         n = t.n
         nw = self.params.n_wpt
@@ -182,7 +187,7 @@ class CorridorSA(UseCaseBase):
         wlon = np.empty((n, nw))
         view = sim.view
         lat, lon, lnav = view.lat, view.lon, view.lnav
-        for s in range(n):
+        for s in range(n) if slots is None else slots.tolist():
             route = t.routes[s]
             wps = route.waypoints
             if wps:
@@ -246,7 +251,8 @@ class CorridorSA(UseCaseBase):
         self._last_closest = nbr_d[:, 0].copy() if len(slots) else np.empty(0)
         if self.params.n_intruders == 0:
             nbr, nbr_d = nbr[:, :0], nbr_d[:, :0]
-        ddest, wlat, wlon, _, _ = self._route_arrays(sim)
+        needed = np.unique(np.concatenate([slots, nbr[nbr >= 0]])) if len(slots) < sim.traffic.n else None
+        ddest, wlat, wlon, _, _ = self._route_arrays(sim, needed)
         t = sim.view
         own, intr, mask = corridor_features(
             slots, t.lat, t.lon, t.alt, t.hdg, t.trk, t.ax, t.gs, ddest, wlat, wlon, nbr, nbr_d, self._scales,
