@@ -57,7 +57,6 @@ PARALLEL_MIN_AIRCRAFT = 1000
 # What a batch does after a kernel call (Simulation._after_kernel).
 AFTER_BOUNDARY, AFTER_CONTINUE, AFTER_TESTED, AFTER_LAST_STEP = 0, 1, 2, 3
 
-CONDITION_WAIT_LIMIT_S = 3600.0  # see Simulation._only_conditions_wait
 OVERSPEED_FACTOR = 2.0  # a created speed beyond this times the type's maximum is a typo (limited)
 MAX_MACH = 5.0  # for types without a Mach limit (rotorcraft: mmo = inf)
 
@@ -116,7 +115,7 @@ class Simulation(SimulationAPI):
         # Services with work still to come (a replay with tracks ahead) keep a run going: see is_quiescent.
         self.pending_work: list[Callable[[], bool]] = []
         self.quit_requested = False
-        self._conditions_idle_s = 0.0
+        self.ended_by = ""  # why the last run() stopped (see run)
         self._noted: set[str] = set()
         if register_builtins:
             from aamsim.stack.commands import register_builtin_commands
@@ -483,6 +482,20 @@ class Simulation(SimulationAPI):
         """Advance exactly one time step."""
         self.run_until(self.simt + self.dt)
 
+    def step_bluesky(self) -> None:
+        """One step as BlueSky's ``sim.step()`` takes it: what is due now, then one time step of the traffic.
+
+        Unlike :meth:`step`, what falls due at the new time (commands, hooks, the
+        performance refresh) waits for the next call, so that whatever the caller
+        does between two calls (create an aircraft, run a command) happens before
+        it, as in BlueSky. :mod:`aamsim.compat.bluesky` steps this way; a
+        simulation should be stepped one way or the other, not both.
+        """
+        self._boundary()
+        if self.state == self.STATE_HOLD or self.quit_requested:
+            return
+        self._advance_steps(1)
+
     def run_until(self, t_s: float) -> None:
         """Advance until sim time ``t_s`` (a step boundary at or after it)."""
         end_us = to_us(t_s)
@@ -494,13 +507,20 @@ class Simulation(SimulationAPI):
 
     def run(self, until_s: float | None = None, progress: Callable[[Simulation], None] | None = None,
             progress_interval_s: float = 60.0) -> None:
-        """Run until ``until_s`` or until nothing is left to happen.
+        """Run until ``until_s``, or without it until the scenario can change nothing more.
 
-        Nothing is left when no command is pending, no conditional command
-        waits and no aircraft flies (or every remaining aircraft has finished
-        its route, so that it would fly straight on forever).
+        Without ``until_s`` the run stops when nothing is left (no command
+        pending, no conditional command waiting, no aircraft on a route), when
+        nothing has progressed for an hour after the last command, or at the
+        default horizon a day after it (:mod:`aamsim.run_end`, which says why
+        in a note). :attr:`ended_by` names the reason: ``"until"``, ``"quit"``,
+        ``"nothing_left"``, ``"no_progress"`` or ``"horizon"``.
         """
-        chunk = progress_interval_s
+        from aamsim.run_end import OpenEndWatch
+
+        watch = OpenEndWatch()
+        chunk = min(progress_interval_s, 60.0)  # the open-ended checks come at least every minute
+        self.ended_by = ""
         while True:
             target = self.simt + chunk
             if until_s is not None:
@@ -511,31 +531,20 @@ class Simulation(SimulationAPI):
             if self.state == self.STATE_HOLD:
                 self.note_once("hold", "HOLD: aamsim run has no operator to resume it; continuing")
                 self.state = self.STATE_OP
-            if self.quit_requested or (until_s is not None and self.simt_us >= to_us(until_s)):
+            if self.quit_requested:
+                self.ended_by = "quit"
                 return
-            if until_s is None and self.is_quiescent():
+            if until_s is not None:
+                if self.simt_us >= to_us(until_s):
+                    self.ended_by = "until"
+                    return
+                continue
+            stop = watch.check(self, chunk)
+            if stop is not None:
+                self.ended_by, message = stop
+                if message:
+                    self.report("note", message)
                 return
-            if until_s is None and self._only_conditions_wait(chunk):
-                return
-
-    def _only_conditions_wait(self, chunk_s: float) -> bool:
-        """True once conditional commands alone have kept a finished scenario going for an hour.
-
-        An aircraft that misses the position of its ATDIST condition (and has no
-        route left) would otherwise keep an open-ended run alive forever.
-        """
-        view = self.view
-        routes_active = view.n and (view.lnav.any() or view.vnav.any())
-        if len(self.queue) or not len(self.conditions) or routes_active:
-            self._conditions_idle_s = 0.0
-            return False
-        self._conditions_idle_s += chunk_s
-        if self._conditions_idle_s >= CONDITION_WAIT_LIMIT_S:
-            self.report("note", f"stopped: nothing scheduled and no aircraft on a route for "
-                                f"{CONDITION_WAIT_LIMIT_S:.0f} s; {len(self.conditions)} conditional command(s) "
-                                "never fired (use --until to run longer)")
-            return True
-        return False
 
     def is_quiescent(self) -> bool:
         """True when the scenario can produce no further change worth simulating."""

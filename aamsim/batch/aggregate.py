@@ -19,6 +19,9 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from aamsim.metrics.stats import t_critical
+from aamsim.output.summary_file import check_complete
+
 # Top-level summary fields that are figures of the run (the rest describe it: paths, versions, seeds).
 RUN_FIGURES = ("sim_time_s", "wall_time_s", "aircraft_steps", "flights_created", "flights_deleted",
                "flights_arrived", "aircraft_at_end", "errors")
@@ -26,7 +29,13 @@ GROUPS = ("safety", "operational")
 
 
 def flatten_metrics(summary: dict[str, Any]) -> dict[str, float | None]:
-    """``summary.json`` -> {metric: value}: run figures, then ``safety.*`` and ``operational.*`` numbers."""
+    """``summary.json`` -> {metric: value}: run figures, then ``safety.*`` and ``operational.*`` numbers.
+
+    Raises:
+        IncompleteSummary: a provisional summary (``"complete": false``): its run was killed, and
+            its figures would enter the statistics as if it had finished.
+    """
+    check_complete(summary, f"summary.json of {summary.get('scenario', '?')} (seed {summary.get('seed')})")
     out: dict[str, float | None] = {}
     for key in RUN_FIGURES:
         if key in summary:
@@ -64,9 +73,7 @@ def describe(values: Sequence[float]) -> MetricStats:
     if n == 1:
         return MetricStats(1, mean, None, None, None)
     std = statistics.stdev(values)
-    from scipy.stats import t
-
-    half = float(t.ppf(0.975, n - 1)) * std / math.sqrt(n)
+    half = t_critical(n - 1) * std / math.sqrt(n)
     return MetricStats(n, mean, std, mean - half, mean + half)
 
 

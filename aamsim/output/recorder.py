@@ -101,6 +101,14 @@ class TrajectoryRecorder:
             written, self._written = self._written, None
             written.result()  # a write error surfaces here
 
+    def sync(self) -> None:
+        """Write every buffered row and hand them to the operating system (a run killed after this
+        leaves them all in the file, complete)."""
+        self.flush()
+        self._wait()  # the writer thread's last block is in the file object before it is flushed
+        if self._file is not None:
+            self._file.flush()
+
     def close(self) -> None:
         try:
             self.flush()

@@ -2,15 +2,33 @@
 
 One Q-network (flat observation -> 128 -> 128 -> one value per action, ReLU) is shared by
 all aircraft; every agent's transitions go into one replay memory. Exploration is
-epsilon-greedy with a linear schedule over collected transitions (agent decisions). The
-target network is copied from the online one every ``target_update`` transitions.
+epsilon-greedy with a linear schedule; the target network is copied from the online one
+every ``target_update`` steps (both counted as the schedule below counts).
 ``double=True`` uses van Hasselt et al.'s Double-DQN target, ``double=False`` Mnih et al.'s.
 The loss is the Huber loss of Mnih et al. (2015). Defaults are the paper's DDQN table.
 
-Scheduling (a documented choice; the paper does not say): each training iteration first
-stores the iteration's episodes in the replay memory, then makes one gradient step per
-``train_freq`` new transitions (once ``learning_starts`` transitions were collected); the
-workers act with the epsilon reached at the start of the iteration.
+Scheduling (``schedule``). The paper's hyper-parameters are RLlib keys (Ray 1.x DQN), so the
+default ``schedule="rllib"`` counts as RLlib's DQN counted them (docs/algorithms.md cites the
+source): *environment steps* (decisions of the multi-agent environment, each advancing every
+aircraft by the decision interval; RLlib's ``count_steps_by="env_steps"``). With
+``training_intensity=None`` RLlib alternates one round of sampling (``rollout_fragment_length``
+environment steps from each of ``num_workers`` workers) with one gradient step of
+``batch_size`` (``train_batch_size``), so a gradient step falls at every multiple of
+``rollout_fragment_length x rllib_num_workers`` environment steps (4 x 40 = 160 for the paper's
+run; our own number of workers does not change the ratio). A step is taken once
+``learning_starts`` environment steps were added; the target network is copied after a step
+when ``target_update`` environment steps passed since the last copy; epsilon decays over
+``eps_decay_steps`` environment steps. ``schedule="per_transition"`` keeps this project's
+earlier choice: one gradient step per ``train_freq`` aircraft transitions, and
+``learning_starts``, ``target_update`` and the epsilon decay counted in aircraft transitions.
+
+Either way each training iteration first stores the iteration's episodes in the replay
+memory, then makes the gradient steps that fall within the iteration's counts; the workers act
+with the epsilon reached at the start of the iteration.
+
+On CUDA (``static``) the replay memory lives on the device (:mod:`rlbridge.agents.device_replay`,
+sampled there) and the gradient step is captured once in a CUDA graph and replayed
+(:mod:`rlbridge.agents.capture`); on a CPU the same step runs eagerly from the numpy memory.
 
 The replay memory is a numpy ring of observation *rows* (see
 :mod:`rlbridge.agents.rollout`): an agent's next observation is the row ``next_off`` rows
@@ -27,29 +45,64 @@ import numpy as np
 import torch
 from torch import nn
 
+from rlbridge.agents.capture import CapturedStep, check_device, load_optimizer_state, static_optimizer
 from rlbridge.agents.core import LinearSchedule, ddqn_target, dqn_target
 from rlbridge.agents.d2mava import load_numpy_state, to_numpy_state
+from rlbridge.agents.device_replay import DeviceReplay, ring_rows
 from rlbridge.agents.rollout import ActOutput, EpisodeBatch
 from rlbridge.core import EpisodeCore, StepResult
+
+SCHEDULES = ("rllib", "per_transition")
 
 
 @dataclass
 class DDQNConfig:
-    """(D)DQN hyper-parameters (paper's Table "DDQN Hyperparameters" as defaults)."""
+    """(D)DQN hyper-parameters (paper's Table "DDQN Hyperparameters" as defaults).
+
+    The step counts (``eps_decay_steps``, ``target_update``, ``learning_starts``) are environment
+    steps with ``schedule="rllib"`` and aircraft transitions with ``schedule="per_transition"``.
+    """
 
     double: bool = True  # Double DQN target (False: DQN)
     lr: float = 1e-4
-    batch_size: int = 512
+    batch_size: int = 512  # RLlib's train_batch_size
     hidden: int = 128  # nodes per layer
     gamma: float = 0.99
     eps_start: float = 0.999
     eps_end: float = 0.0001
-    eps_decay_steps: int = 500_000  # transitions
+    eps_decay_steps: int = 500_000  # RLlib's exploration_config.epsilon_timesteps
     replay_size: int = 5_000_000  # rows
-    target_update: int = 50_000  # transitions between target-network copies
-    learning_starts: int = 10_000  # transitions before the first gradient step (not in the paper)
-    train_freq: int = 4  # transitions per gradient step (not in the paper)
+    target_update: int = 50_000  # steps between target-network copies (RLlib's target_network_update_freq)
+    # Update ratio (see the module docstring): "rllib" (the paper's run) or "per_transition".
+    schedule: str = "rllib"
+    rollout_fragment_length: int = 4  # rllib: RLlib DQN's default (not in the paper) [environment steps]
+    rllib_num_workers: int = 40  # rllib: the paper's N_workers (the ratio's, not this run's workers)
+    learning_starts: int = 1000  # steps before the first gradient step (RLlib's default; not in the paper)
+    train_freq: int = 4  # per_transition: transitions per gradient step (not in the paper)
     max_grad_norm: float = 10.0  # gradient clipping (not in the paper)
+
+    def __post_init__(self) -> None:
+        if self.schedule not in SCHEDULES:
+            raise ValueError(f"algorithm.params.schedule={self.schedule!r}: one of {', '.join(SCHEDULES)}")
+        for name in ("rollout_fragment_length", "rllib_num_workers", "train_freq", "batch_size"):
+            if int(getattr(self, name)) < 1:
+                raise ValueError(f"algorithm.params.{name} must be >= 1, not {getattr(self, name)!r}")
+
+    @property
+    def env_steps_per_gradient_step(self) -> int:
+        """``rollout_fragment_length x rllib_num_workers``: RLlib's natural ratio (schedule="rllib")."""
+        return int(self.rollout_fragment_length) * int(self.rllib_num_workers)
+
+
+def rllib_step_marks(start: int, end: int, period: int, learning_starts: int) -> list[int]:
+    """The environment-step counts in ``(start, end]`` at which RLlib's DQN takes a gradient step.
+
+    RLlib samples ``period`` environment steps per round (all workers) and then trains once, so
+    steps fall at the multiples of ``period``; a round trains only once the replay holds
+    ``learning_starts`` environment steps. Returns the counts ``m * period``, ascending.
+    """
+    first = max(start // period + 1, -(-int(learning_starts) // period), 1)
+    return [m * period for m in range(first, end // period + 1)]
 
 
 class QNetwork(nn.Module):
@@ -83,9 +136,7 @@ class ReplayMemory:
         return len(self.actions)
 
     def _grow(self, rows: int, template: dict[str, np.ndarray]) -> None:
-        new = min(self.capacity, max(self._initial, self.allocated))
-        while new < rows and new < self.capacity:
-            new = min(self.capacity, new * 2)
+        new = ring_rows(self.allocated, rows, self.capacity, self._initial)
         if new == self.allocated:
             return
 
@@ -191,23 +242,40 @@ class DDQNLearner:
 
     obs_format = "flat"
 
-    def __init__(self, config: dict[str, Any], dims: dict[str, Any], device: str = "cpu", seed: int = 0):
+    def __init__(self, config: dict[str, Any], dims: dict[str, Any], device: str = "cpu", seed: int = 0,
+                 static: bool | None = None):
+        """``static``: the replay on the device and a fixed-shape gradient step (captured in a CUDA graph
+        on a GPU, see the module docstring); None: on CUDA only. The CPU keeps the numpy replay."""
         self.config = DDQNConfig(**config)
         self.dims = dict(dims)
-        self.device = torch.device(device)
+        self.device = check_device(device)
         torch.manual_seed(seed)
         n_act = int(dims["n_actions"])
         self.q = QNetwork(flat_dim(dims), n_act, self.config.hidden).to(self.device)
         self.q_target = QNetwork(flat_dim(dims), n_act, self.config.hidden).to(self.device)
         self.q_target.load_state_dict(self.q.state_dict())
-        self.optimizer = torch.optim.Adam(self.q.parameters(), lr=self.config.lr)
-        self.memory = ReplayMemory(self.config.replay_size)
+        self.static = self.device.type == "cuda" if static is None else bool(static)
+        params = list(self.q.parameters())
+        self.optimizer = static_optimizer(params, self.device, self.config.lr, 1e-8) if self.static \
+            else torch.optim.Adam(params, lr=self.config.lr)
+        self.memory: ReplayMemory | DeviceReplay = DeviceReplay(self.config.replay_size, self.device, seed) \
+            if self.static else ReplayMemory(self.config.replay_size)
         self.rng = np.random.default_rng(seed)
+        if self.static:
+            b, dev = self.config.batch_size, self.device
+            self._batch: dict[str, Any] = {  # the captured step's inputs (filled on the device each step)
+                "obs": {"flat": torch.zeros((b, flat_dim(dims)), device=dev)},
+                "next_obs": {"flat": torch.zeros((b, flat_dim(dims)), device=dev)},
+                "actions": torch.zeros(b, dtype=torch.int64, device=dev), "rewards": torch.zeros(b, device=dev),
+                "terminated": torch.zeros(b, dtype=torch.bool, device=dev)}
+            self._loss_sum = torch.zeros((), dtype=torch.float64, device=dev)
+            self._step = CapturedStep(self._static_step, params, self.optimizer, capture=dev.type == "cuda")
         self.epsilon = LinearSchedule(self.config.eps_start, self.config.eps_end, self.config.eps_decay_steps)
-        self.transitions = 0  # collected so far
-        self.step_credit = 0.0  # transitions not yet paid for by a gradient step
+        self.transitions = 0  # aircraft transitions collected so far
+        self.env_steps = 0  # environment steps collected so far
+        self.step_credit = 0.0  # per_transition: transitions not yet paid for by a gradient step
         self.gradient_steps = 0
-        self.last_sync = 0  # transition count at the last target copy
+        self.last_sync = 0  # the count (env steps or transitions, as the schedule counts) at the last target copy
 
     # -------------------------------------------------------------- worker side
     def actor_spec(self, kind: str) -> dict[str, Any]:
@@ -216,8 +284,12 @@ class DDQNLearner:
     def weights(self) -> dict[str, np.ndarray]:
         return to_numpy_state(self.q)
 
-    def explore(self, transitions: int) -> dict[str, Any]:
-        return {"epsilon": self.epsilon(transitions)}
+    def explore(self, transitions: int, env_steps: int = 0) -> dict[str, Any]:
+        """Epsilon after ``transitions`` aircraft transitions / ``env_steps`` environment steps collected."""
+        return {"epsilon": self.epsilon(env_steps if self.config.schedule == "rllib" else transitions)}
+
+    def _count(self) -> int:
+        return self.env_steps if self.config.schedule == "rllib" else self.transitions
 
     def eval_explore(self) -> dict[str, Any]:
         return {"epsilon": 0.0}
@@ -225,11 +297,13 @@ class DDQNLearner:
     # ------------------------------------------------------------------ update
     def targets(self, sample: dict[str, Any]) -> torch.Tensor:
         """One-step targets of a sample: Double-DQN or DQN (see :mod:`rlbridge.agents.core`)."""
-        c = self.config
         dev = self.device
-        nxt = torch.as_tensor(sample["next_obs"]["flat"], device=dev)
-        rewards = torch.as_tensor(sample["rewards"], device=dev)
-        term = torch.as_tensor(sample["terminated"], device=dev)
+        return self._targets(torch.as_tensor(sample["next_obs"]["flat"], device=dev),
+                             torch.as_tensor(sample["rewards"], device=dev),
+                             torch.as_tensor(sample["terminated"], device=dev))
+
+    def _targets(self, nxt: torch.Tensor, rewards: torch.Tensor, term: torch.Tensor) -> torch.Tensor:
+        c = self.config
         with torch.no_grad():
             q_next_target = self.q_target(nxt)
             if c.double:
@@ -238,56 +312,106 @@ class DDQNLearner:
 
     def td_loss(self, sample: dict[str, Any]) -> torch.Tensor:
         """Huber loss between Q(s, a) and the targets."""
-        obs = torch.as_tensor(sample["obs"]["flat"], device=self.device)
-        actions = torch.as_tensor(sample["actions"], device=self.device)
+        dev = self.device
+        return self._td_loss(torch.as_tensor(sample["obs"]["flat"], device=dev),
+                             torch.as_tensor(sample["actions"], device=dev),
+                             torch.as_tensor(sample["next_obs"]["flat"], device=dev),
+                             torch.as_tensor(sample["rewards"], device=dev),
+                             torch.as_tensor(sample["terminated"], device=dev))
+
+    def _td_loss(self, obs: torch.Tensor, actions: torch.Tensor, nxt: torch.Tensor, rewards: torch.Tensor,
+                 term: torch.Tensor) -> torch.Tensor:
         q = self.q(obs).gather(1, actions.unsqueeze(1)).squeeze(1)
-        return nn.functional.smooth_l1_loss(q, self.targets(sample))
+        return nn.functional.smooth_l1_loss(q, self._targets(nxt, rewards, term))
+
+    def _static_step(self) -> None:
+        """The gradient step on ``self._batch`` (what the CUDA graph records): no zero_grad, no host read."""
+        s = self._batch
+        loss = self._td_loss(s["obs"]["flat"], s["actions"], s["next_obs"]["flat"], s["rewards"], s["terminated"])
+        loss.backward()
+        nn.utils.clip_grad_norm_(self.q.parameters(), self.config.max_grad_norm)
+        self.optimizer.step()
+        self._loss_sum += loss.detach().to(self._loss_sum.dtype)
 
     def update(self, batches: list[EpisodeBatch]) -> dict[str, float]:
-        c = self.config
-        new = 0
+        """Store the episodes, then the gradient steps (and target copies) their counts call for."""
+        new = env_new = 0
         for b in batches:
             self.memory.add(b)
             new += len(b)
-        start = self.transitions
+            env_new += int(b.stats.env_steps)
+        start_tr, start_env = self.transitions, self.env_steps
         self.transitions += new
+        self.env_steps += env_new
+        marks = self._step_marks(start_tr, start_env)
+        losses = []
+        if self.static and marks:
+            self._loss_sum.zero_()
+        for mark in marks:
+            if self.static:
+                assert isinstance(self.memory, DeviceReplay)
+                self.memory.gather(self.memory.sample_slots(self.config.batch_size), self._batch)
+                if self._step.prepare():  # the first step records the graph (CUDA) from this batch
+                    self._loss_sum.zero_()
+                self._step()
+                self.gradient_steps += 1
+            else:
+                assert isinstance(self.memory, ReplayMemory)
+                losses.append(self.gradient_step(self.memory.sample(self.config.batch_size, self.rng)))
+            if mark - self.last_sync >= self.config.target_update:
+                self.q_target.load_state_dict(self.q.state_dict())  # in place: a captured step stays valid
+                self.last_sync = int(mark)
+        out = {"epsilon": self.epsilon(self._count()), "gradient_steps": float(self.gradient_steps),
+               "replay_rows": float(self.memory.size)}
+        if marks:  # one device read per update
+            out["td_loss"] = float(self._loss_sum) / len(marks) if self.static \
+                else float(torch.stack(losses).double().mean())
+        elif self._count() >= self.config.learning_starts:
+            out["td_loss"] = float("nan")
+        return out
+
+    def _step_marks(self, start_tr: int, start_env: int) -> list[float]:
+        """The counts (as the schedule counts) at which this update's gradient steps fall, ascending."""
+        c = self.config
+        if c.schedule == "rllib":
+            return [float(m) for m in rllib_step_marks(start_env, self.env_steps, c.env_steps_per_gradient_step,
+                                                       c.learning_starts)]
         if self.transitions < c.learning_starts:
-            return {"epsilon": self.epsilon(self.transitions), "gradient_steps": float(self.gradient_steps)}
-        self.step_credit += self.transitions - max(start, c.learning_starts)
+            return []
+        self.step_credit += self.transitions - max(start_tr, c.learning_starts)
         steps = int(self.step_credit // c.train_freq)
         self.step_credit -= steps * c.train_freq
-        losses = []
-        for k in range(steps):
-            loss = self.td_loss(self.memory.sample(c.batch_size, self.rng))
-            self.optimizer.zero_grad()
-            loss.backward()
-            nn.utils.clip_grad_norm_(self.q.parameters(), c.max_grad_norm)
-            self.optimizer.step()
-            self.gradient_steps += 1
-            losses.append(loss.item())
-            # Target copies at the transition counts they belong to, spread over this iteration's steps.
-            reached = start + (k + 1) * (self.transitions - start) / max(steps, 1)
-            if reached - self.last_sync >= c.target_update:
-                self.q_target.load_state_dict(self.q.state_dict())
-                self.last_sync = int(reached)
-        return {"td_loss": float(np.mean(losses)) if losses else float("nan"),
-                "epsilon": self.epsilon(self.transitions), "gradient_steps": float(self.gradient_steps),
-                "replay_rows": float(self.memory.size)}
+        # Target copies at the transition counts they belong to, spread over this iteration's steps.
+        return [start_tr + (k + 1) * (self.transitions - start_tr) / max(steps, 1) for k in range(steps)]
+
+    def gradient_step(self, sample: dict[str, Any]) -> torch.Tensor:
+        """One Adam step on the Huber TD loss of ``sample``; returns the loss (0-d, detached, on the device)."""
+        loss = self.td_loss(sample)
+        self.optimizer.zero_grad()
+        loss.backward()
+        nn.utils.clip_grad_norm_(self.q.parameters(), self.config.max_grad_norm)
+        self.optimizer.step()
+        self.gradient_steps += 1
+        return loss.detach()
 
     # ------------------------------------------------------------- checkpoints
     def state_dict(self) -> dict[str, Any]:
         """Networks, optimiser and counters (the replay memory is not saved: it would take GBs)."""
-        return {"model": self.q.state_dict(), "target": self.q_target.state_dict(),
+        extra = {"device_rng": self.memory.gen.get_state()} if isinstance(self.memory, DeviceReplay) else {}
+        return {**extra, "model": self.q.state_dict(), "target": self.q_target.state_dict(),
                 "optimizer": self.optimizer.state_dict(), "rng": self.rng.bit_generator.state,
-                "transitions": self.transitions, "step_credit": self.step_credit,
+                "transitions": self.transitions, "env_steps": self.env_steps, "step_credit": self.step_credit,
                 "gradient_steps": self.gradient_steps, "last_sync": self.last_sync}
 
     def load_state_dict(self, state: dict[str, Any]) -> None:
         self.q.load_state_dict(state["model"])
         self.q_target.load_state_dict(state["target"])
-        self.optimizer.load_state_dict(state["optimizer"])
+        load_optimizer_state(self.optimizer, state["optimizer"])
         self.rng.bit_generator.state = state["rng"]
+        if isinstance(self.memory, DeviceReplay) and "device_rng" in state:
+            self.memory.gen.set_state(state["device_rng"])
         self.transitions = int(state["transitions"])
+        self.env_steps = int(state.get("env_steps", 0))  # checkpoints before the rllib schedule: none counted
         self.step_credit = float(state["step_credit"])
         self.gradient_steps = int(state["gradient_steps"])
         self.last_sync = int(state["last_sync"])

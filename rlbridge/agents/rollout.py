@@ -67,6 +67,9 @@ class EpisodeStats:
     sim_s: float
     wall_s: float
     metrics: dict[str, Any] = field(default_factory=dict)  # standard safety/operational groups
+    # Environment steps: decisions of the multi-agent environment (one advances every aircraft by the
+    # decision interval), what RLlib counts by default (count_steps_by="env_steps").
+    env_steps: int = 0
 
     def to_dict(self) -> dict[str, Any]:
         return asdict(self)
@@ -317,6 +320,7 @@ class _EpisodeRun:
         self.result = result
         self.rec = TrajectoryRecorder() if record else None
         self.transitions = 0
+        self.env_steps = 0
         self.reward_total = 0.0
         self.pending: dict[str, tuple[int, int, float]] = {}  # agent -> (row, action, logp) of its last decision
         self.finished = False
@@ -352,6 +356,7 @@ class _EpisodeRun:
         lp = np.zeros(len(acting), np.float32) if out.logp is None else np.asarray(out.logp)[acting]
         self.pending = {result.agents[k]: (int(rows[k]), int(act_rows[i]), float(lp[i]))
                         for i, k in enumerate(acting)}
+        self.env_steps += 1  # the engine steps it with these actions
         return actions
 
     def _finish(self) -> None:
@@ -366,7 +371,8 @@ class _EpisodeRun:
             transitions=self.transitions, reward_total=self.reward_total,
             reward_per_aircraft=self.reward_total / max(aircraft, 1),
             nmac_events=int(safety.get("nmac_events", 0)), lowc_events=int(safety.get("lowc_events", 0)),
-            sim_s=float(result.simt), wall_s=time.perf_counter() - self.t0, metrics=metrics)
+            sim_s=float(result.simt), wall_s=time.perf_counter() - self.t0, metrics=metrics,
+            env_steps=self.env_steps)
         self._batch = self.rec.batch(stats) if self.rec is not None else EpisodeBatch.empty(stats)
         self.finished = True
 
