@@ -158,24 +158,30 @@ def run_scenario(
 
     with StopOnSignal(sim) as stop:
         try:
-            sim.run(until_s=cfg.until_s, progress=chunk_done, progress_interval_s=10.0)
-        finally:
-            wall = time.perf_counter() - wall0
+            try:
+                sim.run(until_s=cfg.until_s, progress=chunk_done, progress_interval_s=10.0)
+            finally:
+                wall = time.perf_counter() - wall0
+                if recorder is not None:
+                    recorder.flush()  # its thread writes the last rows while the other outputs are made
+            stop.hold()  # a second signal now would leave half-written files: the outputs come first
+            summary = make_summary(sim, cfg, path, wall)
+            summary["complete"] = True
+            summary["interrupted"] = stop.signal_name is not None
+            if stop.signal_name is not None:
+                summary["interrupted_by"] = stop.signal_name
+                sim.report("note", f"{stop.signal_name}: run stopped at sim time {sim.simt:.2f} s; outputs written")
+            for finish in sim.extensions.get("run_outputs", []):
+                finish(sim, out_dir, summary)
+            write_flights(out_dir / "flights.csv", iter_flights(sim))
+            with open(out_dir / "messages.log", "w", encoding="utf-8") as fh:
+                fh.writelines(f"{msg.simt:10.2f} {msg}\n" for msg in sim.reporter.messages)
             if recorder is not None:
-                recorder.close()
-        stop.hold()  # a second signal now would leave half-written files: the outputs come first
-        summary = make_summary(sim, cfg, path, wall)
-        summary["complete"] = True
-        summary["interrupted"] = stop.signal_name is not None
-        if stop.signal_name is not None:
-            summary["interrupted_by"] = stop.signal_name
-            sim.report("note", f"{stop.signal_name}: run stopped at sim time {sim.simt:.2f} s; outputs written")
-        for finish in sim.extensions.get("run_outputs", []):
-            finish(sim, out_dir, summary)
-        write_flights(out_dir / "flights.csv", iter_flights(sim))
-        write_json_atomic(out_dir / "summary.json", summary)
-        with open(out_dir / "messages.log", "w", encoding="utf-8") as fh:
-            fh.writelines(f"{msg.simt:10.2f} {msg}\n" for msg in sim.reporter.messages)
+                recorder.close()  # its last rows: a summary that says complete comes after them
+            write_json_atomic(out_dir / "summary.json", summary)
+        finally:
+            if recorder is not None:
+                recorder.close()  # (a second close does nothing)
     return RunResult(sim, out_dir, summary, wall)
 
 

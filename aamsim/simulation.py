@@ -40,6 +40,7 @@ from aamsim.stack.executor import CommandExecutor
 from aamsim.stack.parser import Command, ParsedScenario, parse_scenario
 from aamsim.stack.queue import CommandQueue, to_us
 from aamsim.stack.registry import CommandRegistry
+from aamsim.threads import check_threads
 from aamsim.traffic import intents
 from aamsim.traffic.autopilot import pass_waypoint
 from aamsim.traffic.conditions import Conditions
@@ -53,6 +54,9 @@ from aamsim.units import FT, KTS, MAX_ALTITUDE_FT, MAX_CALLSIGN_CHARS, MIN_ALTIT
 # 2-core machine: no gain up to a few thousand aircraft, 1.3-1.8x at 10,000.
 PARALLEL_MIN_AIRCRAFT = 1000
 
+
+# What a batch does after a kernel call (Simulation._after_kernel).
+AFTER_BOUNDARY, AFTER_CONTINUE, AFTER_TESTED, AFTER_LAST_STEP = 0, 1, 2, 3
 
 OVERSPEED_FACTOR = 2.0  # a created speed beyond this times the type's maximum is a typo (limited)
 MAX_MACH = 5.0  # for types without a Mach limit (rotorcraft: mmo = inf)
@@ -78,7 +82,8 @@ class Simulation(SimulationAPI):
         performance: PerformanceTable | None = None,
         use_bluesky_navdata: bool = True,
         register_builtins: bool = True,
-        threads: int = 1,
+        threads: int | None = None,
+        traffic: Traffic | None = None,
     ):
         try:
             self.clock = Clock(dt)  # the one check every entry point shares (aamsim.clock)
@@ -86,11 +91,14 @@ class Simulation(SimulationAPI):
             raise CommandError(f"DT: {exc}") from None
         self.settings = SimSettings()
         self.threads = 1
-        self.set_threads(threads)
+        self.set_threads(check_threads(threads))
         self.seed = seed
         self._rng = np.random.default_rng(seed)
         self.state = self.STATE_INIT
-        self.traffic = Traffic()
+        # An empty Traffic of its own, or a block of a pool that several simulations share (aamsim.worlds).
+        self.traffic = traffic if traffic is not None else Traffic()
+        if self.traffic.n:
+            raise ValueError("a new simulation starts with an empty traffic")
         self.wind = WindField()
         self.hooks = Hooks()
         self.scheduler = Scheduler(self.clock, self.hooks)
@@ -111,8 +119,6 @@ class Simulation(SimulationAPI):
         self.quit_requested = False
         self.ended_by = ""  # why the last run() stopped (see run)
         self._noted: set[str] = set()
-        self._scratch_cap = 0
-        self._alloc_scratch()
         if register_builtins:
             from aamsim.stack.commands import register_builtin_commands
 
@@ -161,10 +167,10 @@ class Simulation(SimulationAPI):
         when there are at least :data:`PARALLEL_MIN_AIRCRAFT` aircraft, below
         which meeting the threads every step costs more than it saves. It
         pays only with idle cores (see ``bench/bench_sim.py --threads``).
+        ``Simulation(threads=None)`` takes ``AAMSIM_THREADS`` (:mod:`aamsim.threads`);
+        more threads than cores is an error.
         """
-        available = int(numba.config.NUMBA_NUM_THREADS)  # type: ignore[attr-defined]
-        if not 1 <= threads <= available:
-            raise ValueError(f"threads must be between 1 and {available} (NUMBA_NUM_THREADS), not {threads}")
+        threads = check_threads(threads)
         if threads > 1:
             # The kernel's threads meet after every step. With OpenMP's default
             # spin-waiting, a machine with more busy threads than cores ran the
@@ -292,7 +298,6 @@ class Simulation(SimulationAPI):
         if self.state == self.STATE_INIT:
             self.state = self.STATE_OP
         self.scheduler.perf_pending = True
-        self._alloc_scratch()
         self.hooks.created.call(self, i)
         return i
 
@@ -350,16 +355,6 @@ class Simulation(SimulationAPI):
         return record
 
     # ------------------------------------------------------------------ stepping
-    def _alloc_scratch(self) -> None:
-        cap = self.traffic.capacity
-        if cap != self._scratch_cap:
-            self._scratch_qdr = np.zeros(cap)
-            self._scratch_dist = np.zeros(cap)
-            self._reached = np.zeros(cap, dtype=np.bool_)
-            self._fresh = np.zeros(cap, dtype=np.bool_)
-            self._scratch = (self._scratch_qdr, self._scratch_dist, self._fresh, self._reached)
-            self._scratch_cap = cap
-
     def _run_due_commands(self) -> None:
         # Commands may queue more commands due now (SCHEDULE, PCALL, conditions).
         queue, clock = self.scheduler.queue, self.clock
@@ -391,8 +386,6 @@ class Simulation(SimulationAPI):
         """Advance the traffic ``nsteps`` steps, handling events inside the batch."""
         done = 0
         check_first = True
-        clock = self.clock
-        dt = clock.dt_s
         while done < nsteps:
             traffic = self.traffic
             n = traffic.n
@@ -406,12 +399,12 @@ class Simulation(SimulationAPI):
                 traffic.F,
                 traffic.B,
                 n,
-                dt,
+                self.clock.dt_s,
                 nsteps - done,
                 check_first,
                 self.settings.hold_speed_mps,
                 self.settings.airborne_alt_m,
-                self._scratch,
+                traffic.scratch,
                 cond,
                 self.wind.arrays() if self.wind.active else None,
                 () if traffic.turn_speeds_used else None,
@@ -419,25 +412,40 @@ class Simulation(SimulationAPI):
                 *extra,
             )
             done += k
-            clock.simt_us += k * clock.dt_us
-            self.aircraft_steps += k * n
-            if status == STATUS_NONFINITE:
-                self._remove_non_finite()
+            after = self._after_kernel(k, status, n, cond)
+            if after == AFTER_BOUNDARY:
                 return
-            check_first = True
-            if len(self.conditions) and k:
-                fired = self.conditions.update_after(cond[3], cond[6])
-                for c in fired:
-                    self.schedule(self.simt, c.command, c.source)
-                if fired:
-                    return
-            if status == STATUS_REACHED:
-                stop_after_step = self._pass_waypoints()
-                check_first = False  # finish this step without testing again
-                if stop_after_step:
-                    nsteps = done + 1
-            elif status == STATUS_CONDITION:
-                return
+            check_first = after == AFTER_CONTINUE
+            if after == AFTER_LAST_STEP:
+                nsteps = done + 1
+
+    def _after_kernel(self, k: int, status: int, n: int, cond: tuple[np.ndarray, ...]) -> int:
+        """Account for ``k`` kernel steps of ``n`` aircraft and handle the event that ended the call.
+
+        Returns what the batch does next: ``AFTER_BOUNDARY`` (it ends: back to the step
+        boundary), ``AFTER_CONTINUE`` (go on, waypoint test first), ``AFTER_TESTED`` (go on,
+        the test for the next step already ran) or ``AFTER_LAST_STEP`` (as ``AFTER_TESTED``
+        but the batch ends after the next step). :class:`aamsim.worlds.WorldSet` calls it
+        for each of its simulations after a kernel call that stepped them together.
+        """
+        clock = self.clock
+        clock.simt_us += k * clock.dt_us
+        self.aircraft_steps += k * n
+        if status == STATUS_NONFINITE:
+            self._remove_non_finite()
+            return AFTER_BOUNDARY
+        if len(self.conditions) and k:
+            fired = self.conditions.update_after(cond[3], cond[6])
+            for c in fired:
+                self.schedule(self.simt, c.command, c.source)
+            if fired:
+                return AFTER_BOUNDARY
+        if status == STATUS_REACHED:
+            # The test for the next step has run: finish this step without testing again.
+            return AFTER_LAST_STEP if self._pass_waypoints() else AFTER_TESTED
+        if status == STATUS_CONDITION:
+            return AFTER_BOUNDARY
+        return AFTER_CONTINUE
 
     def _remove_non_finite(self) -> None:
         """Delete aircraft whose state went non-finite, naming the last command that touched each.
@@ -462,12 +470,13 @@ class Simulation(SimulationAPI):
         so that the batch ends after the current step.
         """
         traffic = self.traffic
-        reached = np.flatnonzero(self._reached[: traffic.n])
+        scratch_qdr, scratch_dist, fresh, reached_flags = traffic.scratch
+        reached = np.flatnonzero(reached_flags[: traffic.n])
         side_effects = False
         # Highest slot first: deleting swaps the last aircraft into the freed slot.
         for i in reached[::-1]:
             i = int(i)
-            self._fresh[i] = False  # its leg changed: guidance must be recomputed
+            fresh[i] = False  # its leg changed: guidance must be recomputed
             commands, was_last = pass_waypoint(traffic, i)
             acid = traffic.ids[i]
             for text, source in commands:
@@ -477,9 +486,9 @@ class Simulation(SimulationAPI):
                 last = traffic.n - 1
                 self.delete_aircraft(i, arrived=True)
                 # The aircraft from the last slot now sits in slot i.
-                self._fresh[i] = self._fresh[last] if i != last else False
-                self._scratch_qdr[i] = self._scratch_qdr[last]
-                self._scratch_dist[i] = self._scratch_dist[last]
+                fresh[i] = fresh[last] if i != last else False
+                scratch_qdr[i] = scratch_qdr[last]
+                scratch_dist[i] = scratch_dist[last]
                 side_effects = True
         return side_effects
 

@@ -89,6 +89,7 @@ def main(argv: list[str] | None = None) -> int:
     _wrap(ConflictService, "check", "conflict checks")
     _wrap(TrajectoryRecorder, "sample", "trajectories.csv")
     _wrap(TrajectoryRecorder, "flush", "trajectories.csv")
+    _wrap(TrajectoryRecorder, "close", "trajectories.csv")  # the wait for its writer thread
     _wrap_outputs(services)
     with tempfile.TemporaryDirectory(prefix="run-phases-") as tmp:
         sys.argv = ["aamsim", "run", args.scenario, "--until", args.until, "--out", str(Path(tmp) / "run"), "--quiet"]

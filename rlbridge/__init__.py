@@ -5,6 +5,7 @@
     env = gymnasium.make("aamgym/CorridorSA-v1", scenario="...")   # single aircraft (registered on import)
     env = gymnasium.make("aamgym/ReachDestination-v1", scenario="...")  # every use case has its id
     env = gymnasium.make("aamgym/CorridorSA-v0", scenario="...")   # the same on fixed traffic (results made before v1)
+    envs = gymnasium.make_vec("aamgym/CorridorSA-v1", num_envs=16)   # 16 in one process (rlbridge.vector)
 """
 
 from __future__ import annotations
@@ -27,13 +28,18 @@ def register_env(usecase: str) -> str:
 
     cls = usecase_class(usecase)
     entry = "rlbridge.envs:CorridorSAEnv" if usecase == "corridor_sa" else "rlbridge.envs:AamSingleAgentEnv"
+    # gymnasium.make_vec builds the native vector environment (N episodes in one process, one kernel call
+    # per batch for all: rlbridge.vector); vectorization_mode="sync" still gives SyncVectorEnv.
+    vector = "rlbridge.vector.single:make_vector_env"
     current = env_id(usecase)
     fixed = env_id(usecase, 0)
     if current not in gymnasium.registry:
-        gymnasium.register(id=current, entry_point=entry, kwargs={"usecase": usecase}, disable_env_checker=False)
+        gymnasium.register(id=current, entry_point=entry, vector_entry_point=vector, kwargs={"usecase": usecase},
+                           disable_env_checker=False)
     if fixed != current and fixed not in gymnasium.registry:
         kwargs = {"usecase": usecase, "draw_ego": False, **getattr(cls, "fixed_traffic", {})}
-        gymnasium.register(id=fixed, entry_point=entry, kwargs=kwargs, disable_env_checker=False)
+        gymnasium.register(id=fixed, entry_point=entry, vector_entry_point=vector, kwargs=kwargs,
+                           disable_env_checker=False)
     return current
 
 

@@ -9,11 +9,18 @@ created the aircraft: CRE, MCRE, PCALL, SCHEDULE, a plugin) and leave
 (terminated) with its deletion events, e.g. on arrival. The local
 backend calls it in-process; the ZMQ server calls the very same code, so both
 backends give identical results.
+
+``reset`` and ``step`` are written as generators (:meth:`EpisodeCore.reset_steps`,
+:meth:`EpisodeCore.step_steps`) that yield each sim time the simulation must be
+run to: ``reset``/``step`` run them on the episode's own simulation, and the
+vector engine (:mod:`rlbridge.vector`) runs the yields of many episodes together
+on one :class:`~aamsim.worlds.WorldSet`, which gives each episode exactly what
+it gives alone.
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Collection, Generator
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -36,6 +43,9 @@ from rlbridge.usecases.registry import make_usecase
 TRAFFIC_STATE_FIELDS = ("lat", "lon", "alt", "tas", "gs", "trk", "vs")
 DEFAULT_EXTRA_TIME_S = 7200.0  # default episode limit: last scheduled command + 2 h
 ADVANCE_CHUNK_S = 60.0  # a longer advance checks every this many seconds whether the scenario is over
+
+# What reset_steps/step_steps yield: the sim times [s] to run the simulation to, and finally the result.
+Steps = Generator[float, None, "StepResult"]
 
 
 class ScenarioError(ValueError):
@@ -113,6 +123,7 @@ class EpisodeCore:
         plugins: tuple[str, ...] = (),
         file_guard: Callable[[Path], None] | None = None,
         limits: SimulationLimits | None = None,
+        threads: int | None = None,
     ):
         path = resolve_scenario(scenario)
         if path is None:
@@ -124,6 +135,13 @@ class EpisodeCore:
         self.plugins = tuple(plugins)
         self.file_guard = file_guard
         self.limits = limits or SimulationLimits()  # a server's limits on each episode's simulation
+        self.threads = threads
+        # Makes each episode's simulation (keyword arguments of Simulation); the vector engine
+        # replaces it to place the episode in its world set.
+        self.make_simulation: Callable[..., Simulation] = Simulation
+        # Agents whose observations and rewards are computed (None: every agent). A single-agent
+        # view needs its ego's only; the others fly on unobserved (observing changes nothing).
+        self.watch: Collection[str] | None = None
         template = Simulation(use_bluesky_navdata=True)
         self._parsed = template.parse(self.text, str(path))
         self.parse_errors = [str(e) for e in self._parsed.errors]
@@ -151,7 +169,7 @@ class EpisodeCore:
 
     # ----------------------------------------------------------------- helpers
     def _new_simulation(self, seed: int | None) -> Simulation:
-        sim = Simulation(seed=seed, dt=self.dt)
+        sim = self.make_simulation(seed=seed, dt=self.dt, threads=self.threads)
         sim.files.name = self.path.stem
         sim.files.path = self.path
         sim.files.text = self.text
@@ -213,6 +231,10 @@ class EpisodeCore:
 
     def _advance(self) -> None:
         """Advance to the use case's next decision; skip ahead while no agent is alive."""
+        self._run(self._advance_steps())
+
+    def _advance_steps(self) -> Generator[float, None, None]:
+        """:meth:`_advance` as the sim times to run to (see the module docstring)."""
         sim = self.sim
         assert sim is not None
         while True:
@@ -225,7 +247,7 @@ class EpisodeCore:
             # A long advance (a planner's last decision flies the rest of the episode) stops as soon as
             # the scenario is over instead of running an empty sky up to the time limit.
             while True:
-                sim.run_until(min(target, sim.simt + ADVANCE_CHUNK_S))
+                yield min(target, sim.simt + ADVANCE_CHUNK_S)
                 if sim.state == sim.STATE_HOLD:
                     sim.state = sim.STATE_OP  # no operator in an RL loop
                 if sim.simt >= target - 1e-9 or self._scenario_over():
@@ -233,47 +255,104 @@ class EpisodeCore:
             if self._live or self._scenario_over():
                 return
 
+    def _run(self, steps: Generator[float, None, Any]) -> Any:
+        """Run ``steps`` on the episode's own simulation; returns what the generator returns."""
+        try:
+            t = next(steps)
+            while True:
+                assert self.sim is not None
+                self.sim.run_until(t)
+                t = steps.send(None)
+        except StopIteration as stop:
+            return stop.value
+
     def _take_discovered(self) -> list[str]:
         out, self._discovered = self._discovered, []
         return out
 
     # --------------------------------------------------------------------- API
     def reset(self, seed: int | None = None) -> StepResult:
+        return self._run(self.reset_steps(seed))  # type: ignore[no-any-return]
+
+    def step(self, actions: dict[str, Any]) -> StepResult:
+        if self.sim is None:
+            raise RuntimeError("step() before reset()")
+        return self._run(self.step_steps(actions))  # type: ignore[no-any-return]
+
+    def _watched(self, agents: list[str]) -> list[str]:
+        watch = self.watch
+        return agents if watch is None else [a for a in agents if a in watch]
+
+    def reset_steps(self, seed: int | None = None) -> Steps:
+        """:meth:`reset` as the sim times to run the new simulation to, then its result."""
         self.seed = seed
         self.agents = []
         self._reported = set()
         self._left = {}
         self._live = dict.fromkeys(self.usecase.standing_agents)
         self.sim = self._new_simulation(seed)
-        self.sim.run_until(0.0)
+        yield 0.0
         # Advance to the first decision: when an agent first exists, or a standing agent's first event.
         if (not self._live or self.usecase.standing_agents) and not self._scenario_over():
-            self._advance()
+            yield from self._advance_steps()
         self.agents = self._live_agents()
-        self._reported = set(self.agents)
-        obs = self.usecase.observe(self.sim, self.agents)
-        n = len(self.agents)
-        done = self._scenario_over() and n == 0
-        return StepResult(list(self.agents), obs, np.zeros(n), np.zeros(n, bool), np.zeros(n, bool),
+        reported = self._watched(self.agents)
+        self._reported = set(reported)
+        obs = self.usecase.observe(self.sim, reported) if reported or self.watch is None else self._stack_obs([], None)
+        n = len(reported)
+        done = self._scenario_over() and not self.agents
+        return StepResult(reported, obs, np.zeros(n), np.zeros(n, bool), np.zeros(n, bool),
                           list(self.agents), self.sim.simt, done, agent_info=empty_info(self.usecase.info_fields, n),
                           discovered=self._take_discovered())
 
-    def step(self, actions: dict[str, Any]) -> StepResult:
+    def step_steps(self, actions: dict[str, Any]) -> Steps:
+        """:meth:`step` as the sim times to run the simulation to, then its result."""
         if self.sim is None:
             raise RuntimeError("step() before reset()")
+        before, valid = self._begin_step(actions)
+        yield from self._advance_steps()
+        return self._finish_step(before, valid)
+
+    def until_alive_steps(self, agent: str) -> Steps:
+        """Steps without actions until ``agent`` is alive or the scenario is over; the last step's result.
+
+        The same simulation as :meth:`step_steps` with no actions, one decision after the other,
+        without observing anybody in between: for a single-agent view whose ego (``watch``) is not
+        there yet (nobody is watched, so those steps would report nothing).
+        """
+        if self.sim is None:
+            raise RuntimeError("step() before reset()")
+        if self.watch is None or any(a in self.watch for a in self.agents):
+            raise RuntimeError("until_alive_steps skips watched agents' steps")
+        while True:
+            before, valid = self._begin_step({})
+            yield from self._advance_steps()
+            if agent in self._live or self._scenario_over():
+                return self._finish_step(before, valid)
+            self.agents = self._live_agents()
+
+    def _begin_step(self, actions: dict[str, Any]) -> tuple[list[str], dict[str, Any]]:
+        """Apply the actions of agents alive now; returns the watched agents before the step and the actions."""
         sim = self.sim
-        before = list(self.agents)
-        before_set = set(before)
+        assert sim is not None
+        before_set = set(self.agents)
         valid = {a: act for a, act in actions.items() if a in before_set}
         self.usecase.apply_actions(sim, valid)
         self._actions, self._t0 = valid, sim.simt
         self._left = {}
-        self._advance()
+        return self._watched(self.agents), valid
+
+    def _finish_step(self, before: list[str], valid: dict[str, Any]) -> StepResult:
+        """The step's result, after the simulation reached the next decision."""
+        sim = self.sim
+        assert sim is not None
+        known = set(self.agents)
         now_alive = self._live_agents()
         alive_set = set(now_alive)
         over = self._scenario_over()
         truncate = over and bool(now_alive)
-        reported = before + [a for a in now_alive if a not in before_set]
+        watched_before = set(before)
+        reported = before + [a for a in self._watched(now_alive) if a not in known]
         stay = [a for a in reported if a in alive_set]
         live_obs = self.usecase.observe(sim, stay) if stay else None
         live_fb = self.usecase.feedback(sim, stay, valid, self._t0)
@@ -289,11 +368,11 @@ class EpisodeCore:
         else:
             obs, rewards, info, terminated = self._assemble(reported, stay, live_obs, live_fb)
         for k, a in enumerate(reported):
-            if a not in before_set:  # an agent's first observation comes with no reward
+            if a not in watched_before:  # an agent's first observation comes with no reward
                 rewards[k] = 0.0
         truncated = np.array([truncate and a in alive_set for a in reported], bool)
         self.agents = [] if truncate else list(now_alive)
-        self._reported = set(self.agents)
+        self._reported = set(self._watched(self.agents))
         return StepResult(reported, obs, rewards, terminated, truncated, list(self.agents), sim.simt, over,
                           agent_info=info, discovered=self._take_discovered())
 

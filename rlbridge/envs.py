@@ -57,6 +57,7 @@ class AamParallelEnv(ParallelEnv):
         render_mode: str | None = None,
         render_size: tuple[int, int] = (640, 640),
         viewer_port: int = 0,
+        threads: int | None = None,
         **params: Any,
     ):
         super().__init__()
@@ -64,7 +65,7 @@ class AamParallelEnv(ParallelEnv):
         self._usecase = make_usecase(usecase, **params)
         version = getattr(type(self._usecase), "env_version", 1)
         self.metadata = {**self.metadata, "name": f"aamgym_{usecase}_v{version}"}
-        self.core = make_backend(scenario, usecase, params, backend, address, time_limit_s, dt, timeout_s)
+        self.core = make_backend(scenario, usecase, params, backend, address, time_limit_s, dt, timeout_s, threads)
         self.possible_agents: list[str] = list(self.core.possible_agents)
         self.agents: list[str] = []
         self._seed_rng = np.random.default_rng()
@@ -178,12 +179,13 @@ class AamSingleAgentEnv(gym.Env):
         render_size: tuple[int, int] = (640, 640),
         viewer_port: int = 0,
         draw_ego: bool = True,
+        threads: int | None = None,
         **params: Any,
     ):
         self.render_mode = check_render_mode(render_mode)
         self._multi = AamParallelEnv(scenario, usecase, backend, address, time_limit_s, dt, timeout_s,
                                      render_mode=render_mode, render_size=render_size, viewer_port=viewer_port,
-                                     **params)
+                                     threads=threads, **params)
         if not self._multi.possible_agents:
             raise ValueError(f"scenario {scenario} creates no aircraft")
         # The agents the scenario names (before any episode discovers more): where a drawn ego comes from.

@@ -67,7 +67,7 @@ def _write_number(out: np.ndarray, pos: int, value: float, decimals: int, scale:
 FAST_LIMIT = float(2**53)
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)  # without the GIL: the trajectory recorder formats in a thread while the run goes on
 def _format_rows_fast(
     name_bytes: np.ndarray,
     name_offsets: np.ndarray,

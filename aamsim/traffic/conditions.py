@@ -35,7 +35,7 @@ class Condition:
 class Conditions:
     items: list[Condition] = field(default_factory=list)
     _cache: tuple[np.ndarray, ...] | None = field(default=None, repr=False)
-    _cache_ids: list[str] = field(default_factory=list, repr=False)
+    _cache_layout: tuple[Traffic | None, int] = field(default=(None, -1), repr=False)  # traffic and its layout
     _cache_n: int = -1
 
     def __len__(self) -> int:
@@ -72,7 +72,10 @@ class Conditions:
         Cached while neither the conditions nor the aircraft slots change; the
         kernel updates ``lastdif`` in place and :meth:`update_after` keeps it.
         """
-        if self._cache is not None and self._cache_ids == traffic.ids and self._cache_n == len(self.items):
+        # Slots move only when aircraft come or go (the traffic's layout version changes then).
+        layout = self._cache_layout
+        if self._cache is not None and layout[0] is traffic and layout[1] == traffic.layout_version \
+                and self._cache_n == len(self.items):
             arrays = self._cache
             arrays[6][:] = False
             return arrays
@@ -93,8 +96,15 @@ class Conditions:
             lat[k] = c.lat
             lon[k] = c.lon
         self._cache = (ac, kind, target, lastdif, lat, lon, np.zeros(n, dtype=np.bool_))
-        self._cache_ids = list(traffic.ids)
+        self._cache_layout = (traffic, traffic.layout_version)
         self._cache_n = n
+        return self._cache
+
+    def adopt_arrays(self, views: tuple[np.ndarray, ...]) -> tuple[np.ndarray, ...]:
+        """Use ``views`` (kind, target, lastdif, lat, lon, fired: parts of a pool's joint arrays, with the
+        same values) in place of the cached arrays, keeping the slots; returns the new cached arrays."""
+        assert self._cache is not None and len(views) == 6 and len(views[0]) == len(self._cache[0])
+        self._cache = (self._cache[0], *views)
         return self._cache
 
     def update_after(self, lastdif: np.ndarray, fired: np.ndarray) -> list[Condition]:

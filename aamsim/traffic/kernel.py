@@ -33,7 +33,10 @@ Measured choices that make the pass cheap:
 
 :func:`advance_parallel` splits the aircraft into blocks over Numba threads.
 The blocks run the same compiled code, so the results are the same bit for
-bit.
+bit. :func:`advance_ranges` (and :func:`advance_ranges_parallel`) advance
+given ranges of slots, each with its own waypoint test flag and settings: the
+aircraft of several simulations whose state shares one matrix
+(:mod:`aamsim.traffic.pool`) in one call.
 """
 
 from __future__ import annotations
@@ -701,3 +704,72 @@ def advance_parallel(
     """:func:`advance` with the aircraft in ``nblocks`` blocks over Numba's threads (same results, bit for bit)."""
     return _advance(F, B, n, dt, nsteps, check_first, hold_speed, airborne_alt, scratch, cond, wind, turns, reso,
                     nblocks)
+
+
+@njit(cache=True, inline="always", error_model="numpy")
+def _advance_ranges(
+    F: np.ndarray, B: np.ndarray, lo: np.ndarray, hi: np.ndarray, check: np.ndarray, dt: float, nsteps: int,
+    hold_speed: np.ndarray, airborne_alt: np.ndarray, scratch: tuple[np.ndarray, ...], cond: tuple[np.ndarray, ...],
+    turns: tuple[()] | None, reso: tuple[()] | None, counts: np.ndarray,
+) -> tuple[int, int]:
+    scratch_qdr, scratch_dist, fresh, reached = scratch
+    nblocks = lo.shape[0]
+    counts[:] = 0
+    # As _advance, with the blocks given: each is a range of slots with its own settings and
+    # its own waypoint test at the start (a range whose test already ran skips it).
+    if check.any():
+        for b in prange(nblocks):
+            if check[b]:
+                counts[b] = _check_range(F, B, lo[b], hi[b], scratch_qdr, scratch_dist, fresh, reached)
+        if counts.sum():
+            return 0, STATUS_REACHED
+    k = 0
+    while k < nsteps:
+        test_next = k + 1 < nsteps
+        for b in prange(nblocks):
+            counts[b] = _step_range(F, B, lo[b], hi[b], dt, test_next, hold_speed[b], airborne_alt[b], scratch_qdr,
+                                    scratch_dist, fresh, reached, None, turns, reso)
+        k += 1
+        total = counts.sum()
+        if total >= _NONFINITE_MARK:
+            return k, STATUS_NONFINITE
+        if cond[0].shape[0] and _conditions_fired(F, cond):
+            return k, STATUS_CONDITION
+        if total:
+            return k, STATUS_REACHED
+    return k, STATUS_DONE
+
+
+@njit(cache=True, error_model="numpy")
+def advance_ranges(
+    F: np.ndarray, B: np.ndarray, lo: np.ndarray, hi: np.ndarray, check: np.ndarray, dt: float, nsteps: int,
+    hold_speed: np.ndarray, airborne_alt: np.ndarray, scratch: tuple[np.ndarray, ...], cond: tuple[np.ndarray, ...],
+    turns: tuple[()] | None, reso: tuple[()] | None, counts: np.ndarray,
+) -> tuple[int, int]:
+    """:func:`advance` on the slot ranges ``lo[b] .. hi[b] - 1`` (no wind), each with its own settings.
+
+    Args:
+        check: per range, whether its waypoint test runs before the first step (``check_first``
+            of :func:`advance`; False where the previous call already ran it).
+        hold_speed, airborne_alt: per range, the holding-speed [m/s] and airborne [m] thresholds.
+        cond: the conditional commands of every range, with slots into ``F``.
+        counts: (out) per range, after a ``STATUS_REACHED`` return, how many of its aircraft reached
+            their waypoint (0: nothing to do there); after a ``STATUS_NONFINITE`` one, at least
+            ``2**40`` for a range with a non-finite state.
+
+    Each aircraft is advanced by the same compiled code as in :func:`advance`, so the
+    result is the same bit for bit as advancing each range alone.
+    """
+    return _advance_ranges(F, B, lo, hi, check, dt, nsteps, hold_speed, airborne_alt, scratch, cond, turns, reso,
+                           counts)
+
+
+@njit(cache=True, parallel=True, error_model="numpy")
+def advance_ranges_parallel(
+    F: np.ndarray, B: np.ndarray, lo: np.ndarray, hi: np.ndarray, check: np.ndarray, dt: float, nsteps: int,
+    hold_speed: np.ndarray, airborne_alt: np.ndarray, scratch: tuple[np.ndarray, ...], cond: tuple[np.ndarray, ...],
+    turns: tuple[()] | None, reso: tuple[()] | None, counts: np.ndarray,
+) -> tuple[int, int]:
+    """:func:`advance_ranges` with the ranges over Numba's threads (same results, bit for bit)."""
+    return _advance_ranges(F, B, lo, hi, check, dt, nsteps, hold_speed, airborne_alt, scratch, cond, turns, reso,
+                           counts)

@@ -6,6 +6,10 @@ aircraft appends a slot (the arrays double when full); deleting one moves
 the last aircraft into the freed slot, so both are O(1) in the number of
 aircraft. The callsign -> slot map is the only way to find an aircraft:
 slots move, callsigns do not.
+
+The arrays may be a block of a :class:`~aamsim.traffic.pool.TrafficPool`, the
+storage that several simulations share so that one kernel call steps them all;
+the pool then grows them (every block at once).
 """
 
 from __future__ import annotations
@@ -13,6 +17,7 @@ from __future__ import annotations
 import math
 from collections.abc import Iterator
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -22,6 +27,22 @@ from aamsim.traffic import fields as f
 from aamsim.traffic.performance import Envelope
 from aamsim.traffic.route import Route
 from aamsim.units import FPM, Speed
+
+if TYPE_CHECKING:
+    from aamsim.traffic.pool import TrafficPool
+
+# The step kernel's per-slot working arrays: guidance bearing [deg] and distance [m] computed by
+# the waypoint test, whether they are this step's ("fresh"), and whether the waypoint is reached.
+Scratch = tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]
+
+
+def new_state_arrays(capacity: int) -> tuple[np.ndarray, np.ndarray, Scratch]:
+    """Zeroed float and flag matrices (Fortran order: one aircraft's fields together) and kernel scratch."""
+    F = np.zeros((f.N_FLOAT, capacity), order="F")
+    B = np.zeros((f.N_BOOL, capacity), dtype=np.bool_, order="F")
+    scratch = (np.zeros(capacity), np.zeros(capacity), np.zeros(capacity, dtype=np.bool_),
+               np.zeros(capacity, dtype=np.bool_))
+    return F, B, scratch
 
 PERF_DEFAULT_AXMAX = 2.0  # m/s^2 until the first performance refresh (BlueSky's PerfBase default)
 # Distance to the active waypoint before guidance first runs. BlueSky starts it
@@ -93,6 +114,9 @@ class Traffic:
     resolution_used: bool = False  # some aircraft follows a conflict resolution (the kernel's ASAS part runs)
     F: np.ndarray = field(init=False, repr=False)
     B: np.ndarray = field(init=False, repr=False)
+    scratch: Scratch = field(init=False, repr=False)  # the step kernel's working arrays, per slot
+    pool: TrafficPool | None = field(default=None, repr=False)  # shared storage this traffic is a block of
+    world: int = 0  # its block in the pool
     ids: list[str] = field(default_factory=list)
     types: list[str] = field(default_factory=list)
     routes: list[Route] = field(default_factory=list)
@@ -100,8 +124,10 @@ class Traffic:
     _index: dict[str, int] = field(default_factory=dict, repr=False)
 
     def __post_init__(self) -> None:
-        self.F = np.zeros((f.N_FLOAT, self.capacity), order="F")
-        self.B = np.zeros((f.N_BOOL, self.capacity), dtype=np.bool_, order="F")
+        if self.pool is not None:
+            self.pool.bind(self)  # sets the arrays and the capacity
+        else:
+            self.F, self.B, self.scratch = new_state_arrays(self.capacity)
 
     # ------------------------------------------------------------------ access
     def __len__(self) -> int:
@@ -156,13 +182,31 @@ class Traffic:
 
     # --------------------------------------------------------------- lifecycle
     def _grow(self) -> None:
+        if self.pool is not None:
+            self.pool.grow()  # every block of the pool, this one included
+            return
         new_cap = self.capacity * 2
-        F = np.zeros((f.N_FLOAT, new_cap), order="F")
-        B = np.zeros((f.N_BOOL, new_cap), dtype=np.bool_, order="F")
-        F[:, : self.n] = self.F[:, : self.n]
-        B[:, : self.n] = self.B[:, : self.n]
-        self.F, self.B, self.capacity = F, B, new_cap
+        F, B, scratch = new_state_arrays(new_cap)
+        self.adopt(F, B, scratch, new_cap)
+
+    def adopt(self, F: np.ndarray, B: np.ndarray, scratch: Scratch, capacity: int) -> None:
+        """Move the live aircraft's state into new arrays of ``capacity`` slots (growth, a pool's blocks)."""
+        n = self.n
+        if F is not self.F:
+            F[:, :n] = self.F[:, :n]
+            B[:, :n] = self.B[:, :n]
+            for new, old in zip(scratch, self.scratch):
+                new[:n] = old[:n]
+        self.F, self.B, self.scratch, self.capacity = F, B, scratch, capacity
         self.layout_version += 1  # the arrays are new: views of the old ones are stale
+
+    def detach(self) -> None:
+        """Leave the pool: keep a private copy of the state (the block goes to another simulation)."""
+        if self.pool is None:
+            return
+        F, B, scratch = new_state_arrays(self.capacity)
+        self.adopt(F, B, scratch, self.capacity)
+        self.pool = None
 
     def create(
         self,

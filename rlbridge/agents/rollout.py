@@ -27,6 +27,7 @@ import numpy as np
 
 from rlbridge.core import EpisodeCore, StepResult
 from rlbridge.usecases.registry import Observations
+from rlbridge.vector.engine import VectorEngine
 
 
 @dataclass
@@ -166,6 +167,15 @@ class EnvSpec:
             return BlueSkyEpisode(self.scenario, self.usecase, params, time_limit_s=self.time_limit_s, dt=self.dt)
         return EpisodeCore(self.scenario, self.usecase, params, time_limit_s=self.time_limit_s, dt=self.dt)
 
+    def make_engine(self, episodes: int, obs_format: str | None = None) -> VectorEngine:
+        """``episodes`` episode engines stepped together in one world set (backend ``local`` only)."""
+        if self.backend != "local":
+            raise ValueError("BlueSky runs one episode per process: lockstep episodes need backend=local")
+        params = dict(self.params)
+        if obs_format is not None:
+            params["obs_format"] = obs_format
+        return VectorEngine(self.scenario, self.usecase, params, episodes, self.time_limit_s, self.dt)
+
 
 class RolloutWorker:
     """One simulation per observation format + named actors; collects whole episodes.
@@ -187,7 +197,7 @@ class RolloutWorker:
         self.env = env
         self.actors: dict[str, Actor] = {name: make_actor(spec) for name, spec in actors.items()}
         self._cores: dict[str | None, EpisodeCore] = {}
-        self._extra_cores: dict[str | None, list[EpisodeCore]] = {}  # lockstep episodes beyond the first
+        self._engines: dict[tuple[str | None, int], VectorEngine] = {}  # lockstep episodes, by format and number
         first = self._core_for(next(iter(self.actors.values())) if self.actors else None)
         self.scenario_name = Path(first.path).stem
         self.scenario_sha256 = hashlib.sha256(first.text.encode("utf-8")).hexdigest()
@@ -232,33 +242,44 @@ class RolloutWorker:
 
         Every episode keeps its own engine and its own action generator (seeded from its seed), so
         each episode is the one :meth:`run_episode` plays alone; the actor sees the aircraft of
-        all episodes in one batch (:func:`act_batched`), which pays its per-call cost once.
+        all episodes in one batch (:func:`act_batched`), which pays its per-call cost once, and
+        the simulations step together (:class:`~rlbridge.vector.engine.VectorEngine`: one kernel
+        call per batch for all of them). An episode that ends stops; the others go on.
         """
         act = self.actors[actor]
-        runs = [_EpisodeRun(self, core, int(s), record)
-                for core, s in zip(self._cores_for(act, len(seeds)), seeds)]
-        active = list(runs)
+        t0 = time.perf_counter()
+        engine = self._engine_for(act, len(seeds)) if len(seeds) > 1 else None
+        if engine is not None:
+            cores = engine.cores
+            started = engine.reset(dict(enumerate(seeds)))
+            results = [started[k] for k in range(len(seeds))]
+        else:
+            cores = [self._core_for(act)]
+            results = [cores[0].reset(seeds[0])]
+        runs = [_EpisodeRun(self, core, int(s), record, result, t0) for core, s, result in zip(cores, seeds, results)]
+        active = list(range(len(runs)))
         while active:
-            asking = [r for r in active if r.wants_actor()]
+            asking = [runs[k] for k in active if runs[k].wants_actor()]
             outs = act_batched(act, [r.result for r in asking], [r.core for r in asking], [r.rng for r in asking],
                                explore) if asking else []
             answer = dict(zip(map(id, asking), outs))
-            for r in active:
-                r.advance(answer.get(id(r), ActOutput(None)))
-            active = [r for r in active if not r.finished]
+            steps = {}
+            for k in active:
+                actions = runs[k].advance(answer.get(id(runs[k]), ActOutput(None)))
+                if actions is not None:
+                    steps[k] = actions
+            stepped = engine.step(steps) if engine is not None else {k: runs[k].core.step(a) for k, a in steps.items()}
+            for k, result in stepped.items():
+                runs[k].result = result
+            active = [k for k in active if not runs[k].finished]
         return [r.batch() for r in runs]
 
-    def _cores_for(self, actor: Actor, k: int) -> list[EpisodeCore]:
-        """``k`` episode engines for ``actor``'s observation format (the first is :meth:`_core_for`'s)."""
-        first = self._core_for(actor)
-        if k == 1:
-            return [first]
-        if self.env.backend == "bluesky":
-            raise ValueError("BlueSky runs one episode per process: lockstep episodes need backend=local")
-        extra = self._extra_cores.setdefault(actor.obs_format, [])
-        while len(extra) < k - 1:
-            extra.append(self.env.make(actor.obs_format))
-        return [first, *extra[: k - 1]]
+    def _engine_for(self, actor: Actor, k: int) -> VectorEngine:
+        """The engine of ``k`` lockstep episodes in ``actor``'s observation format (made once)."""
+        key = (actor.obs_format, k)
+        if key not in self._engines:
+            self._engines[key] = self.env.make_engine(k, actor.obs_format)
+        return self._engines[key]
 
 
 def act_batched(actor: Actor, results: list[StepResult], cores: list[EpisodeCore], rngs: list[np.random.Generator],
@@ -294,11 +315,12 @@ def time_limit_counts(core: EpisodeCore, result: StepResult) -> dict[str, int | 
 class _EpisodeRun:
     """One episode being played: its engine, generator, recorder and counters."""
 
-    def __init__(self, worker: RolloutWorker, core: EpisodeCore, seed: int, record: bool):
+    def __init__(self, worker: RolloutWorker, core: EpisodeCore, seed: int, record: bool, result: StepResult,
+                 t0: float):
         self.worker, self.core, self.seed = worker, core, seed
         self.rng = np.random.default_rng(np.random.SeedSequence([seed, 0x5EED]))
-        self.t0 = time.perf_counter()
-        self.result = core.reset(seed)
+        self.t0 = t0
+        self.result = result
         self.rec = TrajectoryRecorder() if record else None
         self.transitions = 0
         self.env_steps = 0
@@ -313,8 +335,8 @@ class _EpisodeRun:
         # (arrived agents' values are stored too but never used: terminated, bootstrap 0).
         return not self.result.done or (self.rec is not None and len(self.result.agents) > 0)
 
-    def advance(self, out: ActOutput) -> None:
-        """Record the step's rows with the actor's answer, then step the engine (or finish)."""
+    def advance(self, out: ActOutput) -> dict[str, int] | None:
+        """Record the step's rows with the actor's answer; the actions to step with (None: finished)."""
         result = self.result
         if result.done:
             out = ActOutput(None, values=out.values)
@@ -324,7 +346,7 @@ class _EpisodeRun:
         self.reward_total += float(np.sum(result.rewards))
         if result.done:
             self._finish()
-            return
+            return None
         alive = set(result.alive)
         acting = [k for k, a in enumerate(result.agents) if a in alive]
         if out.actions is None:
@@ -337,8 +359,8 @@ class _EpisodeRun:
         lp = np.zeros(len(acting), np.float32) if out.logp is None else np.asarray(out.logp)[acting]
         self.pending = {result.agents[k]: (int(rows[k]), int(act_rows[i]), float(lp[i]))
                         for i, k in enumerate(acting)}
-        self.result = self.core.step(actions)
-        self.env_steps += 1
+        self.env_steps += 1  # the engine steps it with these actions
+        return actions
 
     def _finish(self) -> None:
         w, core, result = self.worker, self.core, self.result

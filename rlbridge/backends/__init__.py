@@ -42,10 +42,15 @@ class EpisodeBackend(Protocol):
 
 
 def make_backend(scenario: str | Path, usecase: str, params: dict[str, Any], backend: str,
-                 address: str | None, time_limit_s: float | None, dt: float, timeout_s: float) -> EpisodeBackend:
-    """The backend named ``backend`` for one scenario and use case."""
+                 address: str | None, time_limit_s: float | None, dt: float, timeout_s: float,
+                 threads: int | None = None) -> EpisodeBackend:
+    """The backend named ``backend`` for one scenario and use case.
+
+    ``threads``: Numba threads stepping the traffic of a ``local`` episode (None: ``AAMSIM_THREADS``,
+    else 1; aamsim.threads); the server and BlueSky choose their own.
+    """
     if backend == "local":
-        return EpisodeCore(scenario, usecase, params, time_limit_s=time_limit_s, dt=dt)
+        return EpisodeCore(scenario, usecase, params, time_limit_s=time_limit_s, dt=dt, threads=threads)
     if backend == "zmq":
         from rlbridge.client import RemoteEpisode
 

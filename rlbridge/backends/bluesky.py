@@ -30,6 +30,7 @@ from __future__ import annotations
 import contextlib
 import io
 import tempfile
+from collections.abc import Generator
 from pathlib import Path
 from typing import Any
 
@@ -139,7 +140,7 @@ class BlueSkyEpisode(EpisodeCore):
             self._pending = dict(zip(self.sim.view.ids, self.sim.view.selspd.tolist()))
         return super().step(actions)
 
-    def _advance(self) -> None:
+    def _advance_steps(self) -> Generator[float, None, None]:
         if self._pending is not None and self.sim is not None:
             # The use case applied its actions to the mirror: send the changed speeds to BlueSky.
             view = self.sim.view
@@ -147,7 +148,7 @@ class BlueSkyEpisode(EpisodeCore):
                 if acid in self._pending and spd != self._pending[acid] and not mach:
                     self.bs.stack.stack(f"SPD {acid} {spd / KTS:.6f}")
             self._pending = None
-        super()._advance()
+        yield from super()._advance_steps()
 
     def bluesky_state(self) -> dict[str, Any]:
         """BlueSky's own traffic arrays now (``ids`` and SI arrays), for checks against the mirror."""

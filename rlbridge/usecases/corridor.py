@@ -148,7 +148,8 @@ class CorridorSA(UseCaseBase):
                 "mask": gym.spaces.Box(0.0, 1.0, shape=(p.n_intruders,), dtype=np.float32),
             })
         self._act_space: gym.spaces.Discrete = gym.spaces.Discrete(3)
-        self._pairs_memo: tuple[tuple[np.ndarray, ...], tuple[int, np.ndarray, np.ndarray, np.ndarray]] | None = None
+        self._pairs_memo: tuple[bytes, tuple[int, np.ndarray, np.ndarray, np.ndarray]] | None = None
+        self._neighbours_memo: tuple[object, np.ndarray, tuple[np.ndarray, np.ndarray]] | None = None
 
     @property
     def decision_interval_s(self) -> float:
@@ -170,8 +171,13 @@ class CorridorSA(UseCaseBase):
         start_overlay(sim, p.overlay, p.overlay_offset, p.overlay_area)
 
     # ------------------------------------------------------------ observation
-    def _route_arrays(self, sim: Simulation) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-        """Destination and next ``n_wpt`` waypoints of every aircraft (the destination repeats at the end)."""
+    def _route_arrays(self, sim: Simulation, slots: np.ndarray | None = None
+                      ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """Destination and next ``n_wpt`` waypoints of every aircraft (the destination repeats at the end).
+
+        ``slots``: only these aircraft's rows are filled (the others are not read: an observation of a
+        few agents needs them and their intruders only; the routes are read one aircraft at a time).
+        """
         t = sim.traffic
         n = t.n
         nw = self.params.n_wpt
@@ -181,7 +187,7 @@ class CorridorSA(UseCaseBase):
         wlon = np.empty((n, nw))
         view = sim.view
         lat, lon, lnav = view.lat, view.lon, view.lnav
-        for s in range(n):
+        for s in range(n) if slots is None else slots.tolist():
             route = t.routes[s]
             wps = route.waypoints
             if wps:
@@ -215,21 +221,29 @@ class CorridorSA(UseCaseBase):
         for their closest distances on the same state, which then costs one search.
         """
         t = sim.view
-        state = (t.lat, t.lon, t.alt, t.trk, t.gs)
+        # The state's bytes, compared in one go (five array_equal calls and copies cost more than the
+        # search itself at a few dozen aircraft: the vector environments step thousands of episodes).
+        key = b"".join([t.lat.tobytes(), t.lon.tobytes(), t.alt.tobytes(), t.trk.tobytes(), t.gs.tobytes()])
         memo = self._pairs_memo
-        if memo is not None and all(np.array_equal(a, b) for a, b in zip(memo[0], state)):
+        if memo is not None and memo[0] == key:
             return memo[1]
         rng = max(self.params.intruder_range_m, self.params.d_max_m)
         pi, pj, d = pairs_within(sim, rng)
         result = (t.n, pi, pj, d)
-        self._pairs_memo = (tuple(a.copy() for a in state), result)
+        self._pairs_memo = (key, result)
         return result
 
     def _neighbours(self, sim: Simulation, slots: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        n, pi, pj, d = self._pairs(sim)
+        pairs = self._pairs(sim)
+        memo = self._neighbours_memo
+        if memo is not None and memo[0] is pairs and np.array_equal(memo[1], slots):
+            return memo[2]  # the closest distances of the agents just observed (feedback after observe)
+        n, pi, pj, d = pairs
         rng = max(self.params.intruder_range_m, self.params.d_max_m)
         k = max(self.params.n_intruders, 1)
-        return nearest_neighbours(n, slots, pi, pj, d, k, rng)
+        result = nearest_neighbours(n, slots, pi, pj, d, k, rng)
+        self._neighbours_memo = (pairs, slots.copy(), result)
+        return result
 
     def observe(self, sim: Simulation, agents: list[str]) -> Observations:
         slots = np.array([sim.traffic.index(a) for a in agents], dtype=np.int64)
@@ -237,7 +251,8 @@ class CorridorSA(UseCaseBase):
         self._last_closest = nbr_d[:, 0].copy() if len(slots) else np.empty(0)
         if self.params.n_intruders == 0:
             nbr, nbr_d = nbr[:, :0], nbr_d[:, :0]
-        ddest, wlat, wlon, _, _ = self._route_arrays(sim)
+        needed = np.unique(np.concatenate([slots, nbr[nbr >= 0]])) if len(slots) < sim.traffic.n else None
+        ddest, wlat, wlon, _, _ = self._route_arrays(sim, needed)
         t = sim.view
         own, intr, mask = corridor_features(
             slots, t.lat, t.lon, t.alt, t.hdg, t.trk, t.ax, t.gs, ddest, wlat, wlon, nbr, nbr_d, self._scales,
@@ -252,7 +267,7 @@ class CorridorSA(UseCaseBase):
         """3-D distance to the closest intruder within d_max (inf beyond)."""
         slots = np.array([sim.traffic.index(a) for a in agents], dtype=np.int64)
         _, nbr_d = self._neighbours(sim, slots)
-        return nbr_d[:, 0] if len(slots) else np.empty(0)
+        return nbr_d[:, 0].copy() if len(slots) else np.empty(0)
 
     # ----------------------------------------------------------------- reward
     def feedback(self, sim: Simulation, agents: list[str], actions: dict[str, Any], since_s: float) -> Feedback:
