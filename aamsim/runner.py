@@ -165,6 +165,11 @@ def run_scenario(
                 if recorder is not None:
                     recorder.flush()  # its thread writes the last rows while the other outputs are made
             stop.hold()  # a second signal now would leave half-written files: the outputs come first
+            write_flights(out_dir / "flights.csv", iter_flights(sim))  # while the thread writes the last rows
+            if recorder is not None:
+                # Its last rows: a write that failed is reported now, so the summary and messages.log
+                # count it, and a summary that says complete comes after them.
+                recorder.close()
             summary = make_summary(sim, cfg, path, wall)
             summary["complete"] = True
             summary["interrupted"] = stop.signal_name is not None
@@ -173,11 +178,8 @@ def run_scenario(
                 sim.report("note", f"{stop.signal_name}: run stopped at sim time {sim.simt:.2f} s; outputs written")
             for finish in sim.extensions.get("run_outputs", []):
                 finish(sim, out_dir, summary)
-            write_flights(out_dir / "flights.csv", iter_flights(sim))
             with open(out_dir / "messages.log", "w", encoding="utf-8") as fh:
                 fh.writelines(f"{msg.simt:10.2f} {msg}\n" for msg in sim.reporter.messages)
-            if recorder is not None:
-                recorder.close()  # its last rows: a summary that says complete comes after them
             write_json_atomic(out_dir / "summary.json", summary)
         finally:
             if recorder is not None:
