@@ -47,7 +47,7 @@ class AamParallelEnv(ParallelEnv):
     def __init__(
         self,
         scenario: str | Path = "nyc_train_100.scn",
-        usecase: str = "corridor_sa",
+        usecase: str | type = "corridor_sa",
         backend: str = "local",
         address: str | None = None,
         time_limit_s: float | None = None,
@@ -61,7 +61,7 @@ class AamParallelEnv(ParallelEnv):
         super().__init__()
         self.render_mode = check_render_mode(render_mode)
         self._usecase = make_usecase(usecase, **params)
-        self.metadata = {**self.metadata, "name": f"aamgym_{usecase}_v0"}
+        self.metadata = {**self.metadata, "name": f"aamgym_{self._usecase.name}_v0"}
         self.core = make_backend(scenario, usecase, params, backend, address, time_limit_s, dt, timeout_s)
         self.possible_agents: list[str] = list(self.core.possible_agents)
         self.agents: list[str] = []
@@ -164,7 +164,7 @@ class AamSingleAgentEnv(gym.Env):
         scenario: str | Path = "nyc_train_100.scn",
         ego: str | None = None,
         traffic_policy: TrafficPolicy | None = None,
-        usecase: str = "corridor_sa",
+        usecase: str | type = "corridor_sa",
         backend: str = "local",
         address: str | None = None,
         time_limit_s: float | None = None,

@@ -1,0 +1,34 @@
+"""The project's files agree: one version everywhere, the licence declared is the licence shipped."""
+
+from __future__ import annotations
+
+import configparser
+import re
+from pathlib import Path
+
+import pytest
+
+import aamsim
+import rlbridge
+
+ROOT = Path(__file__).resolve().parent.parent
+
+
+def test_one_version_in_the_package_the_citation_and_the_changelog():
+    yaml = pytest.importorskip("yaml")
+    assert re.fullmatch(r"\d+\.\d+\.\d+", aamsim.__version__)  # MAJOR.MINOR.PATCH (CHANGELOG.md)
+    assert rlbridge.__version__ == aamsim.__version__
+    citation = yaml.safe_load((ROOT / "CITATION.cff").read_text())
+    assert citation["cff-version"] == "1.2.0" and str(citation["version"]) == aamsim.__version__
+    releases = re.findall(r"^## \[(\d+\.\d+\.\d+)\]", (ROOT / "CHANGELOG.md").read_text(), re.MULTILINE)
+    assert releases and releases[0] == aamsim.__version__
+
+
+def test_the_licence_file_is_the_licence_declared():
+    cfg = configparser.ConfigParser()
+    cfg.read(ROOT / "setup.cfg")
+    assert cfg["metadata"]["license"] == "MIT"
+    assert (ROOT / "LICENSE").read_text().startswith("MIT License")
+    for name in cfg["metadata"]["license_files"].split():
+        assert (ROOT / name).is_file(), name
+    assert "MIT" in (ROOT / "CITATION.cff").read_text()
