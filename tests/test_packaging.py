@@ -243,7 +243,7 @@ def test_batch_without_ray_runs_with_no_ray(venv, user_dir):
 
 
 def test_setup_cfg_test_extra_is_every_extra_plus_the_tools():
-    cfg = configparser.ConfigParser()
+    cfg = configparser.ConfigParser(interpolation=None)
     cfg.read(ROOT / "setup.cfg")
     extras = cfg["options.extras_require"]
     assert "%(all)s" in extras["test"] and "%(docs)s" in extras["test"]

@@ -27,8 +27,22 @@ def test_one_version_in_the_package_the_citation_and_the_changelog():
 def test_the_licence_file_is_the_licence_declared():
     cfg = configparser.ConfigParser()
     cfg.read(ROOT / "setup.cfg")
-    assert cfg["metadata"]["license"] == "MIT"
+    assert cfg["metadata"]["license_expression"] == "MIT"
     assert (ROOT / "LICENSE").read_text().startswith("MIT License")
     for name in cfg["metadata"]["license_files"].split():
         assert (ROOT / name).is_file(), name
     assert "MIT" in (ROOT / "CITATION.cff").read_text()
+
+
+def test_torch_is_a_range_ci_pins_it_by_constraints_and_the_readme_gives_the_cpu_index():
+    cfg = configparser.ConfigParser()
+    cfg.read(ROOT / "setup.cfg")
+    torch = [r for r in cfg["options.extras_require"]["rl"].split("\n") if r.strip().startswith("torch")]
+    assert torch == ["torch>=2.13,<3"]
+    assert "torch==2.13.0" in (ROOT / ".ci" / "constraints.txt").read_text()
+    run = (ROOT / ".ci" / "run").read_text()
+    assert run.count('pip install "${CONSTRAINTS[@]}" -e') == 2 and "-c .ci/constraints.txt" in run
+    readme = (ROOT / "README.md").read_text()
+    assert "pip install torch --index-url https://download.pytorch.org/whl/cpu" in readme
+    # No claim that a version pin picks the CPU build (on the public index it is the CUDA build).
+    assert not re.search(r"torch==[\d.]+`? installs the CPU build", readme)
