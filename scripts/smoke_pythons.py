@@ -8,7 +8,8 @@ on the PATH: a virtual environment in a temporary folder, the wheel installed in
 install), ``aamsim run scn/nyc_day.scn --until 600`` run from an empty folder, and the SHA-256
 of the outputs that do not depend on the machine (``flights.csv``, ``conflicts.csv``,
 ``trajectories.csv``, ``scenario.scn``). Prints one row per interpreter; exits 1 if one fails
-or its outputs differ from the first one's. Interpreters not on this machine are listed as absent.
+or its outputs differ from the first one's. An interpreter is looked for on the PATH, then among
+pyenv's installed versions; one that is not on this machine is listed as absent.
 ``.ci/run`` runs it after the test suite.
 """
 
@@ -16,6 +17,7 @@ from __future__ import annotations
 
 import argparse
 import hashlib
+import os
 import shutil
 import subprocess
 import sys
@@ -26,6 +28,21 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parent.parent
 OUTPUTS = ("flights.csv", "conflicts.csv", "trajectories.csv", "scenario.scn")
 DEFAULT = ("python3.11", "python3.12", "python3.13")
+
+
+def find_python(name: str) -> str | None:
+    """An interpreter that runs: ``name`` on the PATH, else a pyenv installation of that version.
+
+    (pyenv's shims are on the PATH for every version but run only the versions enabled.)
+    """
+    candidates = [shutil.which(name)]
+    if name.startswith("python3."):
+        root = Path(os.environ.get("PYENV_ROOT", Path.home() / ".pyenv"))
+        candidates += [str(p) for p in sorted(root.glob(f"versions/{name[6:]}*/bin/{name}"), reverse=True)]
+    for exe in candidates:
+        if exe and subprocess.run([exe, "-c", "pass"], capture_output=True, check=False).returncode == 0:
+            return exe
+    return None
 
 
 def build_wheel(out: Path) -> Path:
@@ -56,7 +73,7 @@ def main(argv: list[str] | None = None) -> int:
         wheel = args.wheel or build_wheel(Path(tmp) / "dist")
         print(f"wheel: {wheel.name}")
         for python in args.pythons:
-            exe = shutil.which(python)
+            exe = find_python(python)
             if exe is None:
                 print(f"{python:12s} absent on this machine")
                 continue
