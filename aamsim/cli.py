@@ -217,7 +217,7 @@ def run(scenario: str, until: str | None, out_dir: Path | None, dt: float, seed:
     cfg = RunConfig(scenario, out_dir, until_s, dt, seed, strict, log_period, plugins, delete_on_arrival, groups,
                     volumes, threads, overlays=overlays, overlay_offset=overlay_offset, overlay_area=area)
     if sets:
-        cfg = replace(cfg, **_run_settings(sets))
+        cfg = _with_settings(cfg, sets)
 
     def listener(msg: Any) -> None:
         if msg.kind in ("error", "warning") or not quiet and msg.kind in ("echo", "note"):
@@ -301,11 +301,12 @@ def run(scenario: str, until: str | None, out_dir: Path | None, dt: float, seed:
             live.close()
 
 
-def _run_settings(sets: tuple[str, ...]) -> dict[str, Any]:
-    """``aamsim run --set KEY=VALUE ...`` as RunConfig fields (aamsim batch's keys and parsers).
+def _with_settings(cfg: Any, sets: tuple[str, ...]) -> Any:
+    """``cfg`` with ``aamsim run --set KEY=VALUE ...`` applied (aamsim batch's keys and parsers).
 
-    Each key once, except ``stack``: its commands run in the order given. A key given twice
-    with different values is a sweep, which is what ``aamsim batch`` is for.
+    A key given here replaces the option of the same name (``--set lowc=600`` replaces ``--lowc``
+    and leaves ``--nmac`` as given). Each key once, except ``stack``: its commands run in the order
+    given. A key given twice is a sweep, which is what ``aamsim batch`` is for.
     """
     from aamsim.batch.plan import BatchError, parse_settings
 
@@ -319,9 +320,13 @@ def _run_settings(sets: tuple[str, ...]) -> dict[str, Any]:
     if len(points) > 1:
         raise click.BadParameter("a key given twice is a sweep: aamsim batch runs those", param_hint="--set")
     fields = points[0].run_config_fields()
+    if "volumes" in fields:  # the batch parser fills the volume not given with its default: keep the option's
+        given = {key for key, _ in points[0].values}
+        fields["volumes"] = tuple(new if name in given else old
+                                  for name, new, old in zip(("nmac", "lowc"), fields["volumes"], cfg.volumes))
     if commands:
         fields["commands"] = tuple(commands)
-    return fields
+    return replace(cfg, **fields)
 
 
 def _write_video(run_dir: Path, video_path: Path, t_from: str | None, t_to: str | None, speed: float, fps: float,

@@ -49,6 +49,14 @@ def test_several_stack_commands_run_in_order_and_other_keys_replace_options(tmp_
     assert log.index("first") < log.index("second")
 
 
+def test_a_volume_given_by_set_replaces_its_option_and_leaves_the_other(tmp_path):
+    proc = aamsim("run", TINY, "--out", "r", "--quiet", "--until", "10", "--lowc", "600", "--set", "nmac=100",
+                  cwd=tmp_path)
+    assert proc.returncode == 0, proc.stderr
+    volumes = json.loads((tmp_path / "r" / "summary.json").read_text())["separation_volumes"]
+    assert "r=100 m" in volumes["nmac"] and "r=600 m" in volumes["lowc"]
+
+
 def test_a_bad_setting_is_refused_before_the_run(tmp_path):
     proc = aamsim("run", TINY, "--out", "r", "--set", "lowc=wide", cwd=tmp_path)
     assert proc.returncode == 2 and "--set" in proc.stderr and "lowc" in proc.stderr
