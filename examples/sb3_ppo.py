@@ -1,4 +1,4 @@
-"""Train Stable-Baselines3 PPO on the single-aircraft environment ``aamgym/CorridorSA-v0``.
+"""Train Stable-Baselines3 PPO on the single-aircraft environment ``aamgym/CorridorSA-v1``.
 
     python examples/sb3_ppo.py --scenario merge_conflict --steps 5000
     python examples/sb3_ppo.py --scenario nyc_train_100 --ego UAM0832 --steps 200000

@@ -2,8 +2,9 @@
 
     import rlbridge, gymnasium
     env = rlbridge.parallel_env(scenario="nyc_train_100.scn")       # PettingZoo ParallelEnv
-    env = gymnasium.make("aamgym/CorridorSA-v0", scenario="...")   # single aircraft (registered on import)
-    env = gymnasium.make("aamgym/ReachDestination-v0", scenario="...")  # every use case has its id
+    env = gymnasium.make("aamgym/CorridorSA-v1", scenario="...")   # single aircraft (registered on import)
+    env = gymnasium.make("aamgym/ReachDestination-v1", scenario="...")  # every use case has its id
+    env = gymnasium.make("aamgym/CorridorSA-v0", scenario="...")   # the same on fixed traffic (results made before v1)
 """
 
 from __future__ import annotations
@@ -16,16 +17,25 @@ from rlbridge.envs import AamParallelEnv, AamSingleAgentEnv, CorridorSAEnv, para
 from rlbridge.usecases.registry import BUILTIN_USECASES, env_id
 
 __version__ = aamsim_version  # one version for the distribution (aamsim/__init__.py; CHANGELOG.md)
-ENV_ID = "aamgym/CorridorSA-v0"
+ENV_ID = "aamgym/CorridorSA-v1"
 
 
 def register_env(usecase: str) -> str:
-    """Register ``aamgym/<Name>-v0`` (single agent) for a use case; returns the id (idempotent)."""
-    gym_id = env_id(usecase)
-    if gym_id not in gymnasium.registry:
-        entry = "rlbridge.envs:CorridorSAEnv" if usecase == "corridor_sa" else "rlbridge.envs:AamSingleAgentEnv"
-        gymnasium.register(id=gym_id, entry_point=entry, kwargs={"usecase": usecase}, disable_env_checker=False)
-    return gym_id
+    """Register ``aamgym/<Name>-v1`` (single agent, episode variation from the reset seed) and
+    ``aamgym/<Name>-v0`` (the same on fixed traffic: the use case's ``fixed_traffic`` parameters and
+    the first agent as the ego) for a use case; returns the current id (idempotent)."""
+    from rlbridge.usecases.registry import usecase_class
+
+    cls = usecase_class(usecase)
+    entry = "rlbridge.envs:CorridorSAEnv" if usecase == "corridor_sa" else "rlbridge.envs:AamSingleAgentEnv"
+    current = env_id(usecase)
+    fixed = env_id(usecase, 0)
+    if current not in gymnasium.registry:
+        gymnasium.register(id=current, entry_point=entry, kwargs={"usecase": usecase}, disable_env_checker=False)
+    if fixed != current and fixed not in gymnasium.registry:
+        kwargs = {"usecase": usecase, "draw_ego": False, **getattr(cls, "fixed_traffic", {})}
+        gymnasium.register(id=fixed, entry_point=entry, kwargs=kwargs, disable_env_checker=False)
+    return current
 
 
 # Gymnasium's registry is where gymnasium.make looks; registering here (once) is the

@@ -2,8 +2,9 @@
 
 * :class:`AamParallelEnv` — PettingZoo ``ParallelEnv``: the use case's agents (for
   ``corridor_sa`` every airborne aircraft);
-* :class:`AamSingleAgentEnv` — Gymnasium ``Env`` (``aamgym/<Name>-v0``, one id per use case;
-  :class:`CorridorSAEnv` is ``aamgym/CorridorSA-v0``): one controlled agent among others that
+* :class:`AamSingleAgentEnv` — Gymnasium ``Env`` (``aamgym/<Name>-v1``, one id per use case;
+  :class:`CorridorSAEnv` is ``aamgym/CorridorSA-v1``; ``-v0`` is the same on fixed traffic):
+  one controlled agent among others that
   follow a chosen policy (default: no actions, e.g. unequipped aircraft).
 
 Both run in-process (``backend="local"``), against a simulation server
@@ -41,7 +42,7 @@ class AamParallelEnv(ParallelEnv):
     with those it creates otherwise (MCRE's random callsigns, PCALL, SCHEDULE).
     """
 
-    metadata = {"name": "aamgym_corridor_sa_v0", "render_modes": list(RENDER_MODES), "render_fps": RENDER_FPS,
+    metadata = {"name": "aamgym_corridor_sa_v1", "render_modes": list(RENDER_MODES), "render_fps": RENDER_FPS,
                 "is_parallelizable": True}
 
     def __init__(
@@ -61,7 +62,8 @@ class AamParallelEnv(ParallelEnv):
         super().__init__()
         self.render_mode = check_render_mode(render_mode)
         self._usecase = make_usecase(usecase, **params)
-        self.metadata = {**self.metadata, "name": f"aamgym_{self._usecase.name}_v0"}
+        version = getattr(type(self._usecase), "env_version", 1)
+        self.metadata = {**self.metadata, "name": f"aamgym_{self._usecase.name}_v{version}"}
         self.core = make_backend(scenario, usecase, params, backend, address, time_limit_s, dt, timeout_s)
         self.possible_agents: list[str] = list(self.core.possible_agents)
         self.agents: list[str] = []
@@ -150,8 +152,10 @@ TrafficPolicy = Callable[[str, Any], int | None]
 class AamSingleAgentEnv(gym.Env):
     """Single-agent view of a use case: control one agent; the others follow ``traffic_policy``.
 
-    ``ego`` is the controlled agent (default: the first agent the scenario
-    names). The episode starts when the ego agent exists and ends when it
+    ``ego`` is the controlled agent. Default (``ego=None``): each ``reset`` draws it from the agents
+    the scenario names, with the reset's seed (so episodes differ in who is controlled, as well as in
+    the use case's own draws); ``draw_ego=False`` takes the first agent the scenario names every time.
+    The episode starts when the ego agent exists and ends when it
     leaves (terminated) or the scenario ends (truncated).
     ``traffic_policy(agent, obs) -> action or None`` drives the other agents;
     None (the default) gives them no action (in ``corridor_sa``: unequipped).
@@ -173,6 +177,7 @@ class AamSingleAgentEnv(gym.Env):
         render_mode: str | None = None,
         render_size: tuple[int, int] = (640, 640),
         viewer_port: int = 0,
+        draw_ego: bool = True,
         **params: Any,
     ):
         self.render_mode = check_render_mode(render_mode)
@@ -181,10 +186,13 @@ class AamSingleAgentEnv(gym.Env):
                                      **params)
         if not self._multi.possible_agents:
             raise ValueError(f"scenario {scenario} creates no aircraft")
-        ego = ego or self._multi.possible_agents[0]
+        # The agents the scenario names (before any episode discovers more): where a drawn ego comes from.
+        self._candidates = list(self._multi.possible_agents)
+        self._draw_ego = ego is None and draw_ego
+        ego = ego or self._candidates[0]
         # Callsigns are upper case; standing agents (a planner) keep their own names.
-        self.ego = ego if ego in self._multi.possible_agents else ego.upper()
-        if self.ego not in self._multi.possible_agents:
+        self.ego = ego if ego in self._candidates else ego.upper()
+        if self.ego not in self._candidates:
             raise ValueError(f"ego {self.ego} is not an agent the scenario names")
         self.traffic_policy = traffic_policy
         self.observation_space = self._multi.observation_space(self.ego)
@@ -204,6 +212,8 @@ class AamSingleAgentEnv(gym.Env):
 
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
         super().reset(seed=seed)
+        if self._draw_ego:
+            self.ego = self._candidates[int(self.np_random.integers(len(self._candidates)))]
         obs, infos = self._multi.reset(seed=seed)
         self._obs = obs
         while self.ego not in self._multi.agents:
@@ -234,7 +244,7 @@ class AamSingleAgentEnv(gym.Env):
 
 
 class CorridorSAEnv(AamSingleAgentEnv):
-    """``aamgym/CorridorSA-v0``: one aircraft of the corridor separation-assurance use case."""
+    """``aamgym/CorridorSA-v1``: one aircraft of the corridor separation-assurance use case."""
 
     def __init__(self, scenario: str | Path = "nyc_train_100.scn", ego: str | None = None,
                  traffic_policy: TrafficPolicy | None = None, **kwargs: Any):

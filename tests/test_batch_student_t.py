@@ -1,4 +1,4 @@
-"""The batch tables' confidence intervals without SciPy: Student's t quantiles from the closed form."""
+"""The batch tables' confidence intervals without SciPy: Student's t (aamsim.metrics.stats) in aggregate.describe."""
 
 from __future__ import annotations
 
@@ -8,7 +8,8 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from aamsim.batch.aggregate import _t_central, describe, student_t_quantile
+from aamsim.batch.aggregate import describe
+from aamsim.metrics.stats import _central_probability, t_critical
 
 # Two-sided 95 % critical values, from printed tables of Student's t (6 significant digits and more).
 TABLE = {1: 12.7062047, 2: 4.30265273, 3: 3.18244631, 4: 2.77644511, 5: 2.57058184, 9: 2.26215716,
@@ -17,34 +18,33 @@ TABLE = {1: 12.7062047, 2: 4.30265273, 3: 3.18244631, 4: 2.77644511, 5: 2.570581
 
 @pytest.mark.parametrize("df", sorted(TABLE))
 def test_975_quantiles_match_the_tables(df):
-    assert student_t_quantile(0.975, df) == pytest.approx(TABLE[df], abs=5e-8)
+    assert t_critical(df) == pytest.approx(TABLE[df], abs=5e-8)
 
 
 def test_closed_forms_by_hand():
     # df = 1 is the Cauchy distribution: P(|T| < t) = 2 atan(t) / pi; df = 2: t / sqrt(2 + t^2).
-    assert _t_central(1.0, 1) == pytest.approx(0.5, abs=1e-15)
-    assert _t_central(3.0, 2) == pytest.approx(3.0 / math.sqrt(11.0), abs=1e-15)
-    assert student_t_quantile(0.75, 1) == pytest.approx(1.0, abs=1e-12)  # tan(pi/4)
-    assert student_t_quantile(0.5, 7) == pytest.approx(0.0, abs=1e-12)
+    assert _central_probability(1.0, 1) == pytest.approx(0.5, abs=1e-15)
+    assert _central_probability(3.0, 2) == pytest.approx(3.0 / math.sqrt(11.0), abs=1e-15)
+    assert t_critical(1, 0.5) == pytest.approx(1.0, abs=1e-12)  # tan(pi/4)
 
 
 @given(st.integers(1, 400), st.floats(0.55, 0.9995))
 def test_quantile_inverts_the_distribution(df, q):
-    t = student_t_quantile(q, df)
-    assert _t_central(t, df) == pytest.approx(2 * q - 1, abs=1e-12)
+    t = t_critical(df, 2 * q - 1)
+    assert _central_probability(t, df) == pytest.approx(2 * q - 1, abs=1e-12)
 
 
 def test_large_df_tends_to_the_normal_quantile():
-    assert student_t_quantile(0.975, 100000) == pytest.approx(1.959964, abs=1e-4)
+    assert t_critical(100000) == pytest.approx(1.959964, abs=1e-4)
 
 
 def test_describe_uses_it_and_bad_arguments_are_refused():
     st3 = describe([1.0, 2.0, 3.0])
     assert st3.ci95_high == pytest.approx(2.0 + TABLE[2] * 1.0 / math.sqrt(3.0), abs=1e-7)
     with pytest.raises(ValueError):
-        student_t_quantile(1.0, 3)
+        t_critical(3, 1.0)
     with pytest.raises(ValueError):
-        student_t_quantile(0.9, 0)
+        t_critical(0)
 
 
 def test_the_batch_tables_need_no_scipy():

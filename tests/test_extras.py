@@ -84,7 +84,7 @@ def test_mp4_without_imageio_ffmpeg_names_the_video_extra_and_gif_still_works(tm
 
 def test_record_video_without_moviepy_names_the_video_extra(tmp_path):
     code = ("import gymnasium, rlbridge\nfrom rlbridge.render import record_video\n"
-            "env = gymnasium.make('aamgym/CorridorSA-v0', scenario='merge_conflict', render_mode='rgb_array')\n"
+            "env = gymnasium.make('aamgym/CorridorSA-v1', scenario='merge_conflict', render_mode='rgb_array')\n"
             "record_video(env, 'videos')\n")
     proc = run_hidden(["moviepy"], code, tmp_path)
     assert proc.returncode == 1
@@ -100,7 +100,7 @@ def test_record_video_with_moviepy_is_gymnasiums_wrapper(tmp_path):
     import rlbridge  # noqa: F401
     from rlbridge.render import record_video
 
-    env = record_video(gymnasium.make("aamgym/CorridorSA-v0", scenario="merge_conflict", render_mode="rgb_array"),
+    env = record_video(gymnasium.make("aamgym/CorridorSA-v1", scenario="merge_conflict", render_mode="rgb_array"),
                        tmp_path / "videos", episode_trigger=lambda k: False)
     assert isinstance(env, gymnasium.wrappers.RecordVideo)
     env.close()

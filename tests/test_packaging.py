@@ -84,7 +84,7 @@ def test_wheel_holds_the_package_data_and_the_licence(dist):
     for wanted in ("aamsim/scn/nyc_day.scn", "aamsim/scn/merge_conflict.scn", "aamsim/traffic/data/performance.json",
                    "aamsim/viewer/static/viewer.js", "aamsim/py.typed", "rlbridge/conf/config.yaml",
                    "rlbridge/conf/algorithm/ddqn.yaml", "rlbridge/conf/usecase/corridor_sa.yaml",
-                   "uamtoolkit_import/data/nyc_network.json"):
+                   "uamtoolkit_import/data/nyc_network.json", "aamsim_bluesky.pth"):
         assert wanted in names, wanted
     assert any(n.endswith(".dist-info/licenses/LICENSE") for n in names)
     assert not any(n.startswith(("tests/", "docs/", "examples/")) for n in names)
@@ -99,7 +99,7 @@ def test_wheel_metadata_declares_licence_pythons_ranges_and_extras(dist):
     for minor in ("3.11", "3.12", "3.13"):
         assert f"Programming Language :: Python :: {minor}" in classifiers
     extras = set(meta.get_all("Provides-Extra"))
-    assert {"rl", "batch", "video", "realtraffic", "bluesky", "docs", "all", "test"} <= extras
+    assert {"rl", "batch", "video", "realtraffic", "bluesky", "bluesky-gym", "docs", "all", "test"} <= extras
     requires = meta.get_all("Requires-Dist")
     base = [r for r in requires if "extra ==" not in r]
     assert not any(r.startswith(("scipy", "imageio-ffmpeg", "imageio_ffmpeg", "torch")) for r in base), base
@@ -164,7 +164,7 @@ def test_main_job_and_help_run_from_the_installed_wheel(venv, user_dir):
 
 def test_environments_run_in_the_base_install(venv, user_dir):
     code = ("import gymnasium, rlbridge\n"
-            "env = gymnasium.make('aamgym/CorridorSA-v0', scenario='merge_conflict', time_limit_s=300.0)\n"
+            "env = gymnasium.make('aamgym/CorridorSA-v1', scenario='merge_conflict', time_limit_s=300.0)\n"
             "obs, _ = env.reset(seed=0)\n"
             "done = False\n"
             "while not done:\n"
@@ -208,7 +208,7 @@ MISSING = {
     "aamsim video mp4": (["aamsim", "video", "{run}", "-o", "x.mp4"], "video"),
     "aamsim view --video mp4": (["aamsim", "view", "{run}", "--video", "x.mp4"], "video"),
     "RecordVideo": (["python", "-c", ("import gymnasium, rlbridge\nfrom rlbridge.render import record_video\n"
-                                      "env = gymnasium.make('aamgym/CorridorSA-v0', scenario='merge_conflict', "
+                                      "env = gymnasium.make('aamgym/CorridorSA-v1', scenario='merge_conflict', "
                                       "render_mode='rgb_array')\nrecord_video(env, 'videos')")], "video"),
     "parquet overlay": (["aamsim", "run", "merge_conflict", "--overlay", "{parquet}", "--out", "p"], "realtraffic"),
     "bluesky backend": (["python", "-c", "import rlbridge\nrlbridge.parallel_env('merge_conflict', backend='bluesky')"],
@@ -247,7 +247,7 @@ def test_setup_cfg_test_extra_is_every_extra_plus_the_tools():
     cfg.read(ROOT / "setup.cfg")
     extras = cfg["options.extras_require"]
     assert "%(all)s" in extras["test"] and "%(docs)s" in extras["test"]
-    for name in ("rl", "batch", "video", "realtraffic", "bluesky"):
+    for name in ("rl", "batch", "video", "realtraffic", "bluesky", "bluesky-gym"):
         assert f"%({name})s" in extras["all"]
     constraints = (ROOT / ".ci" / "constraints.txt").read_text()
     assert "torch==2.13.0" in constraints

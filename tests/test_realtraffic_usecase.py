@@ -28,7 +28,8 @@ def overlay_case(tmp_path: Path) -> tuple[Path, Path]:
 
 def test_corridor_observes_the_replayed_aircraft_as_an_intruder(overlay_case):
     scn, rec = overlay_case
-    env = AamParallelEnv(str(scn), obs_format="dict", n_intruders=3, overlay="rec.csv", time_limit_s=120.0)
+    env = AamParallelEnv(str(scn), obs_format="dict", n_intruders=3, overlay="rec.csv", time_limit_s=120.0,
+                         alt_noise_ft=0.0)  # fixed traffic: the hand-computed geometry
     obs, _ = env.reset(seed=1)
     assert env.agents == ["UAM1"]  # the replayed aircraft is not an agent
     assert "RTEEE001" not in env.possible_agents

@@ -15,7 +15,7 @@ TINY = str(Path(__file__).parent / "data" / "tiny_conflict.scn")
 def test_a_class_runs_in_process_like_its_registered_name():
     by_class = rlbridge.parallel_env(TINY, usecase=ReachDestination, time_limit_s=120.0, arrival_bonus=2.0)
     by_name = rlbridge.parallel_env(TINY, usecase="reach_destination", time_limit_s=120.0, arrival_bonus=2.0)
-    assert by_class.metadata["name"] == by_name.metadata["name"] == "aamgym_reach_destination_v0"
+    assert by_class.metadata["name"] == by_name.metadata["name"] == "aamgym_reach_destination_v1"
     obs_c, _ = by_class.reset(seed=3)
     obs_n, _ = by_name.reset(seed=3)
     assert list(obs_c) == list(obs_n) == ["TA1", "TB2"]

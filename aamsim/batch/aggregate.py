@@ -19,6 +19,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from aamsim.metrics.stats import t_critical
+
 # Top-level summary fields that are figures of the run (the rest describe it: paths, versions, seeds).
 RUN_FIGURES = ("sim_time_s", "wall_time_s", "aircraft_steps", "flights_created", "flights_deleted",
                "flights_arrived", "aircraft_at_end", "errors")
@@ -64,46 +66,8 @@ def describe(values: Sequence[float]) -> MetricStats:
     if n == 1:
         return MetricStats(1, mean, None, None, None)
     std = statistics.stdev(values)
-    half = student_t_quantile(0.975, n - 1) * std / math.sqrt(n)
+    half = t_critical(n - 1) * std / math.sqrt(n)
     return MetricStats(n, mean, std, mean - half, mean + half)
-
-
-def student_t_quantile(q: float, df: int) -> float:
-    """The ``q`` quantile (0.5 <= q < 1) of Student's t distribution with ``df`` (integer) degrees of freedom.
-
-    Bisection on the closed form of P(|T| < t) for integer degrees of freedom (Abramowitz and
-    Stegun 26.7.3 and 26.7.4), to the last bits of a float: the batch's intervals need no SciPy.
-    """
-    if not 0.5 <= q < 1.0 or df < 1:
-        raise ValueError(f"need 0.5 <= q < 1 and df >= 1, not q={q}, df={df}")
-    target = 2.0 * q - 1.0  # P(|T| < t)
-    lo, hi = 0.0, 1.0
-    while _t_central(hi, df) < target:
-        lo, hi = hi, 2.0 * hi
-    for _ in range(200):
-        mid = 0.5 * (lo + hi)
-        if mid in (lo, hi):
-            break
-        lo, hi = (mid, hi) if _t_central(mid, df) < target else (lo, mid)
-    return hi
-
-
-def _t_central(t: float, df: int) -> float:
-    """P(|T| < t) for Student's t with integer ``df`` (Abramowitz and Stegun 26.7.3, 26.7.4)."""
-    theta = math.atan(t / math.sqrt(df))
-    s, c2 = math.sin(theta), math.cos(theta) ** 2
-    if df % 2:  # odd: (2/pi) (theta + sin(theta) (cos + 2/3 cos^3 + ... + 2.4...(df-3)/(1.3...(df-2)) cos^(df-2)))
-        term = math.cos(theta)
-        total = term if df > 1 else 0.0
-        for j in range(1, (df - 1) // 2):
-            term *= 2 * j / (2 * j + 1) * c2
-            total += term
-        return 2.0 / math.pi * (theta + s * total)
-    term = total = 1.0  # even: sin(theta) (1 + 1/2 cos^2 + 1.3/(2.4) cos^4 + ... up to cos^(df-2))
-    for j in range(1, df // 2):
-        term *= (2 * j - 1) / (2 * j) * c2
-        total += term
-    return s * total
 
 
 @dataclass(frozen=True)

@@ -20,16 +20,17 @@ from __future__ import annotations
 
 import math
 from dataclasses import asdict, dataclass
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, ClassVar
 
 import gymnasium as gym
 import numpy as np
 
 from aamsim.conflicts import SeparationVolume, conflicts_of, pairs_within
 from aamsim.metrics import record_advisory
-from aamsim.units import FT, KTS
+from aamsim.units import KTS
 from rlbridge.observe import corridor_features, nearest_neighbours
 from rlbridge.usecases.protocol import Feedback, Observations, UseCaseBase, make_params, start_overlay
+from rlbridge.usecases.variation import NYC_LANES_FT, PAPER_ALT_NOISE_FT, add_altitude_noise
 
 if TYPE_CHECKING:
     from aamsim import Simulation
@@ -59,10 +60,12 @@ class CorridorParams:
     decision_interval_s: float = 10.0
     intruder_range_m: float = 10000.0
     obs_format: str = "flat"  # "flat" vector or "dict" (ownship, intruders, mask) for attention models
-    alt_noise_ft: float = 0.0  # uniform altitude noise [ft] drawn per episode seed at creation
-    # The scenario's lanes [ft]: an aircraft created within alt_noise_ft of one gets its offset from
-    # it re-drawn (the noise replaces the scenario's instead of adding to it); others get it added.
-    alt_noise_lanes_ft: tuple[float, ...] = ()
+    # The paper's altitude noise (imperfect altitude holding, uniform +-100 ft), drawn per episode
+    # seed at creation (rlbridge.usecases.variation); 0 flies the scenario's traffic as it is.
+    alt_noise_ft: float = PAPER_ALT_NOISE_FT
+    # The scenario's lanes [ft] (default: the shipped network's): an aircraft created within alt_noise_ft
+    # of one gets its offset from it re-drawn (the noise replaces the scenario's); others get it added.
+    alt_noise_lanes_ft: tuple[float, ...] = NYC_LANES_FT
     reward_interval_nmac: bool = True  # an NMAC during the interval counts even if over by the decision
     # The configuration: "paper" (the paper's reward, in which hovering is free) or "v1" (a hover
     # costs hover_cost per decision while the ground speed is under hover_speed_kts; docs/usecase-corridor.md,
@@ -119,11 +122,12 @@ class CorridorParams:
 
 
 class CorridorSA(UseCaseBase):
-    """The corridor separation-assurance use case (``corridor_sa``, ``aamgym/CorridorSA-v0``)."""
+    """The corridor separation-assurance use case (``corridor_sa``, ``aamgym/CorridorSA-v1``)."""
 
     name = "corridor_sa"
     env_name = "CorridorSA"
     params_class = CorridorParams
+    fixed_traffic: ClassVar[dict[str, Any]] = {"alt_noise_ft": 0.0}
     # Per agent: was it in an NMAC / LoWC event at some time during the interval.
     info_fields = {"nmac": np.bool_, "lowc": np.bool_}  # noqa: RUF012
 
@@ -162,23 +166,7 @@ class CorridorSA(UseCaseBase):
         p = self.params
         service = conflicts_of(sim)
         service.volumes = (SeparationVolume("nmac", p.nmac_m), SeparationVolume("lowc", p.lowc_m))
-        if p.alt_noise_ft > 0:
-            lanes_m = np.array(p.alt_noise_lanes_ft) * FT
-
-            def jitter(sim: Simulation, i: int) -> None:
-                if sim.view.noncooperative[i]:
-                    return  # real traffic flies where it was recorded
-                noise = float(sim.rng.uniform(-p.alt_noise_ft, p.alt_noise_ft)) * FT
-                alt = sim.view.alt[i]
-                off = lanes_m - alt
-                k = int(np.argmin(np.abs(off))) if len(off) else -1
-                if k >= 0 and abs(off[k]) <= p.alt_noise_ft * FT + 1e-6:
-                    # On a lane (within the noise band): re-draw the scenario's noise around it.
-                    dz = float(off[k]) + noise
-                else:
-                    dz = noise
-                sim.offset_altitude(i, dz)
-            sim.hooks.created.add(jitter, name="corridor.alt_noise")
+        add_altitude_noise(sim, p.alt_noise_ft, p.alt_noise_lanes_ft, "corridor.alt_noise")
         start_overlay(sim, p.overlay, p.overlay_offset, p.overlay_area)
 
     # ------------------------------------------------------------ observation

@@ -59,12 +59,14 @@ class HierarchicalParams:
 
 
 class Hierarchical(UseCaseBase):
-    """``hierarchical`` (``aamgym/Hierarchical-v0``): see the module docstring."""
+    """``hierarchical`` (``aamgym/Hierarchical-v1``): see the module docstring."""
 
     name = "hierarchical"
     env_name = "Hierarchical"
     params_class = HierarchicalParams
     plans_departures = True
+    # Both levels draw the paper's altitude noise by default; fixed traffic switches both off.
+    fixed_traffic: ClassVar[dict[str, Any]] = {"planning": {"alt_noise_ft": 0.0}, "corridor": {"alt_noise_ft": 0.0}}
     policy_params: ClassVar[tuple[str, ...]] = ("tactical", "planner")  # frozen policies: baseline names or run paths
 
     def __init__(self, **params: Any):

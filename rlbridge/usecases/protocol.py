@@ -70,7 +70,7 @@ class UseCase(Protocol):
     """What a use case provides (see the module docstring)."""
 
     name: str  # registry name, e.g. "corridor_sa"
-    env_name: str  # Gymnasium id part: aamgym/<env_name>-v0
+    env_name: str  # Gymnasium id part: aamgym/<env_name>-v<N>
     standing_agents: tuple[str, ...]
     info_fields: dict[str, type]
 
@@ -116,6 +116,11 @@ class UseCaseBase:
     aircraft_agents: bool = True  # aircraft can be agents (False: agent_of is always None, e.g. a planner)
     info_fields: dict[str, type] = {}  # noqa: RUF012 (read-only by convention; subclasses replace it)
     default_decision_interval_s: ClassVar[float] = 10.0
+    # Episode variation (rlbridge.usecases.variation): the parameters that switch the use case's draws
+    # from the reset seed off (its fixed traffic, what the ``-v0`` environment ids keep).
+    fixed_traffic: ClassVar[dict[str, Any]] = {}
+    # Gymnasium id version: bumped when the environment's behaviour changes (aamgym/<env_name>-v<N>).
+    env_version: ClassVar[int] = 1
 
     @property
     def decision_interval_s(self) -> float:

@@ -15,13 +15,15 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, ClassVar
 
 import gymnasium as gym
 import numpy as np
 
+from aamsim.metrics import record_advisory
 from aamsim.units import KTS
 from rlbridge.usecases.protocol import Feedback, Observations, UseCaseBase, make_params, start_overlay
+from rlbridge.usecases.variation import PAPER_CRUISE_KTS, check_range, draw_cruise_speed
 
 if TYPE_CHECKING:
     from aamsim import Simulation
@@ -37,6 +39,10 @@ class ReachParams:
     decision_interval_s: float = 10.0
     scale_dist_m: float = 10000.0
     scale_spd_mps: float = 50.0
+    # The paper's cruising speeds (uniform 87..150 kt per vehicle), drawn per episode seed at creation
+    # (rlbridge.usecases.variation): each aircraft flies its draw until its first decision. () keeps the
+    # scenario's speeds.
+    cruise_speed_kts: tuple[float, ...] = PAPER_CRUISE_KTS
     # Real traffic as non-cooperative intruders (docs/real-traffic.md), as in corridor_sa.
     overlay: str = ""
     overlay_offset: str = ""
@@ -44,6 +50,7 @@ class ReachParams:
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "overlay_area", tuple(float(x) for x in self.overlay_area))
+        object.__setattr__(self, "cruise_speed_kts", check_range("cruise_speed_kts", self.cruise_speed_kts))
         if len(self.overlay_area) not in (0, 4):
             raise ValueError("overlay_area is 4 numbers LAT0, LON0, LAT1, LON1 (or empty)")
         if not self.speeds_kts or min(self.speeds_kts) < 0:
@@ -53,11 +60,15 @@ class ReachParams:
 
 
 class ReachDestination(UseCaseBase):
-    """``reach_destination`` (``aamgym/ReachDestination-v0``)."""
+    """``reach_destination`` (``aamgym/ReachDestination-v1``)."""
 
     name = "reach_destination"
     env_name = "ReachDestination"
     params_class = ReachParams
+    fixed_traffic: ClassVar[dict[str, Any]] = {"cruise_speed_kts": ()}
+    # The rule-based baselines that fit: DAA steers with speed_action_targets (these speeds); the
+    # speed-only MVP baseline's actions are corridor_sa's decelerate/hold/accelerate, not speeds.
+    baselines: ClassVar[tuple[str, ...]] = ("daa",)
     info_fields = {"arrived": np.bool_, "dist_m": np.float64}  # noqa: RUF012
 
     def __init__(self, **params: Any):
@@ -74,6 +85,7 @@ class ReachDestination(UseCaseBase):
 
     def attach(self, sim: Simulation) -> None:
         p = self.params
+        draw_cruise_speed(sim, p.cruise_speed_kts, "reach.cruise_speed")
         start_overlay(sim, p.overlay, p.overlay_offset, p.overlay_area)
 
     def observation_space(self) -> gym.Space:
@@ -122,8 +134,15 @@ class ReachDestination(UseCaseBase):
         bad = [c for c in codes if not 0 <= c < len(self.params.speeds_kts)]
         if bad:
             raise ValueError(f"action {bad[0]} is not in 0..{len(self.params.speeds_kts) - 1}")
-        if agents:
-            sim.select_speed(agents, np.array([self.params.speeds_kts[c] * KTS for c in codes]))
+        if not agents:
+            return
+        targets = np.array([self.params.speeds_kts[c] * KTS for c in codes])
+        # An advisory is an action that changes the aircraft's selected speed (repeating it is no alert).
+        before = sim.view.selspd[sim.slots(agents)]
+        sim.select_speed(agents, targets)
+        for a, old_mps, new_mps in zip(agents, before, targets):
+            if not abs(old_mps - new_mps) < 1e-6:
+                record_advisory(sim, a, f"speed {new_mps / KTS:.0f} kt")
 
     def feedback(self, sim: Simulation, agents: list[str], actions: dict[str, Any], since_s: float) -> Feedback:
         dist, _, _ = self._geometry(sim, agents)

@@ -4,7 +4,8 @@ A new use case is a new module that defines a class following
 :class:`~rlbridge.usecases.protocol.UseCase` plus an entry here
 (``BUILTIN_USECASES``) or in the ``rlbridge.usecases`` entry-point group of
 another package; the environments and the server look use cases up by name
-and need no edit. Each gets the Gymnasium id ``aamgym/<env_name>-v0``.
+and need no edit. Each gets the Gymnasium id ``aamgym/<env_name>-v1`` (and ``-v0``: fixed traffic, see
+:func:`env_id`).
 """
 
 from __future__ import annotations
@@ -52,10 +53,15 @@ def make_usecase(name: str | type, **params: Any) -> UseCase:
     return usecase
 
 
-def env_id(name: str) -> str:
-    """Gymnasium id of a use case: ``aamgym/<env_name>-v0``."""
+def env_id(name: str, version: int | None = None) -> str:
+    """Gymnasium id of a use case: ``aamgym/<env_name>-v<N>``, its current version unless ``version`` is given.
+
+    Version 1 draws each episode's variation from the reset seed (rlbridge.usecases.variation);
+    version 0 is the same use case on fixed traffic (its ``fixed_traffic`` parameters), as the
+    environments behaved before, for reproducing results made then.
+    """
     cls = usecase_class(name)
-    return f"aamgym/{cls.env_name or name}-v0"
+    return f"aamgym/{cls.env_name or name}-v{getattr(cls, 'env_version', 1) if version is None else version}"
 
 
 __all__ = ["BUILTIN_USECASES", "Feedback", "Observations", "UseCase", "UseCaseBase", "available", "env_id",

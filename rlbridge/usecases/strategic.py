@@ -39,6 +39,7 @@ from rlbridge.usecases.protocol import Feedback, Observations, UseCaseBase, make
 from rlbridge.usecases.reservation import Frame, Intent, IntentTable, probe_intents
 from rlbridge.usecases.schedule import DepartureRequest, Schedule, split_schedule
 from rlbridge.usecases.tactical import TacticalLayer
+from rlbridge.usecases.variation import PAPER_ALT_NOISE_FT, add_altitude_noise
 
 if TYPE_CHECKING:
     from aamsim import Simulation
@@ -72,9 +73,15 @@ class StrategicParams:
     nmac_m: float = 150.0
     lowc_m: float = 450.0
     scale_pos_m: float = 10000.0
+    # The paper's altitude noise (uniform +-100 ft about the flight's layer), drawn per episode seed when
+    # the flight takes off (rlbridge.usecases.variation): the planner's intents are probed at the filed
+    # altitudes, the flights hold theirs imperfectly. 0 flies the scenario's altitudes.
+    alt_noise_ft: float = PAPER_ALT_NOISE_FT
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "layers_ft", tuple(float(x) for x in self.layers_ft))
+        if self.alt_noise_ft < 0:
+            raise ValueError("alt_noise_ft cannot be negative")
         if self.obs_format not in ("dict", "flat"):
             raise ValueError(f"obs_format must be 'dict' or 'flat', not {self.obs_format!r}")
         for name in ("slot_s", "separation_m", "intent_grid_s", "queue_window_s", "nmac_m", "lowc_m",
@@ -129,7 +136,7 @@ class Episode:
 
 
 class StrategicPlanning(UseCaseBase):
-    """``strategic_planning`` (``aamgym/StrategicPlanning-v0``): see the module docstring."""
+    """``strategic_planning`` (``aamgym/StrategicPlanning-v1``): see the module docstring."""
 
     name = "strategic_planning"
     env_name = "StrategicPlanning"
@@ -139,6 +146,7 @@ class StrategicPlanning(UseCaseBase):
     policy_params: ClassVar[tuple[str, ...]] = ("tactical",)  # frozen policies: baseline names or run paths
     plans_departures: ClassVar[bool] = True  # holds the scenario's departures back (not on BlueSky's reader)
     baselines: ClassVar[tuple[str, ...]] = ("no_planning", "fcfs")
+    fixed_traffic: ClassVar[dict[str, Any]] = {"alt_noise_ft": 0.0}
     info_fields = {"delay_s": np.float64, "unplaced": np.bool_, "intent_conflicts": np.int64,  # noqa: RUF012
                    "nmac": np.int64, "lowc": np.int64}
 
@@ -191,6 +199,7 @@ class StrategicPlanning(UseCaseBase):
         p = self.params
         conflicts_of(sim).volumes = (SeparationVolume("nmac", p.nmac_m), SeparationVolume("lowc", p.lowc_m))
         sim.hooks.created.add(self._on_created, name="strategic.layer")
+        add_altitude_noise(sim, p.alt_noise_ft, p.layers_ft, "strategic.alt_noise")
         self.tactical.attach(sim, sim.seed)
 
     def scenario_commands(self, sim: Simulation, commands: list[TimedCommand]) -> list[TimedCommand]:
