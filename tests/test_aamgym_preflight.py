@@ -67,7 +67,7 @@ def test_evaluate_names_the_missing_scenario_and_run(tmp_path):
 # ---- in process: composition and schema ---------------------------------------------------------------
 
 
-@pytest.mark.parametrize("algorithm", ["d2mava_a", "d2mava_a_shared", "ddqn", "dqn"])
+@pytest.mark.parametrize("algorithm", ["d2mava_a", "d2mava_a_shared", "ddqn", "ddqn_per_transition", "dqn"])
 def test_every_shipped_configuration_passes(algorithm):
     for usecase in ("corridor_sa", "corridor_sa_v1", "reach_destination", "strategic_planning", "hierarchical"):
         assert check_job("config", [f"algorithm={algorithm}", f"usecase={usecase}", "workers=0"]) == []
@@ -85,12 +85,28 @@ def test_every_shipped_configuration_passes(algorithm):
     ("train.torch_threads=many", "train.torch_threads=many: expected an integer or one of auto"),
     ("workers=null", "workers=null: expected an integer"),
     ("algorithm.params.lr=fast", "algorithm.params.lr=fast: expected a number"),
-    ("algorithm=nope", "Could not find 'algorithm/nope'; available in 'algorithm': d2mava_a, d2mava_a_shared, ddqn, dqn"),
+    ("algorithm=nope", "Could not find 'algorithm/nope'; available in 'algorithm': d2mava_a, d2mava_a_shared, ddqn, ddqn_per_transition, dqn"),
 ])
 def test_a_bad_override_is_one_line_naming_the_key(override, problem):
     problems = check_job("config", ["workers=0", override])
     assert len(problems) == 1, problems
     assert problem in problems[0]
+
+
+def test_evaluate_takes_exactly_one_subject_and_checks_a_pretrained_policy(tmp_path):
+    # main's evaluate.yaml keys (policy, sampled_epsilon) are in the schema; the subject is one of three.
+    base = [f"scenario={TINY}", "workers=0", "greedy=false", "sampled_epsilon=0.1"]
+    assert check_job("evaluate", ["baseline=daa", *base]) == []
+    exported = tmp_path / "exported"
+    exported.mkdir()
+    (exported / "policy.json").write_text("{}")
+    assert check_job("evaluate", [f"policy={exported}", *base]) == []
+    (problem,) = check_job("evaluate", ["baseline=daa", f"policy={exported}", *base])
+    assert "exactly one of them is needed, not policy and baseline" in problem
+    (problem,) = check_job("evaluate", [f"policy={tmp_path}", *base])
+    assert problem.startswith(f"policy={tmp_path}: no pretrained policy")
+    (problem,) = check_job("evaluate", ["sampled_epsilon=some", "baseline=daa", *base[:2]])
+    assert problem == "sampled_epsilon=some: expected a number"
 
 
 def test_good_overrides_of_every_kind_pass():

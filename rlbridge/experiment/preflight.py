@@ -204,8 +204,17 @@ def needs(config_name: str, cfg: dict[str, Any]) -> list[str]:
     if scenario is not None and resolve_scenario(str(scenario)) is None:
         problems.append(f"scenario={scenario}: not found (neither a file nor a scenario shipped in aamsim/scn)")
     if config_name == "evaluate":
-        if cfg.get("run") is None and cfg.get("baseline") is None:
-            problems.append("run=RUN_DIR (a training run) or baseline=NAME: one of them is needed")
+        given = [key for key in ("run", "policy", "baseline") if cfg.get(key) not in (None, "")]
+        if len(given) != 1:
+            problems.append("run=RUN_DIR (a training run), policy=pretrained:NAME (a shipped policy) or "
+                            f"baseline=NAME: exactly one of them is needed, not {' and '.join(given) or 'none'}")
+        if cfg.get("policy") not in (None, ""):
+            from rlbridge.pretrained import policy_dir
+
+            try:
+                policy_dir(str(cfg["policy"]))
+            except FileNotFoundError as exc:
+                problems.append(f"policy={cfg['policy']}: {exc}")
         if cfg.get("run") is not None and not Path(str(cfg["run"])).exists():
             problems.append(f"run={cfg['run']}: no such training run or checkpoint file")
         if cfg.get("baseline") is not None and cfg.get("scenario") is None:

@@ -102,6 +102,7 @@ class EvaluateConfig:
 
     usecase: UsecaseSection
     run: str | None = None
+    policy: str | None = None  # pretrained:<name> or an exported policy folder
     baseline: str | None = None
     checkpoint: str = "best"
     scenario: str | None = None
@@ -113,6 +114,7 @@ class EvaluateConfig:
     alt_noise_lanes_ft: list[float] = field(default_factory=list)
     baselines: list[str] | None = None
     greedy: bool | None = None
+    sampled_epsilon: float = 0.05  # epsilon of a value-based policy evaluated with greedy=false
     name: str | None = None
     metrics: list[str] = field(default_factory=list)
     video: bool = False
