@@ -2,7 +2,7 @@
 virtual environment outside the source tree, with no extra.
 
 The wheel and the sdist are built once per session, and one fresh environment is made for the whole
-module (building and installing take minutes): the main job runs from it, the console scripts
+session (building and installing take minutes): the main job runs from it, the console scripts
 answer, and every feature whose extra is missing ends in one line naming the extra.
 """
 
@@ -43,19 +43,24 @@ def dist(tmp_path_factory) -> dict[str, Path | str]:
     return {"wheel": wheel, "sdist": sdist, "log": proc.stdout + proc.stderr}
 
 
-@pytest.fixture(scope="module")
+@pytest.fixture(scope="session")
 def venv(dist, tmp_path_factory) -> Path:
-    """A fresh virtual environment outside the tree with the wheel installed: the base install."""
+    """A fresh virtual environment outside the tree with the wheel installed: the base install.
+
+    Made once and shared by every test of the installed package. ``--no-compile`` skips writing
+    bytecode for every dependency at install time (Python writes it on first import anyway): the
+    packages installed and their versions are the same.
+    """
     where = tmp_path_factory.mktemp("fresh")
     proc = run([sys.executable, "-m", "venv", str(where / "venv")], cwd=where)
     assert proc.returncode == 0, proc.stderr
-    pip = run([str(where / "venv" / "bin" / "python"), "-m", "pip", "install", "--quiet", str(dist["wheel"])],
-              cwd=where, timeout=1800)
+    pip = run([str(where / "venv" / "bin" / "python"), "-m", "pip", "install", "--quiet", "--no-compile",
+               "--disable-pip-version-check", str(dist["wheel"])], cwd=where, timeout=1800)
     assert pip.returncode == 0, pip.stdout[-4000:] + pip.stderr[-4000:]
     return where / "venv"
 
 
-@pytest.fixture(scope="module")
+@pytest.fixture(scope="session")
 def user_dir(tmp_path_factory) -> Path:
     """An empty folder to run from, nowhere near the checkout."""
     return tmp_path_factory.mktemp("user")
