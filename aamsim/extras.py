@@ -23,6 +23,8 @@ EXTRAS: dict[str, tuple[tuple[str, ...], str]] = {
     "video": (("imageio_ffmpeg", "moviepy"), "MP4 videos of runs and gymnasium.wrappers.RecordVideo"),
     "realtraffic": (("pyarrow",), "Parquet recordings of real traffic"),
     "bluesky": (("bluesky",), "BlueSky as the simulator behind the environments (backend=bluesky)"),
+    "bluesky-gym": (("bluesky_gym", "pygame", "torch"),
+                    "bluesky-gym's environments on aamsim (AAMSIM_BLUESKY=1, docs/bluesky-api.md)"),
     "docs": (("mkdocs", "material", "mkdocstrings"), "the documentation site"),
 }
 

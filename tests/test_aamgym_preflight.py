@@ -76,14 +76,16 @@ def test_every_shipped_configuration_passes(algorithm):
 
 @pytest.mark.parametrize(("override", "problem"), [
     ("train.foo=1", ("train.foo: unknown key; known: aircraft_states, baseline_episodes, best_window, "
-                     "checkpoint_every, episodes_per_worker, hours, iterations, mode, resume, torch_threads")),
+                     "checkpoint_every, episodes_per_worker, hours, iterations, mode, resume, static_learner, "
+                     "torch_threads")),
     ("+usecase.params.n_intruder=3", "usecase.params.n_intruder: unknown key; known: "),
     ("usecase.params.n_intruders=3.5", "usecase.params.n_intruders=3.5: expected an integer"),
     ("usecase.params.alt_noise_lanes_ft=[1,x]", "usecase.params.alt_noise_lanes_ft=[1, 'x']: expected a list of numbers"),
     ("usecase.params.variant=v9", "usecase.params: variant must be one of"),
     ("train.mode=fast", "train.mode=fast: expected one of serial, overlap"),
     ("train.torch_threads=many", "train.torch_threads=many: expected an integer or one of auto"),
-    ("workers=null", "workers=null: expected an integer"),
+    ("workers=null", "workers=null: expected an integer or one of auto"),
+    ("train.static_learner=maybe", "train.static_learner=maybe: expected true or false or one of auto"),
     ("algorithm.params.lr=fast", "algorithm.params.lr=fast: expected a number"),
     ("algorithm=nope", "Could not find 'algorithm/nope'; available in 'algorithm': d2mava_a, d2mava_a_shared, ddqn, ddqn_per_transition, dqn"),
 ])
@@ -110,6 +112,7 @@ def test_evaluate_takes_exactly_one_subject_and_checks_a_pretrained_policy(tmp_p
 
 
 def test_good_overrides_of_every_kind_pass():
+    assert check_job("config", ["workers=auto", "train.static_learner=true"]) == []  # main's keys and values
     assert check_job("config", ["workers=0", "train.torch_threads=auto", "train.hours=0.5", "train.iterations=3",
                                 "algorithm=ddqn", "algorithm.params.lr=3e-5", "algorithm.params.double=false",
                                 "usecase=reach_destination", "usecase.params.speeds_kts=[20,40]",

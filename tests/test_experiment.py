@@ -99,6 +99,19 @@ def test_ddqn_gradient_steps_follow_the_runs_environment_steps(tmp_path):
     assert float(last["epsilon"]) == pytest.approx(0.999 + env / 100 * (0.0001 - 0.999), rel=1e-5)
 
 
+@pytest.mark.skipif(torch.cuda.is_available(), reason="checks the error of a machine without CUDA")
+def test_device_cuda_without_cuda_is_one_clear_error_before_anything_starts(tmp_path):
+    env = dict(os.environ, PYTHONPATH=str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", ""))
+    run = tmp_path / "run"
+    proc = subprocess.run([sys.executable, "-m", "rlbridge.experiment", "train", "device=cuda", f"scenario={TINY}",
+                           "workers=0", f"hydra.run.dir={run}"], cwd=tmp_path, env=env, capture_output=True, text=True,
+                          timeout=300, check=False)
+    assert proc.returncode != 0
+    assert "device=cuda: CUDA is not available on this machine" in proc.stderr
+    # Nothing started: no configuration, curve or checkpoint written (Hydra's own .hydra/ and log aside).
+    assert {p.name for p in run.iterdir()} <= {".hydra", "train.log"}
+
+
 def test_unknown_algorithm_parameter_is_rejected(tmp_path):
     cfg = compose_train(["+algorithm.params.learning_rat=0.1", "train.iterations=1"])
     with pytest.raises(TypeError, match="learning_rat"):
@@ -344,3 +357,21 @@ def test_evaluation_keeps_the_training_runs_time_limit_and_dt_unless_overridden(
     assert (env.time_limit_s, env.dt) == (90.0, 0.25)
     # A training run on the engine's default stays on it.
     assert evaluation_env(default, EnvSpec(TINY)).time_limit_s is None
+
+
+def test_d2mava_on_a_flat_observation_is_refused_naming_the_algorithm_that_fits():
+    # reach_destination observes its own aircraft only: no intruders for D2MAV-A's attention to read.
+    dims = usecase_dims("reach_destination", {})
+    with pytest.raises(ValueError, match="needs an observation of an ownship and its intruders.*algorithm=ddqn"):
+        make_learner("d2mava", {}, dims, "cpu", 0)
+
+
+def test_ddqn_trains_on_a_use_case_with_one_observation_format(tmp_path):
+    # reach_destination has no obs_format parameter: DDQN's flat observation is its only one.
+    with initialize_config_module("rlbridge.conf", version_base="1.3"):
+        cfg = compose("config", overrides=["usecase=reach_destination", "algorithm=ddqn_per_transition",
+                                            f"scenario={TINY}", "workers=0", "train.iterations=2",
+                                            "env.time_limit_s=300", "train.baseline_episodes=1"])
+    run_training(cfg, tmp_path)
+    rows = list(csv.DictReader((tmp_path / "learning_curve.csv").open()))
+    assert len(rows) == 2 and int(rows[-1]["aircraft_states_total"]) > 0

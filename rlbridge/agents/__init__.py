@@ -39,14 +39,14 @@ def usecase_dims(usecase: str, params: dict[str, Any]) -> dict[str, int]:
     ``corridor_sa``) adds ``own_dim``, ``intruder_dim`` and ``n_intruders``.
     """
     p = {k: v for k, v in params.items() if k != "obs_format"}
-    flat_uc = make_usecase(usecase, **p, obs_format="flat") if _has_obs_format(usecase) else make_usecase(usecase, **p)
+    flat_uc = make_usecase(usecase, **p, obs_format="flat") if has_obs_format(usecase) else make_usecase(usecase, **p)
     act = flat_uc.action_space()
     dims = {"flat_dim": int(gym.spaces.flatdim(flat_uc.observation_space()))}
     if isinstance(act, gym.spaces.Discrete):
         dims["n_actions"] = int(act.n)
     else:
         dims["action_dim"] = int(gym.spaces.flatdim(act))
-    if _has_obs_format(usecase):
+    if has_obs_format(usecase):
         parts = make_usecase(usecase, **p, obs_format="dict").observation_space()
         if isinstance(parts, gym.spaces.Dict) and {"ownship", "intruders"} <= set(parts.spaces):
             own, intr = parts.spaces["ownship"], parts.spaces["intruders"]
@@ -55,7 +55,7 @@ def usecase_dims(usecase: str, params: dict[str, Any]) -> dict[str, int]:
     return dims
 
 
-def _has_obs_format(usecase: str) -> bool:
+def has_obs_format(usecase: str) -> bool:
     """Whether the use case takes an ``obs_format`` parameter (flat or dict observations)."""
     params = getattr(usecase_class(usecase), "params_class", None)
     return params is not None and "obs_format" in {f.name for f in fields(params)}
@@ -109,16 +109,19 @@ def learner_config_class(kind: str) -> type:
 
 
 def make_learner(kind: str, config: dict[str, Any], dims: dict[str, Any], device: str = "cpu",
-                 seed: int = 0) -> Any:
-    """Build a learner (``d2mava`` or ``dqn``) from its hyper-parameters (unknown keys are an error)."""
+                 seed: int = 0, static: bool | None = None) -> Any:
+    """Build a learner (``d2mava`` or ``dqn``) from its hyper-parameters (unknown keys are an error).
+
+    ``static``: the fixed-shape update a GPU replays as a CUDA graph (same losses); None: on CUDA only.
+    """
     if kind == "d2mava":
         from rlbridge.agents.d2mava import D2MAVALearner
 
-        return D2MAVALearner(config, dims, device, seed)
+        return D2MAVALearner(config, dims, device, seed, static)
     if kind == "dqn":
         from rlbridge.agents.ddqn import DDQNLearner
 
-        return DDQNLearner(config, dims, device, seed)
+        return DDQNLearner(config, dims, device, seed, static)
     raise KeyError(f"unknown learner kind {kind!r}; known: {', '.join(LEARNER_KINDS)}")
 
 

@@ -119,7 +119,8 @@ def with_altitude_noise(usecase: str, params: dict[str, Any], noise_ft: float, l
     params_class = getattr(usecase_class(usecase), "params_class", None)
     fields = {f.name for f in dataclass_fields(params_class)} if params_class is not None else set()
     if "alt_noise_ft" in fields:
-        return {**params, **noise}
+        # A planner's params may take the noise's size but fly their own layers (no lanes to give).
+        return {**params, **{k: v for k, v in noise.items() if k in fields}}
     if "corridor" in fields and params.get("train") == "tactical":
         return {**params, "corridor": {**params.get("corridor", {}), **noise}}
     return params

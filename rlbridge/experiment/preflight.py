@@ -219,7 +219,8 @@ def needs(config_name: str, cfg: dict[str, Any]) -> list[str]:
             problems.append(f"run={cfg['run']}: no such training run or checkpoint file")
         if cfg.get("baseline") is not None and cfg.get("scenario") is None:
             problems.append("scenario: a baseline evaluation needs one (e.g. scenario=nyc_train_100)")
-    wanted = [("batch", "Ray workers (workers > 0)", ("ray",), int(cfg.get("workers") or 0) > 0,
+    workers = cfg.get("workers") or 0
+    wanted = [("batch", "Ray workers (workers > 0)", ("ray",), workers == "auto" or int(workers) > 0,
                "or workers=0: one in-process worker")]
     if config_name == "evaluate":
         wanted += [("video", "video=true (MP4 videos)", ("imageio_ffmpeg",), bool(cfg.get("video")), ""),

@@ -57,6 +57,7 @@ class TrainSection:
     baseline_episodes: int = 2
     resume: str | None = None
     torch_threads: int | Literal["auto"] = 1
+    static_learner: bool | Literal["auto"] = "auto"
     mode: Literal["serial", "overlap"] = "serial"
 
 
@@ -86,7 +87,7 @@ class TrainConfig:
     algorithm: AlgorithmSection
     usecase: UsecaseSection
     scenario: str = "nyc_train_100"
-    workers: int = 2
+    workers: int | Literal["auto"] = 2
     seed: int = 0
     device: str = "cpu"
     out_dir: str = "runs"
