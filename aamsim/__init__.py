@@ -11,5 +11,8 @@ from aamsim.simulation import Simulation
 from aamsim.traffic.view import TrafficView
 from aamsim.units import Speed
 
+# The distribution's version (PEP 440, MAJOR.MINOR.PATCH; 0.x: the API may still change between minor
+# versions). Its only home: setup.cfg reads it, rlbridge re-exports it, CITATION.cff and the top
+# release of CHANGELOG.md repeat it (tests/test_project_files.py); a release is the tag vX.Y.Z.
 __version__ = "0.1.0"
 __all__ = ["Simulation", "SimulationAPI", "Speed", "Target", "TrafficView", "__version__"]

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import sys
 import time
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
@@ -11,6 +12,7 @@ import click
 
 from aamsim.errors import CommandError
 from aamsim.limits import DEFAULT_MAX_AIRCRAFT
+from aamsim.extras import MissingExtra, require
 from aamsim.units import UnitParseError, parse_time
 
 
@@ -105,7 +107,18 @@ class _Progress:
             self.bar.close()
 
 
-@click.group()
+class _Commands(click.Group):
+    """The ``aamsim`` group: a feature whose extra is not installed ends in one line naming it (exit 2)."""
+
+    def invoke(self, ctx: click.Context) -> Any:
+        try:
+            return super().invoke(ctx)
+        except MissingExtra as exc:
+            click.echo(f"error: {exc}", err=True)
+            ctx.exit(2)
+
+
+@click.group(cls=_Commands)
 @click.version_option(package_name="aamsim")
 def main() -> None:
     """aamsim: a BlueSky-compatible, headless, fast-time air-traffic simulator."""
@@ -149,15 +162,21 @@ def main() -> None:
               help="With --view: run at most this many times faster than real time (e.g. 10), to watch it.")
 @click.option("--allow-commands", is_flag=True,
               help="With --view: let the browser send stack commands to the simulation.")
+@click.option("--set", "sets", multiple=True, metavar="KEY=VALUE",
+              help="A setting, as aamsim batch takes it (keys: dt, until, nmac, lowc, log_period, "
+                   "delete_on_arrival, stack); it replaces the option of the same name. stack=COMMAND runs a stack "
+                   "command at time 0 before the scenario, e.g. --set \"stack=RESO DAA\" (repeatable).")
 def run(scenario: str, until: str | None, out_dir: Path | None, dt: float, seed: int | None, strict: bool,
         quiet: bool, log_period: float, plugins: tuple[str, ...], delete_on_arrival: bool, metrics: str,
         nmac: str, lowc: str, threads: int | None, overlays: tuple[str, ...], overlay_offset: str,
         overlay_area: str, show_view: bool, host: str, port: int, allow_hosts: tuple[str, ...],
-        open_browser: bool, pace: float | None, allow_commands: bool) -> None:
+        open_browser: bool, pace: float | None, allow_commands: bool, sets: tuple[str, ...]) -> None:
     """Simulate SCENARIO headless, as fast as possible, and write a run directory.
 
     SCENARIO is a path, or the name of a scenario shipped with aamsim
     (e.g. scn/nyc_day.scn). With --view, watch it in the web viewer.
+    --set "stack=RESO DAA" switches a service on for this run only: the
+    scenario file (and its hash, which aamsim compare pairs runs by) is unchanged.
     """
     if not show_view and (pace is not None or allow_commands or open_browser):
         raise click.UsageError("--pace, --allow-commands and --open go with --view")
@@ -200,6 +219,8 @@ def run(scenario: str, until: str | None, out_dir: Path | None, dt: float, seed:
                                  param_hint="--overlay-area")
     cfg = RunConfig(scenario, out_dir, until_s, dt, seed, strict, log_period, plugins, delete_on_arrival, groups,
                     volumes, threads, overlays=overlays, overlay_offset=overlay_offset, overlay_area=area)
+    if sets:
+        cfg = _with_settings(cfg, sets)
 
     def listener(msg: Any) -> None:
         if msg.kind in ("error", "warning") or not quiet and msg.kind in ("echo", "note"):
@@ -292,6 +313,34 @@ def run(scenario: str, until: str | None, out_dir: Path | None, dt: float, seed:
                 time.sleep(3600)
         except KeyboardInterrupt:
             live.close()
+
+
+def _with_settings(cfg: Any, sets: tuple[str, ...]) -> Any:
+    """``cfg`` with ``aamsim run --set KEY=VALUE ...`` applied (aamsim batch's keys and parsers).
+
+    A key given here replaces the option of the same name (``--set lowc=600`` replaces ``--lowc``
+    and leaves ``--nmac`` as given). Each key once, except ``stack``: its commands run in the order
+    given. A key given twice is a sweep, which is what ``aamsim batch`` is for.
+    """
+    from aamsim.batch.plan import BatchError, parse_settings
+
+    stack = [item for item in sets if item.partition("=")[0].strip().lower() == "stack"]
+    others = [item for item in sets if item not in stack]
+    try:
+        points = parse_settings(others)
+        commands = [parse_settings([item])[0].run_config_fields()["commands"][0] for item in stack]
+    except BatchError as exc:
+        raise click.BadParameter(str(exc), param_hint="--set") from None
+    if len(points) > 1:
+        raise click.BadParameter("a key given twice is a sweep: aamsim batch runs those", param_hint="--set")
+    fields = points[0].run_config_fields()
+    if "volumes" in fields:  # the batch parser fills the volume not given with its default: keep the option's
+        given = {key for key, _ in points[0].values}
+        fields["volumes"] = tuple(new if name in given else old
+                                  for name, new, old in zip(("nmac", "lowc"), fields["volumes"], cfg.volumes))
+    if commands:
+        fields["commands"] = tuple(commands)
+    return replace(cfg, **fields)
 
 
 def _write_video(run_dir: Path, video_path: Path, t_from: str | None, t_to: str | None, speed: float, fps: float,
@@ -503,6 +552,9 @@ def batch(scenarios: tuple[str, ...], seeds: int, seed_start: int, sets: tuple[s
 
     from aamsim.batch import BatchError, load_sources, parse_settings, plan_jobs, run_batch
     from aamsim.scenarios import resolve_scenario
+
+    if not no_ray:
+        require("batch", "aamsim batch", ("ray",), hint="or --no-ray: the runs one by one in this process")
 
     paths, missing = [], []
     for name in scenarios:

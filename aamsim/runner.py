@@ -256,6 +256,7 @@ def make_summary(sim: Simulation, cfg: RunConfig, path: Path, wall_s: float) -> 
         "aamsim_version": aamsim.__version__,
         "python": platform.python_version(),
         "seed": cfg.seed,
+        "commands": list(cfg.commands),  # run at time 0 before the scenario (aamsim run/batch --set stack=...)
         "dt_s": sim.dt,
         "threads": sim.threads,
         "until_s": cfg.until_s,

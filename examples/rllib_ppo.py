@@ -1,26 +1,34 @@
 """Train RLlib's PPO (new API stack) on the multi-agent corridor environment.
 
-    python examples/rllib_ppo.py --scenario tests/data/tiny_conflict.scn --iterations 2
+    python examples/rllib_ppo.py --scenario merge_conflict --iterations 2
     python examples/rllib_ppo.py --scenario nyc_train_100 --iterations 100 --env-runners 2
 
 Every aircraft maps to one shared policy (parameter sharing, as D2MAV-A does). RLlib's
-default model takes flat Box observations, hence ``obs_format="flat"``.
+default model takes flat Box observations, hence ``obs_format="flat"``. The scenarios named here
+are shipped with aamsim; the example needs the ``rl`` extra (``pip install "aamsim[rl]"``).
 """
 
 from __future__ import annotations
 
 import argparse
 import os
+import sys
 from pathlib import Path
+
+from aamsim.extras import MissingExtra, require
 
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--scenario", default="tests/data/tiny_conflict.scn")
+    ap.add_argument("--scenario", default="merge_conflict", help="a .scn file or a shipped scenario's name")
     ap.add_argument("--iterations", type=int, default=2)
     ap.add_argument("--env-runners", type=int, default=0)
     ap.add_argument("--time-limit-s", type=float, default=600.0)
     args = ap.parse_args()
+    try:
+        require("rl", "examples/rllib_ppo.py", ("ray", "torch"))
+    except MissingExtra as exc:
+        sys.exit(f"error: {exc}")
     import ray
 
     # Ray workers must import this checkout's rlbridge (not needed once the package is installed).

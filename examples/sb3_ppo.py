@@ -1,19 +1,23 @@
 """Train Stable-Baselines3 PPO on the single-aircraft environment ``aamgym/CorridorSA-v1``.
 
-    python examples/sb3_ppo.py --scenario tests/data/tiny_conflict.scn --steps 5000
+    python examples/sb3_ppo.py --scenario merge_conflict --steps 5000
     python examples/sb3_ppo.py --scenario nyc_train_100 --ego UAM0832 --steps 200000
 
 One aircraft (``ego``, default: the first the scenario creates) is controlled; the other
-aircraft fly their flight plans (unequipped) unless ``traffic_policy`` says otherwise.
+aircraft fly their flight plans (unequipped) unless ``traffic_policy`` says otherwise. The
+scenarios named here are shipped with aamsim, so the example runs from any folder; it needs the
+``rl`` extra (``pip install "aamsim[rl]"``).
 """
 
 from __future__ import annotations
 
 import argparse
+import sys
 
 import gymnasium as gym
 
 import rlbridge
+from aamsim.extras import MissingExtra, require
 
 
 def train(scenario: str, steps: int, seed: int = 0, ego: str | None = None, algo: str = "ppo",
@@ -32,11 +36,15 @@ def train(scenario: str, steps: int, seed: int = 0, ego: str | None = None, algo
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--scenario", default="tests/data/tiny_conflict.scn")
+    ap.add_argument("--scenario", default="merge_conflict", help="a .scn file or a shipped scenario's name")
     ap.add_argument("--steps", type=int, default=5000)
     ap.add_argument("--ego", default=None)
     ap.add_argument("--algo", choices=("ppo", "dqn"), default="ppo")
     args = ap.parse_args()
+    try:
+        require("rl", "examples/sb3_ppo.py", ("stable_baselines3", "torch"))
+    except MissingExtra as exc:
+        sys.exit(f"error: {exc}")
     model, env = train(args.scenario, args.steps, ego=args.ego, algo=args.algo)
     obs, _ = env.reset(seed=123)
     total, done = 0.0, False

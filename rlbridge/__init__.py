@@ -12,11 +12,12 @@ from __future__ import annotations
 
 import gymnasium
 
+from aamsim import __version__ as aamsim_version
 from rlbridge.core import EpisodeCore, StepResult
 from rlbridge.envs import AamParallelEnv, AamSingleAgentEnv, CorridorSAEnv, parallel_env
 from rlbridge.usecases.registry import BUILTIN_USECASES, env_id
 
-__version__ = "0.1.0"
+__version__ = aamsim_version  # one version for the distribution (aamsim/__init__.py; CHANGELOG.md)
 ENV_ID = "aamgym/CorridorSA-v1"
 
 

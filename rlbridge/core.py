@@ -116,7 +116,7 @@ class EpisodeCore:
     def __init__(
         self,
         scenario: str | Path,
-        usecase: str | UseCase = "corridor_sa",
+        usecase: str | type | UseCase = "corridor_sa",
         params: dict[str, Any] | None = None,
         time_limit_s: float | None = None,
         dt: float = 0.05,
@@ -130,7 +130,8 @@ class EpisodeCore:
             raise ScenarioError(f"scenario not found: {scenario}")
         self.path = path
         self.text = path.read_text(encoding="utf-8", errors="replace")
-        self.usecase: UseCase = make_usecase(usecase, **(params or {})) if isinstance(usecase, str) else usecase
+        self.usecase: UseCase = (make_usecase(usecase, **(params or {})) if isinstance(usecase, (str, type))
+                                 else usecase)
         self.dt = dt
         self.plugins = tuple(plugins)
         self.file_guard = file_guard

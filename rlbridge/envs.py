@@ -48,7 +48,7 @@ class AamParallelEnv(ParallelEnv):
     def __init__(
         self,
         scenario: str | Path = "nyc_train_100.scn",
-        usecase: str = "corridor_sa",
+        usecase: str | type = "corridor_sa",
         backend: str = "local",
         address: str | None = None,
         time_limit_s: float | None = None,
@@ -64,7 +64,7 @@ class AamParallelEnv(ParallelEnv):
         self.render_mode = check_render_mode(render_mode)
         self._usecase = make_usecase(usecase, **params)
         version = getattr(type(self._usecase), "env_version", 1)
-        self.metadata = {**self.metadata, "name": f"aamgym_{usecase}_v{version}"}
+        self.metadata = {**self.metadata, "name": f"aamgym_{self._usecase.name}_v{version}"}
         self.core = make_backend(scenario, usecase, params, backend, address, time_limit_s, dt, timeout_s, threads)
         self.possible_agents: list[str] = list(self.core.possible_agents)
         self.agents: list[str] = []
@@ -169,7 +169,7 @@ class AamSingleAgentEnv(gym.Env):
         scenario: str | Path = "nyc_train_100.scn",
         ego: str | None = None,
         traffic_policy: TrafficPolicy | None = None,
-        usecase: str = "corridor_sa",
+        usecase: str | type = "corridor_sa",
         backend: str = "local",
         address: str | None = None,
         time_limit_s: float | None = None,

@@ -106,3 +106,18 @@ class EnvRenderer:
         if self._viewer is not None:
             self._viewer.close()
             self._viewer = None
+
+
+def record_video(env: Any, video_folder: str | Path, **kwargs: Any) -> Any:
+    """``gymnasium.wrappers.RecordVideo(env, video_folder, **kwargs)``, or one line naming the ``video`` extra.
+
+    RecordVideo writes its MP4s with MoviePy, which the base install leaves out; without it,
+    this raises :class:`aamsim.extras.MissingExtra` (Gymnasium's own message would send the user
+    to ``gymnasium[other]``). ``env`` needs ``render_mode="rgb_array"``.
+    """
+    from aamsim.extras import require
+
+    require("video", "gymnasium.wrappers.RecordVideo", ("moviepy",))
+    from gymnasium.wrappers import RecordVideo
+
+    return RecordVideo(env, str(video_folder), **kwargs)

@@ -32,6 +32,11 @@ from pathlib import Path
 from typing import Any
 
 import gymnasium as gym
+
+from aamsim.extras import require
+
+require("rl", "rlbridge.rllib_env (RLlib)", ("ray",))  # one line naming the extra instead of a bare ImportError
+
 from ray.rllib.env.multi_agent_env import MultiAgentEnv
 
 from rlbridge.envs import AamParallelEnv

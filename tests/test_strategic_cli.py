@@ -78,7 +78,9 @@ def test_unknown_use_case_and_parameter_from_the_cli(tmp_path):
     assert "usecase/strategic" in err and "strategic_planning" in err and "hierarchical" in err
     proc = aamgym(["train", *SMALL, "+usecase.params.slots_s=30", "algorithm=ddqn", "train.iterations=1",
                    "train.baseline_episodes=0", "hydra.run.dir=t"], tmp_path, ok=False)
-    assert "unknown use-case parameter(s) slots_s; known:" in proc.stderr and "slot_s" in proc.stderr
+    # Checked before anything starts (issue 30): one line naming the key, exit 2, no run directory.
+    assert proc.returncode == 2 and not (tmp_path / "t").exists()
+    assert "usecase.params.slots_s: unknown key; known:" in proc.stderr and "slot_s" in proc.stderr
 
 
 def test_evaluation_baselines_per_use_case():

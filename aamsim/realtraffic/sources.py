@@ -15,6 +15,7 @@ import json
 from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
 from typing import Any, TextIO
 
+from aamsim.extras import missing
 from aamsim.realtraffic.columns import ColumnPlan
 from aamsim.realtraffic.normalise import RawChunk
 from aamsim.realtraffic.reports import RecordingError, SkipLog, SkippedRow
@@ -268,11 +269,12 @@ def _array_records(path: str, stream: TextIO, block: int = 1 << 20) -> Iterator[
 
 
 def parquet_chunks(path: str, plan_for: PlanFor, chunk_rows: int) -> Iterator[RawChunk]:
-    try:
-        import pyarrow as pa
-        import pyarrow.parquet as pq
-    except ImportError as err:
-        raise RecordingError(path, "reading Parquet needs pyarrow: pip install 'aamsim[realtraffic]'") from err
+    if missing(("pyarrow",)):
+        raise RecordingError(path, 'reading Parquet needs pyarrow, which is not installed: '
+                                   'pip install "aamsim[realtraffic]"')
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
     try:
         parquet = pq.ParquetFile(path)
     except (pa.ArrowInvalid, OSError) as err:

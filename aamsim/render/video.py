@@ -12,6 +12,7 @@ from typing import Any
 
 import numpy as np
 
+from aamsim.extras import require
 from aamsim.render.draw import TrafficPainter
 from aamsim.viewer.frames import RunReplay
 
@@ -62,6 +63,8 @@ def write_runs_video(panels: list[tuple[str, str | Path]], out_path: str | Path,
     out = Path(out_path)
     if out.suffix.lower() not in VIDEO_SUFFIXES:
         raise ValueError(f"{out}: the video must end in {' or '.join(VIDEO_SUFFIXES)}")
+    if out.suffix.lower() == ".mp4":  # imageio writes MP4 with imageio-ffmpeg's ffmpeg; GIF needs only pillow
+        require("video", f"an MP4 video ({out.name})", ("imageio_ffmpeg",), hint="or write a .gif")
     if not panels:
         raise ValueError("no run to draw")
     replays = [RunReplay(d) for _, d in panels]

@@ -95,6 +95,19 @@ def make_actor(spec: dict[str, Any]) -> Any:
     raise KeyError(f"unknown actor kind {kind!r}; known: {', '.join(LEARNER_KINDS + BASELINE_KINDS)}")
 
 
+def learner_config_class(kind: str) -> type:
+    """The hyper-parameter dataclass of a learner kind (what ``algorithm.params`` must fit)."""
+    if kind == "d2mava":
+        from rlbridge.agents.d2mava import D2MAVAConfig
+
+        return D2MAVAConfig
+    if kind == "dqn":
+        from rlbridge.agents.ddqn import DDQNConfig
+
+        return DDQNConfig
+    raise KeyError(f"unknown learner kind {kind!r}; known: {', '.join(LEARNER_KINDS)}")
+
+
 def make_learner(kind: str, config: dict[str, Any], dims: dict[str, Any], device: str = "cpu",
                  seed: int = 0, static: bool | None = None) -> Any:
     """Build a learner (``d2mava`` or ``dqn``) from its hyper-parameters (unknown keys are an error).
@@ -112,4 +125,4 @@ def make_learner(kind: str, config: dict[str, Any], dims: dict[str, Any], device
     raise KeyError(f"unknown learner kind {kind!r}; known: {', '.join(LEARNER_KINDS)}")
 
 
-__all__ = ["BASELINE_KINDS", "LEARNER_KINDS", "make_actor", "make_learner", "usecase_dims"]
+__all__ = ["BASELINE_KINDS", "LEARNER_KINDS", "learner_config_class", "make_actor", "make_learner", "usecase_dims"]

@@ -41,10 +41,10 @@ class EpisodeBackend(Protocol):
     def close(self) -> None: ...
 
 
-def make_backend(scenario: str | Path, usecase: str, params: dict[str, Any], backend: str,
+def make_backend(scenario: str | Path, usecase: str | type, params: dict[str, Any], backend: str,
                  address: str | None, time_limit_s: float | None, dt: float, timeout_s: float,
                  threads: int | None = None) -> EpisodeBackend:
-    """The backend named ``backend`` for one scenario and use case.
+    """The backend named ``backend`` for one scenario and use case (a registered name, or a class in-process).
 
     ``threads``: Numba threads stepping the traffic of a ``local`` episode (None: ``AAMSIM_THREADS``,
     else 1; aamsim.threads); the server and BlueSky choose their own.
@@ -56,6 +56,10 @@ def make_backend(scenario: str | Path, usecase: str, params: dict[str, Any], bac
 
         if not address:
             raise ValueError('backend="zmq" needs address="tcp://host:port"')
+        if not isinstance(usecase, str):
+            raise ValueError(f'backend="zmq": the server knows use cases by registered name, not a class '
+                             f'({getattr(usecase, "__name__", usecase)}); register it (docs/usecases.md) or run it '
+                             f'in this process (backend="local")')
         remote: EpisodeBackend = RemoteEpisode(address, scenario, usecase, params, time_limit_s=time_limit_s, dt=dt,
                                                timeout_s=timeout_s)
         return remote

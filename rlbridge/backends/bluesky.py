@@ -37,6 +37,7 @@ from typing import Any
 import numpy as np
 
 from aamsim import Simulation
+from aamsim.extras import require
 from aamsim.traffic.intents import SYNC_FIELDS, set_kinematic_state
 from aamsim.units import KTS
 from rlbridge.core import EpisodeCore, StepResult
@@ -47,6 +48,7 @@ _BLUESKY: dict[str, Any] = {}  # BlueSky's module and the open episode: BlueSky 
 def _bluesky() -> Any:
     """BlueSky, initialised once per process (headless, detached, in a private work directory)."""
     if "bs" not in _BLUESKY:
+        require("bluesky", 'backend="bluesky"', ("bluesky",))
         try:
             with contextlib.redirect_stdout(io.StringIO()):
                 import bluesky as bs
@@ -54,7 +56,8 @@ def _bluesky() -> Any:
                 workdir = tempfile.mkdtemp(prefix="aamgym-bluesky-")
                 bs.init(mode="sim", detached=True, workdir=workdir)
         except ImportError as exc:
-            raise RuntimeError('backend="bluesky" needs bluesky-simulator (pip install "aamsim[test]")') from exc
+            raise RuntimeError(f'backend="bluesky": BlueSky does not start ({exc}); reinstall it: '
+                               f'pip install "aamsim[bluesky]"') from exc
         bs.net.send = lambda *args, **kwargs: None  # detached: no network, no screen
         _BLUESKY["bs"] = bs
     return _BLUESKY["bs"]

@@ -28,12 +28,31 @@ USAGE = """usage: aamgym {train,evaluate,report,study,scores,pretrained} [args..
 'aamgym <command> --help' describes each command."""
 
 
+# What each command imports (rl extra); evaluate and train check Ray, videos and BlueSky in preflight.
+NEEDS = {"train": ("torch", "hydra", "omegaconf"), "evaluate": ("torch", "hydra", "omegaconf"),
+         "study": ("torch", "hydra", "omegaconf"), "report": ("torch", "omegaconf"),
+         "scores": ("torch", "hydra", "omegaconf"), "pretrained": ("torch",)}
+
+
 def main(argv: list[str] | None = None) -> None:
+    from aamsim.extras import EXTRAS, MissingExtra, missing, require
+
     args = list(sys.argv[1:] if argv is None else argv)
     if not args or args[0] in ("-h", "--help", "help"):
         print(USAGE)
+        absent = missing(EXTRAS["rl"][0])
+        if absent:
+            print(f'\nThese commands need the rl extra ({", ".join(absent)} not installed): pip install "aamsim[rl]"')
         sys.exit(0 if args else 2)
     command, rest = args[0], args[1:]
+    if command not in NEEDS:
+        print(f"aamgym: unknown command {command!r}\n\n{USAGE}", file=sys.stderr)
+        sys.exit(2)
+    try:
+        require("rl", f"aamgym {command}", NEEDS[command])
+    except MissingExtra as exc:
+        print(f"aamgym {command}: error: {exc}", file=sys.stderr)
+        sys.exit(2)
     if command == "report":
         from rlbridge.experiment.report import main as report_main
 
@@ -54,8 +73,13 @@ def main(argv: list[str] | None = None) -> None:
 
         pretrained_main(rest)
         return
-    if command not in ("train", "evaluate"):
-        print(f"aamgym: unknown command {command!r}\n\n{USAGE}", file=sys.stderr)
+    # Check every job's configuration before Hydra makes a run directory (and before Ray starts).
+    from rlbridge.experiment.preflight import preflight
+
+    problems = preflight("config" if command == "train" else "evaluate", rest)
+    if problems:
+        for line in problems:
+            print(f"aamgym {command}: error: {line}", file=sys.stderr)
         sys.exit(2)
     # Hydra parses sys.argv itself: hand it the arguments after the sub-command.
     sys.argv = [f"aamgym {command}", *rest]

@@ -41,9 +41,15 @@ def usecase_class(name: str) -> Any:
     return getattr(import_module(module), attr)
 
 
-def make_usecase(name: str, **params: Any) -> UseCase:
-    """Instantiate a use case by name with parameters (unknown parameters are an error)."""
-    usecase: UseCase = usecase_class(name)(**params)
+def make_usecase(name: str | type, **params: Any) -> UseCase:
+    """Instantiate a use case by name with parameters (unknown parameters are an error).
+
+    ``name`` may also be the use case's class itself: a use case written in one module of your
+    own runs in-process (``backend="local"`` or ``"bluesky"``) without a registry entry
+    (docs/tutorials/new-usecase.md); a simulation server knows use cases by name only.
+    """
+    cls = name if isinstance(name, type) else usecase_class(name)
+    usecase: UseCase = cls(**params)
     return usecase
 
 
