@@ -5,12 +5,14 @@
     env = gymnasium.make("aamgym/CorridorSA-v1", scenario="...")   # single aircraft (registered on import)
     env = gymnasium.make("aamgym/ReachDestination-v1", scenario="...")  # every use case has its id
     env = gymnasium.make("aamgym/CorridorSA-v0", scenario="...")   # the same on fixed traffic (results made before v1)
+    env = rlbridge.aec_env(scenario="nyc_train_100.scn")            # PettingZoo AEC: a departure planner per vertiport
 """
 
 from __future__ import annotations
 
 import gymnasium
 
+from rlbridge.aec import StrategicPlanningAEC, aec_env
 from rlbridge.core import EpisodeCore, StepResult
 from rlbridge.envs import AamParallelEnv, AamSingleAgentEnv, CorridorSAEnv, parallel_env
 from rlbridge.usecases.registry import BUILTIN_USECASES, env_id
@@ -43,4 +45,4 @@ for _name in BUILTIN_USECASES:
     register_env(_name)
 
 __all__ = ["ENV_ID", "AamParallelEnv", "AamSingleAgentEnv", "CorridorSAEnv", "EpisodeCore", "StepResult",
-           "parallel_env", "register_env"]
+           "StrategicPlanningAEC", "aec_env", "parallel_env", "register_env"]

@@ -43,17 +43,19 @@ def test_aamsim_run_with_reso_daa_has_fewer_losses_of_well_clear(tmp_path):
     assert daa["daa"]["alerts"]["corrective"] + daa["daa"]["alerts"]["warning"] >= 3
 
 
-def crossing_sim(reso: str) -> Simulation:
+def crossing_sim(reso: str, axes: str = "") -> Simulation:
     sim = Simulation(seed=0)
     sim.require_services()
     sim.stack("CRE C1 EC35 40.700000 -74.100000 0 1000 100")
     sim.stack("CRE C2 EC35 40.720000 -74.085000 270 1000 60")
     sim.stack(f"RESO {reso}")
+    if axes:
+        sim.stack(f"DAA RESOAXES {axes}")
     return sim
 
 
 def test_advisory_is_held_until_clear_then_the_own_speed_resumes():
-    sim = crossing_sim("DAA")
+    sim = crossing_sim("DAA", "GS")  # speed-only resolutions
     service = sim.services.daa
     sim.run_until(3.0)
     advised = set(service.advisories)

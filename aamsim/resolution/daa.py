@@ -33,13 +33,15 @@ from aamsim.aero import cas2tas, tas2cas
 from aamsim.conflicts.bands import pair_exit_times, pair_gs_bands
 from aamsim.conflicts.service import TrafficSnapshot, search_pairs, traffic_snapshot
 from aamsim.conflicts.wellclear import pair_alerts
-from aamsim.units import FT, KTS
+from aamsim.units import FPM, FT, KTS
 
 if TYPE_CHECKING:
     from aamsim.api import SimulationAPI
 
 NONE, PREVENTIVE, CORRECTIVE, WARNING = 0, 1, 2, 3
 LEVEL_NAMES = ("none", "preventive", "corrective", "warning")
+# Resolution axes (stack names HDG, VS, GS): track, vertical speed, ground speed.
+RESOLUTION_AXES = ("hdg", "vs", "gs")
 
 
 @dataclass
@@ -70,9 +72,26 @@ class DAAParams:
     margin_mps: float = 1.0  # a resolution lies this far inside its conflict-free band (ground speed)
     resolve_level: int = CORRECTIVE  # the alert level from which a resolution is issued
     interval_s: float = 1.0  # the service's cycle (DAIDALUS runs at 1 Hz)
+    # The axes RESO DAA resolves on, in order of preference: the first with a conflict-free value
+    # flies it. Default: the guidance of DAIDALUS's DO-365 configurations (track, vertical speed,
+    # horizontal speed; docs/daa.md).
+    resolution_axes: tuple[str, ...] = RESOLUTION_AXES
+    hdg_step_deg: float = 1.0  # heading bands: sampling step (DAIDALUS's step_hdir)
+    hdg_margin_deg: float = 5.0  # a heading resolution lies this far inside its band (bands assume instant turns)
+    max_turn_deg: float = 180.0  # turn limit each way (DAIDALUS's DO-365 left_hdir / right_hdir)
+    vs_max_mps: float = 1000.0 * FPM  # vertical-speed resolutions within +-this (and the envelope)
+    vs_margin_mps: float = 0.5  # a vertical-speed resolution lies this far inside its band
+    vs_step_mps: float = 0.25  # vertical-speed grid of the recovery search
+    alt_min_m: float = 100.0 * FT  # no vertical resolution crosses this floor (DAIDALUS's min_alt) ...
+    alt_max_m: float = 3000.0 * FT  # ... or this ceiling within the look-ahead
+    persist_hdg_deg: float = 15.0  # preferred direction kept unless the other is closer by this (DAIDALUS)
+    persist_vs_mps: float = 250.0 * FPM
 
     def __post_init__(self) -> None:
+        self.resolution_axes = check_axes(self.resolution_axes)
         for f in fields(self):
+            if f.name == "resolution_axes":
+                continue
             value = getattr(self, f.name)
             if not math.isfinite(value) or value < 0:
                 raise ValueError(f"DAA {f.name} must be a finite number >= 0, not {value!r}")
@@ -82,6 +101,9 @@ class DAAParams:
             raise ValueError("DAA speed_min_kts is above speed_max_kts")
         if int(self.resolve_level) != self.resolve_level or not PREVENTIVE <= self.resolve_level <= WARNING:
             raise ValueError("DAA resolve_level must be 1 (preventive), 2 (corrective) or 3 (warning)")
+
+        if self.alt_min_m >= self.alt_max_m:
+            raise ValueError("DAA alt_min_m must be below alt_max_m")
 
     def volumes(self) -> np.ndarray:
         """Rows DMOD, HMD, TAUMOD, ZTHR, TCOA of the preventive, corrective and warning volumes."""
@@ -98,6 +120,23 @@ class DAAParams:
 
 
 PARAM_NAMES = tuple(f.name for f in fields(DAAParams))
+
+
+def check_axes(axes: Any) -> tuple[str, ...]:
+    """Resolution axes as lower-case names; an unknown or repeated axis is an error naming it."""
+    names = (axes,) if isinstance(axes, str) else tuple(axes)
+    out: list[str] = []
+    for a in names:
+        key = str(a).lower()
+        if key not in RESOLUTION_AXES:
+            known = ", ".join(x.upper() for x in RESOLUTION_AXES)
+            raise ValueError(f"unknown DAA resolution axis {a!r}; known: {known}")
+        if key in out:
+            raise ValueError(f"DAA resolution axis {str(a).upper()} is given twice")
+        out.append(key)
+    if not out:
+        raise ValueError("DAA needs at least one resolution axis (HDG, VS, GS)")
+    return tuple(out)
 
 
 @dataclass(frozen=True)
@@ -361,12 +400,13 @@ class DetectAndAvoid:
             if not bands.free_of(i):
                 saturated.append(k)
                 continue
-            target[k] = self._pick(bands, i, float(view.gs[i]), int(sides[k]))
+            target[k] = self.pick(bands, i, float(view.gs[i]), int(sides[k]))
         if saturated:
             target[saturated] = self.recovery_speeds(sim, slots[saturated])
         return target, self.cas_for(sim, slots, target)
 
-    def _pick(self, bands: SpeedBands, slot: int, gs: float, side: int) -> float:
+    def pick(self, bands: SpeedBands, slot: int, gs: float, side: int) -> float:
+        """The conflict-free ground speed closest to ``gs`` on ``side`` (NaN: passes first at its speed)."""
         conflict = bands.of(slot)
         edges = {x for band in conflict for x in band}
         free = bands.free_of(slot)

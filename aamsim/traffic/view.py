@@ -48,6 +48,7 @@ PUBLIC_FLOATS: dict[str, str] = {
     "vsmin": "lowest vertical speed of the envelope [m/s] (negative; BlueSky's OpenAP fixed-wing data: a small positive rate)",
     "vsmax": "highest vertical speed of the envelope [m/s]",
     "ap_vs": "vertical speed commanded by the autopilot [m/s]",
+    "ap_trk": "track the autopilot steers [deg]: the route's, or the one a selected heading gives",
     "axmax": "acceleration limit in use [m/s^2]",
     "dist2wp": "distance to the active waypoint [m]",
     "qdr2wp": "bearing to the active waypoint [deg]",
@@ -199,6 +200,7 @@ class TrafficView:
     vsmin = _float_view("vsmin")
     vsmax = _float_view("vsmax")
     ap_vs = _float_view("ap_vs")
+    ap_trk = _float_view("ap_trk")
     axmax = _float_view("axmax")
     dist2wp = _float_view("dist2wp")
     qdr2wp = _float_view("qdr2wp")

@@ -64,6 +64,7 @@ class ReachDestination(UseCaseBase):
     name = "reach_destination"
     env_name = "ReachDestination"
     params_class = ReachParams
+    advisory_kinds: ClassVar[tuple[str, ...]] = ("speed",)  # its actions select speeds
     fixed_traffic: ClassVar[dict[str, Any]] = {"cruise_speed_kts": ()}
     info_fields = {"arrived": np.bool_, "dist_m": np.float64}  # noqa: RUF012
 
