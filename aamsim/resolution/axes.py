@@ -46,7 +46,8 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from aamsim.conflicts.axis_bands import pair_hdg_bands, pair_vs_bands, velocity_intervals
-from aamsim.conflicts.service import TrafficSnapshot, search_pairs, traffic_snapshot
+from aamsim.conflicts.service import TrafficSnapshot, traffic_snapshot
+from aamsim.resolution.daa import isotropic_pairs
 
 if TYPE_CHECKING:
     from aamsim.api import SimulationAPI
@@ -167,20 +168,8 @@ class AxisResolver:
     def _directed(self, sim: SimulationAPI, slots: np.ndarray,
                   horizon_s: float) -> tuple[TrafficSnapshot, np.ndarray, np.ndarray]:
         """Directed candidate pairs (ownship in ``slots``) for any direction the ownship may take."""
-        s = traffic_snapshot(sim)  # type: ignore[arg-type]
-        n = len(s.ids)
-        speed = np.hypot(np.hypot(s.u, s.v), s.w)
-        reach = float(max(speed.max(initial=0.0), float(np.max(sim.view.vmax, initial=0.0))))
-        still = TrafficSnapshot(s.ids, s.lat, s.lon, s.alt, np.zeros(n), np.zeros(n), s.w, s.x, s.y, s.frame_err,
-                                s.frame)
         p = self.daa.params
-        radius = max(p.dmod_m, p.recovery_m) + 2.0 * reach * horizon_s + 1.0
-        pi, pj = search_pairs(still, np.zeros(n), np.zeros(n), radius)
-        wanted = np.zeros(n, dtype=bool)
-        wanted[slots] = True
-        own = np.concatenate([pi[wanted[pi]], pj[wanted[pj]]])
-        intr = np.concatenate([pj[wanted[pi]], pi[wanted[pj]]])
-        return s, own, intr
+        return isotropic_pairs(sim, slots, horizon_s, max(p.dmod_m, p.recovery_m))
 
     # ----------------------------------------------------------------- bands
     def bands(self, sim: SimulationAPI, axis: str, slots: np.ndarray) -> AxisBands:

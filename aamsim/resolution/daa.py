@@ -30,6 +30,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from aamsim.aero import cas2tas, tas2cas
+from aamsim.conflicts.axis_bands import velocity_intervals
 from aamsim.conflicts.bands import pair_exit_times, pair_gs_bands
 from aamsim.conflicts.service import TrafficSnapshot, search_pairs, traffic_snapshot
 from aamsim.conflicts.wellclear import pair_alerts
@@ -120,6 +121,24 @@ class DAAParams:
 
 
 PARAM_NAMES = tuple(f.name for f in fields(DAAParams))
+
+
+def isotropic_pairs(sim: SimulationAPI, slots: np.ndarray, horizon_s: float,
+                    radius_m: float) -> tuple[TrafficSnapshot, np.ndarray, np.ndarray]:
+    """The snapshot and directed candidate pairs (ownship in ``slots``, intruder) that can come within
+    ``radius_m`` over ``horizon_s`` whatever direction and speed (up to the fastest envelope) either takes."""
+    s = traffic_snapshot(sim)  # type: ignore[arg-type]
+    n = len(s.ids)
+    speed = np.hypot(np.hypot(s.u, s.v), s.w)
+    reach = float(max(speed.max(initial=0.0), float(np.max(sim.view.vmax, initial=0.0))))
+    still = TrafficSnapshot(s.ids, s.lat, s.lon, s.alt, np.zeros(n), np.zeros(n), s.w, s.x, s.y, s.frame_err,
+                            s.frame)
+    pi, pj = search_pairs(still, np.zeros(n), np.zeros(n), radius_m + 2.0 * reach * horizon_s + 1.0)
+    wanted = np.zeros(n, dtype=bool)
+    wanted[np.asarray(slots, dtype=np.int64)] = True
+    own = np.concatenate([pi[wanted[pi]], pj[wanted[pj]]])
+    intr = np.concatenate([pj[wanted[pi]], pi[wanted[pj]]])
+    return s, own, intr
 
 
 def check_axes(axes: Any) -> tuple[str, ...]:
@@ -361,21 +380,42 @@ class DetectAndAvoid:
             out[k] = 1 if lead > 0 else -1
         return out
 
-    def resume_order(self, sim: SimulationAPI, slots: np.ndarray) -> np.ndarray:
-        """Which of the aircraft in ``slots``, all ready to resume their own speed, resume now.
+    def resume_order(self, sim: SimulationAPI, slots: np.ndarray, velocities: np.ndarray | None = None) -> np.ndarray:
+        """Which of the aircraft in ``slots``, all ready to resume their own trajectory, resume now.
 
         Two aircraft that held each other up would both resume at once and meet again
-        (each checked its own speed against the other holding still); of those that are
-        candidate pairs, only the callsign that sorts first resumes this cycle.
+        (each checked its own way against the other as it flies now). Of two ready
+        aircraft whose resumed trajectories (``velocities``: east, north, up [m/s] per
+        slot; default: as they fly now) lose well clear of each other within the
+        look-ahead, only the callsign that sorts first resumes this cycle. Ready aircraft
+        that stay well clear of each other both resume: one that cannot resume yet does
+        not hold up every other aircraft near it (on nyc_train_100 it held departures
+        hovering for minutes, docs/daa.md).
         """
         slots = np.asarray(slots, dtype=np.int64)
         allowed = np.ones(slots.size, dtype=bool)
         if slots.size < 2:
             return allowed
-        _s, own, intr, _ex, _ey = self._directed(sim, slots)
+        p = self.params
+        s, own, intr = isotropic_pairs(sim, slots, p.lookahead_s, max(p.dmod_m, p.recovery_m))
         ids = sim.view.ids
-        ready = set(slots.tolist())
-        deferred = {int(o) for o, j in zip(own.tolist(), intr.tolist()) if j in ready and ids[j] < ids[o]}
+        ready = np.zeros(len(s.ids), dtype=bool)
+        ready[slots] = True
+        first = np.array([ids[j] < ids[o] for o, j in zip(own.tolist(), intr.tolist())], dtype=bool)
+        sel = ready[intr] & first if own.size else np.zeros(0, dtype=bool)
+        own, intr = own[sel], intr[sel]
+        if own.size == 0:
+            return allowed
+        u, v, w = s.u.copy(), s.v.copy(), s.w.copy()
+        if velocities is not None:
+            vel = np.asarray(velocities, dtype=np.float64)
+            u[slots], v[slots], w[slots] = vel[:, 0], vel[:, 1], vel[:, 2]
+        order = np.sort(slots)  # candidate rows: the ready aircraft by slot
+        row = np.searchsorted(order, own)
+        cu, cv, cw = (x[order][:, None].copy() for x in (u, v, w))
+        t_in, _ = velocity_intervals(*s.frame, s.alt, u, v, w, own, intr, row, cu, cv, cw, p.dmod_m, p.hmd_m,
+                                     p.taumod_s, p.zthr_m, p.tcoa_s)
+        deferred = set(own[t_in[:, 0] <= p.lookahead_s].tolist())
         return np.array([i not in deferred for i in slots.tolist()], dtype=bool)
 
     # ----------------------------------------------------------- resolutions

@@ -158,19 +158,27 @@ class DAAService:
             elif adv.asas and adv.axis == VS:
                 self._fly(sim, i, adv)  # the vertical resolution follows the route's track
         if ready:
-            go = self.daa.resume_order(sim, np.array(ready, dtype=np.int64))
+            vel = np.array([self._resume_velocity(sim, i, self.advisories[view.ids[i]]) for i in ready])
+            go = self.daa.resume_order(sim, np.array(ready, dtype=np.int64), vel)
             for i in np.array(ready)[go].tolist():
                 self._release(sim, view.ids[i], self.advisories[view.ids[i]])
         if need:
             self._resolve(sim, alerts, np.array(need, dtype=np.int64), speed_bands)
 
+    def _resume_velocity(self, sim: Simulation, i: int, adv: Advisory) -> tuple[float, float, float]:
+        """What the aircraft flies once released (east, north, up [m/s]): its own speed, along its route or
+        noted track (along its track of now after a speed advisory), towards its selected altitude."""
+        gs = float(self.daa.gs_for(sim, np.array([i]), np.array([self._resume_cas(sim, i, adv)]))[0])
+        trk = math.radians(self._route_track(sim, i, adv) if adv.asas else float(sim.view.trk[i]))
+        vs = self._own_vs(sim, i) if adv.asas else float(sim.view.vs[i])
+        return gs * math.sin(trk), gs * math.cos(trk), vs
+
     def _own_way_clear(self, sim: Simulation, i: int, adv: Advisory, speed_bands: SpeedBands) -> bool:
         """Whether the aircraft's own trajectory (what it flies once released) keeps well clear."""
-        resume_gs = float(self.daa.gs_for(sim, np.array([i]), np.array([self._resume_cas(sim, i, adv)]))[0])
         if not adv.asas:
+            resume_gs = float(self.daa.gs_for(sim, np.array([i]), np.array([self._resume_cas(sim, i, adv)]))[0])
             return not speed_bands.conflicts(i, resume_gs)
-        trk = math.radians(self._route_track(sim, i, adv))
-        vel = np.array([[[resume_gs * math.sin(trk), resume_gs * math.cos(trk), self._own_vs(sim, i)]]])
+        vel = np.array([[self._resume_velocity(sim, i, adv)]])
         first, _ = self.axes.check_velocities(sim, np.array([i]), vel)
         return bool(first[0, 0] > self.daa.params.lookahead_s)
 

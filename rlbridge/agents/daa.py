@@ -126,7 +126,11 @@ class DAAActor:
             else:
                 ready.append(r)
         if ready:
-            go = self.daa.resume_order(sim, slots[ready])
+            # Each ready agent's own trajectory: its own speed along its track.
+            own_gs = self.daa.gs_for(sim, slots[ready], np.array([self._held[names[r]].resume_cas for r in ready]))
+            trk = np.radians(np.asarray(view.trk, dtype=np.float64)[slots[ready]])
+            vel = np.column_stack([own_gs * np.sin(trk), own_gs * np.cos(trk), view.vs[slots[ready]]])
+            go = self.daa.resume_order(sim, slots[ready], vel)
             for r, now in zip(ready, go.tolist()):
                 if now:  # steer back to its own speed
                     held = self._held[names[r]]

@@ -17,8 +17,7 @@ from typing import Any
 import numpy as np
 
 from aamsim.conflicts.axis_bands import manoeuvre_intervals
-from aamsim.conflicts.service import TrafficSnapshot, search_pairs, traffic_snapshot
-from aamsim.resolution.daa import DAAParams
+from aamsim.resolution.daa import DAAParams, isotropic_pairs
 
 MANOEUVRE_KINDS = ("heading", "altitude")
 
@@ -62,17 +61,8 @@ def check_actions(sim: Any, slots: np.ndarray, targets: ActionTargets, params: D
     if slots.size == 0 or view.n < 2:
         return first, last
     horizon = params.recovery_lookahead_s if recovery else params.lookahead_s
-    s = traffic_snapshot(sim)
+    s, own, intr = isotropic_pairs(sim, slots, horizon, max(params.dmod_m, params.recovery_m))
     n = len(s.ids)
-    reach = float(max(np.hypot(s.u, s.v).max(initial=0.0), 1.0))
-    still = TrafficSnapshot(s.ids, s.lat, s.lon, s.alt, np.zeros(n), np.zeros(n), s.w, s.x, s.y, s.frame_err,
-                            s.frame)
-    radius = max(params.dmod_m, params.recovery_m) + 2.0 * reach * horizon + 1.0
-    pi, pj = search_pairs(still, np.zeros(n), np.zeros(n), radius)
-    wanted = np.zeros(n, dtype=bool)
-    wanted[slots] = True
-    own = np.concatenate([pi[wanted[pi]], pj[wanted[pj]]])
-    intr = np.concatenate([pj[wanted[pi]], pi[wanted[pj]]])
     if own.size == 0:
         return first, last
     row_of = np.full(n, -1, dtype=np.int64)
