@@ -42,8 +42,7 @@ USECASE = "strategic_planning"
 class StrategicPlanningAEC(AECEnv):
     """``aamgym/StrategicPlanning`` with one planner agent per vertiport (see the module docstring)."""
 
-    metadata = {"name": "aamgym_strategic_planning_aec_v1", "render_modes": [],  # noqa: RUF012 (PettingZoo's
-                "is_parallelizable": False}  # class attribute)
+    metadata = {"name": "aamgym_strategic_planning_aec_v1", "render_modes": [], "is_parallelizable": False}  # noqa: RUF012
 
     def __init__(self, scenario: str | Path = "nyc_train_100.scn", backend: str = "local", address: str | None = None,
                  time_limit_s: float | None = None, dt: float = 0.05, timeout_s: float = 30.0, **params: Any):
