@@ -61,7 +61,7 @@ def test_ddqn_planner_train_evaluate_report(tmp_path):
     proc = aamgym(["evaluate", f"run={run}", "episodes=1", "workers=0", "baselines=[dax]", "hydra.run.dir=e2"],
                   tmp_path, ok=False)
     assert proc.returncode != 0
-    assert "unknown baseline(s) dax; known: unequipped, mvp_speed, daa, no_planning, fcfs" in proc.stderr
+    assert "unknown baseline(s) dax; known: unequipped, mvp_speed, daa, mvp, no_planning, fcfs" in proc.stderr
     proc = aamgym(["evaluate", f"run={run}", "episodes=1", "workers=0", "baselines=[mvp_speed]",
                    "hydra.run.dir=e3"], tmp_path, ok=False)
     assert "baseline 'mvp_speed' does not apply to use case strategic_planning; its baselines: unequipped, " \
@@ -94,3 +94,10 @@ def test_evaluation_baselines_per_use_case():
     with pytest.raises(ValueError, match="baseline 'fcfs' does not apply to use case corridor_sa; its baselines: "
                                          "unequipped, mvp_speed, daa"):
         pick("corridor_sa", ["fcfs"])
+    # Heading and altitude advisories: DAA on those axes and heading/altitude MVP; the speed baseline is refused.
+    assert pick("heading_altitude_sa", None) == ["daa", "mvp"]
+    with pytest.raises(ValueError, match="baseline 'mvp_speed' does not apply to use case heading_altitude_sa; its "
+                                         "baselines: unequipped, daa, mvp"):
+        pick("heading_altitude_sa", ["mvp_speed"])
+    with pytest.raises(ValueError, match="baseline 'mvp' does not apply to use case corridor_sa"):
+        pick("corridor_sa", ["mvp"])
