@@ -236,6 +236,17 @@ class SimulationAPI:
             raise CommandError("set_replay_state: only replayed (non-cooperative) aircraft follow a recording")
         intents.set_replay_state(self.traffic, slots, lat, lon, alt_m, gsnorth_mps, gseast_mps, vs_mps)
 
+    def overwrite_state(self, targets: Target, name: str, values: float | bool | np.ndarray) -> None:
+        """Set one field directly, as BlueSky's ``traf.alt[i] = x`` does: no mode switch, no other effect.
+
+        ``name`` is a public field (``alt``, ``hdg``, ``selalt``, ``selvs``, ``ap_trk``, ``vnav``, ...:
+        :data:`aamsim.traffic.intents.OVERWRITABLE_FLOATS` and ``OVERWRITABLE_FLAGS``). Prefer the
+        intents above; this is the way BlueSky code that writes the state arrays runs on aamsim
+        (:mod:`aamsim.compat.bluesky`).
+        """
+        slots = self._intent_slots(targets)
+        intents.overwrite_state(self.traffic, slots, name, np.broadcast_to(values, slots.shape))
+
     def create(self, acid: str, actype: str, lat: float, lon: float, hdg_deg: float = 0.0, alt_m: float = 0.0,
                speed: Speed | float = 0.0) -> int:
         """Create an aircraft (CAS [m/s] or a :class:`~aamsim.units.Speed`); returns its slot."""

@@ -23,6 +23,9 @@ import time
 from pathlib import Path
 
 _PACKAGES = ("aamsim", "rlbridge", "uamtoolkit_import")
+# Folders without compiled code, that no compiled code reads: a change there keeps the cache.
+# (``aamsim.compat`` sits above everything else: .importlinter; tests/test_numba_cache.py checks it has no Numba.)
+_NOT_COMPILED = ("aamsim/compat",)
 # Cache directories of other source versions are kept while used in the last _KEEP_DAYS, up to
 # _KEEP of them: several checkouts (git worktrees, a CI clone) share this cache, and keeping only
 # the last three made them delete each other's directories, so every run compiled again (a minute).
@@ -45,6 +48,8 @@ def source_digest(roots: list[Path]) -> str:
     h = hashlib.sha256()
     for root in roots:
         for path in sorted(root.rglob("*.py")):
+            if f"{root.name}/{path.relative_to(root).as_posix()}".startswith(_NOT_COMPILED):
+                continue
             h.update(f"{root.name}/{path.relative_to(root).as_posix()}\0".encode())
             h.update(path.read_bytes())
     return h.hexdigest()[:16]

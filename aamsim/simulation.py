@@ -474,6 +474,20 @@ class Simulation(SimulationAPI):
         """Advance exactly one time step."""
         self.run_until(self.simt + self.dt)
 
+    def step_bluesky(self) -> None:
+        """One step as BlueSky's ``sim.step()`` takes it: what is due now, then one time step of the traffic.
+
+        Unlike :meth:`step`, what falls due at the new time (commands, hooks, the
+        performance refresh) waits for the next call, so that whatever the caller
+        does between two calls (create an aircraft, run a command) happens before
+        it, as in BlueSky. :mod:`aamsim.compat.bluesky` steps this way; a
+        simulation should be stepped one way or the other, not both.
+        """
+        self._boundary()
+        if self.state == self.STATE_HOLD or self.quit_requested:
+            return
+        self._advance_steps(1)
+
     def run_until(self, t_s: float) -> None:
         """Advance until sim time ``t_s`` (a step boundary at or after it)."""
         end_us = to_us(t_s)

@@ -21,9 +21,15 @@ Both paths put two episodes in an iteration, so each update sees the same amount
 The machine's load average is printed before and after each run: on a shared machine the
 figures are only comparable within one invocation.
 
+``--against REV`` compares commits instead of paths: the committed tree at ``REV`` (``git
+archive``, in a temporary directory) and this source tree each run the given paths in their own
+process, alternating per contender, in this one invocation (each tree first plays a one-iteration
+warm-up so that both have compiled their Numba kernels before anything is timed).
+
     python bench/bench_train.py                              # 12 iterations per run, all three contenders
     python bench/bench_train.py --iterations 8 --algorithms d2mava_a --paths old new
     python bench/bench_train.py --json out.json
+    python bench/bench_train.py --against 5349319 --paths new --algorithms ddqn d2mava_a
 """
 
 from __future__ import annotations
@@ -33,6 +39,7 @@ import csv
 import json
 import logging
 import os
+import subprocess
 import sys
 import tempfile
 import time
@@ -90,18 +97,76 @@ def run_one(algorithm: str, path: str, iterations: int, scenario: str, out: Path
             "overrides": overrides}
 
 
+def tree_at(rev: str, dest: Path) -> Path:
+    """The committed tree of this repository at ``rev``, written to ``dest`` (``git archive``)."""
+    dest.mkdir(parents=True, exist_ok=True)
+    archive = subprocess.run(["git", "-C", str(ROOT), "archive", "--format=tar", rev], check=True,
+                             capture_output=True).stdout
+    subprocess.run(["tar", "-x", "-C", str(dest)], input=archive, check=True)
+    return dest
+
+
+def run_in_tree(tree: Path, algorithm: str, args: argparse.Namespace, out: Path) -> list[dict[str, Any]]:
+    """This benchmark, run by ``tree``'s own copy of it in a fresh process on ``tree``'s code."""
+    env = dict(os.environ, PYTHONPATH=str(tree))
+    cmd = [sys.executable, str(tree / "bench" / "bench_train.py"), "--iterations", str(args.iterations),
+           "--algorithms", algorithm, "--paths", *args.paths, "--scenario", args.scenario, "--json", str(out),
+           *args.overrides]
+    subprocess.run(cmd, env=env, check=True, cwd=tree, stdout=subprocess.DEVNULL)
+    return json.loads(out.read_text())
+
+
+def compare_trees(args: argparse.Namespace) -> list[dict[str, Any]]:
+    """``--against``: the base commit's tree and this one, alternating per contender."""
+    results: list[dict[str, Any]] = []
+    with tempfile.TemporaryDirectory() as tmp:
+        trees = {args.against: tree_at(args.against, Path(tmp) / "base"), "this tree": ROOT}
+        for name, tree in trees.items():  # warm-up: Numba compiles into each tree's own cache
+            warm = argparse.Namespace(**{**vars(args), "iterations": 1, "paths": args.paths[:1]})
+            run_in_tree(tree, args.algorithms[0], warm, Path(tmp) / "warmup.json")
+        for algo in args.algorithms:
+            for name, tree in trees.items():
+                for r in run_in_tree(tree, algo, args, Path(tmp) / "out.json"):
+                    r["tree"] = name
+                    results.append(r)
+                    print(f"  {name:12s} {algo:16s} {r['path']:4s} {r['states_per_s']:8.0f} aircraft-states/s after "
+                          f"iteration 1, {r['whole_run_states_per_s']:.0f} over the whole run "
+                          f"({r['aircraft_states']:,} states in {r['train_wall_s']:.0f} s; "
+                          f"load {r['load_before'][0]:.2f} -> {r['load_after'][0]:.2f})", flush=True)
+    print()
+    print(f"| algorithm | path | {args.against} [states/s] | this tree [states/s] | ratio | whole run: "
+          f"{args.against} | this tree | ratio |")
+    print("|---" * 8 + "|")
+    for algo in args.algorithms:
+        for path in args.paths:
+            base, new = ({r["tree"]: r for r in results if r["algorithm"] == algo and r["path"] == path}[k]
+                         for k in (args.against, "this tree"))
+            print(f"| {algo} | {path} | {base['states_per_s']:.0f} | {new['states_per_s']:.0f} | "
+                  f"{new['states_per_s'] / base['states_per_s']:.2f}x | {base['whole_run_states_per_s']:.0f} | "
+                  f"{new['whole_run_states_per_s']:.0f} | "
+                  f"{new['whole_run_states_per_s'] / base['whole_run_states_per_s']:.2f}x |")
+    return results
+
+
 def main(argv: list[str] | None = None) -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--iterations", type=int, default=12,
                     help="iterations of each run (2 episodes, about 12,500 aircraft-states each)")
-    ap.add_argument("--algorithms", nargs="+", default=list(ALGORITHMS), choices=ALGORITHMS)
+    ap.add_argument("--algorithms", nargs="+", default=list(ALGORITHMS), choices=[*ALGORITHMS, "ddqn_per_transition"])
     ap.add_argument("--paths", nargs="+", default=list(PATHS), choices=list(PATHS))
     ap.add_argument("--scenario", default="nyc_train_100")
     ap.add_argument("--json", type=Path, default=None, help="also write the figures here")
+    ap.add_argument("--against", default=None, metavar="REV",
+                    help="compare this source tree with the committed tree at REV (each runs --paths)")
     ap.add_argument("overrides", nargs="*", help="more Hydra overrides for every run (e.g. device=cuda)")
     args = ap.parse_args(argv)
     logging.basicConfig(level=logging.WARNING)
     print(f"{os.cpu_count()} CPUs; load average at start {os.getloadavg()[0]:.2f}; {args.iterations} iterations per run")
+    if args.against:
+        results = compare_trees(args)
+        if args.json:
+            args.json.write_text(json.dumps(results, indent=2) + "\n")
+        return
     results: list[dict[str, Any]] = []
     with tempfile.TemporaryDirectory() as tmp:
         for algo in args.algorithms:

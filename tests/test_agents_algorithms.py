@@ -12,7 +12,7 @@ from hypothesis import strategies as st
 
 from rlbridge.agents import make_learner, usecase_dims
 from rlbridge.agents.core import ddqn_target, dqn_target
-from rlbridge.agents.ddqn import ReplayMemory
+from rlbridge.agents.ddqn import ReplayMemory, rllib_step_marks
 from rlbridge.agents.rollout import EnvSpec, EpisodeBatch, EpisodeStats, RolloutWorker
 
 TINY = str(Path(__file__).parent / "data" / "tiny_conflict.scn")
@@ -23,8 +23,8 @@ def dims() -> dict[str, int]:
     return usecase_dims("corridor_sa", PARAMS)
 
 
-def stats() -> EpisodeStats:
-    return EpisodeStats(0, "x", "", 2, 0, 0.0, 0.0, 0, 0, 0.0, 0.0)
+def stats(env_steps: int = 0) -> EpisodeStats:
+    return EpisodeStats(0, "x", "", 2, 0, 0.0, 0.0, 0, 0, 0.0, 0.0, env_steps=env_steps)
 
 
 def hand_batch(d: dict[str, int], flat: bool) -> EpisodeBatch:
@@ -187,10 +187,11 @@ def test_dqn_targets_and_a_gradient_step_on_a_fixed_batch(double):
     assert learner.td_loss(sample).item() < before
 
 
-def test_dqn_update_schedule_counts_transitions():
+def test_dqn_per_transition_schedule_counts_transitions():
+    """The earlier ratio, kept as ``schedule=per_transition``: one step per ``train_freq`` transitions."""
     d = dims()
-    learner = make_learner("dqn", {"batch_size": 8, "learning_starts": 6, "train_freq": 2, "target_update": 4,
-                                   "eps_decay_steps": 100}, d)
+    learner = make_learner("dqn", {"schedule": "per_transition", "batch_size": 8, "learning_starts": 6,
+                                   "train_freq": 2, "target_update": 4, "eps_decay_steps": 100}, d)
     b = hand_batch(d, flat=True)
     out = learner.update([b])  # 4 transitions < learning_starts
     assert out["gradient_steps"] == 0
@@ -198,6 +199,68 @@ def test_dqn_update_schedule_counts_transitions():
     assert out["gradient_steps"] == 3
     assert learner.last_sync >= 8  # target copied at least once after 4 transitions of training
     assert learner.explore(50)["epsilon"] == pytest.approx(0.999 + 0.5 * (0.0001 - 0.999))
+    assert learner.explore(50, env_steps=10**6)["epsilon"] == pytest.approx(0.999 + 0.5 * (0.0001 - 0.999))
+
+
+def test_rllib_step_marks_by_hand():
+    # A step at every multiple of the period once the replay holds learning_starts environment steps
+    # (RLlib: 7 rounds of 160 before the first of 1,000 steps trains, at 1,120).
+    assert rllib_step_marks(0, 1119, 160, 1000) == []
+    assert rllib_step_marks(0, 1120, 160, 1000) == [1120]
+    assert rllib_step_marks(1120, 1600, 160, 1000) == [1280, 1440, 1600]
+    assert rllib_step_marks(0, 320, 160, 0) == [160, 320]
+    assert rllib_step_marks(150, 170, 160, 0) == [160]
+    assert rllib_step_marks(161, 319, 160, 0) == []
+
+
+def test_dqn_rllib_schedule_counts_environment_steps():
+    """The default ratio: steps, target copies, learning_starts and epsilon in environment steps."""
+    d = dims()
+    learner = make_learner("dqn", {"batch_size": 8, "rollout_fragment_length": 2, "rllib_num_workers": 3,
+                                   "learning_starts": 10, "target_update": 12, "eps_decay_steps": 100}, d)
+    assert learner.config.schedule == "rllib" and learner.config.env_steps_per_gradient_step == 6
+
+    def batch(env_steps: int) -> EpisodeBatch:  # 4 transitions whatever the environment steps
+        b = hand_batch(d, flat=True)
+        b.stats = stats(env_steps)
+        return b
+
+    out = learner.update([batch(4)])  # 4 environment steps < learning_starts
+    assert out["gradient_steps"] == 0 and "td_loss" not in out
+    out = learner.update([batch(4), batch(4)])  # 12: the round ending at 12 is the first with >= 10 stored
+    assert out["gradient_steps"] == 1 and learner.last_sync == 12  # 12 - 0 >= 12: copied
+    before = {k: v.clone() for k, v in learner.q_target.state_dict().items()}
+    out = learner.update([batch(20)])  # 32: steps at 18, 24, 30; a copy at 24 (24 - 12 >= 12), none at 30
+    assert out["gradient_steps"] == 4 and learner.last_sync == 24
+    assert np.isfinite(out["td_loss"])
+    after = learner.q_target.state_dict()
+    assert any(not torch.equal(before[k], after[k]) for k in before)  # the copy at 24 happened
+    assert any(not torch.equal(after[k], v) for k, v in learner.q.state_dict().items())  # the step at 30 after it
+    assert (learner.transitions, learner.env_steps) == (16, 32)
+    # Epsilon follows environment steps, not transitions.
+    assert learner.explore(10**6, env_steps=50)["epsilon"] == pytest.approx(0.999 + 0.5 * (0.0001 - 0.999))
+    assert out["epsilon"] == pytest.approx(0.999 + 0.32 * (0.0001 - 0.999))
+
+
+def test_dqn_schedule_is_checked():
+    with pytest.raises(ValueError, match="schedule='per_aircraft': one of rllib, per_transition"):
+        make_learner("dqn", {"schedule": "per_aircraft"}, dims())
+    with pytest.raises(ValueError, match="rllib_num_workers must be >= 1"):
+        make_learner("dqn", {"rllib_num_workers": 0}, dims())
+
+
+def test_worker_counts_environment_steps():
+    """An episode's environment steps are the engine's steps, counted here by stepping it by hand."""
+    env = EnvSpec(TINY, params=PARAMS, time_limit_s=600.0)
+    core = env.make("flat")
+    result, n = core.reset(4), 0
+    while not result.done:
+        result = core.step({})
+        n += 1
+    w = RolloutWorker(env, {"unequipped": {"kind": "unequipped"}})
+    (s,) = w.collect([4], "unequipped", record=False)
+    assert s.env_steps == n > 0
+    assert s.transitions > s.env_steps  # two aircraft share most steps
 
 
 # ------------------------------------------------------------------------------ rollouts

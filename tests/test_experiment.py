@@ -61,6 +61,13 @@ def test_defaults_are_the_papers_tables():
     q = ddqn.algorithm.params
     assert (q.batch_size, q.hidden, q.gamma, q.eps_decay_steps, q.eps_start, q.eps_end, q.replay_size, q.lr,
             q.target_update, q.double) == (512, 128, 0.99, 500000, 0.999, 0.0001, 5000000, 1e-4, 50000, True)
+    # RLlib's DQN as the paper ran it: a step per 4 x 40 environment steps, counts in environment steps.
+    assert (q.schedule, q.rollout_fragment_length, q.rllib_num_workers, q.learning_starts) == ("rllib", 4, 40, 1000)
+    assert ddqn.algorithm.label == "DDQN (RLlib update ratio)"
+    with initialize_config_module("rlbridge.conf", version_base="1.3"):
+        old = compose("config", overrides=["algorithm=ddqn_per_transition"]).algorithm
+    assert (old.params.schedule, old.params.train_freq, old.params.learning_starts) == ("per_transition", 4, 10000)
+    assert old.label == "DDQN (1 step per 4 transitions)"
     u = cfg.usecase.params
     assert (u.nmac_m, u.lowc_m, u.n_wpt, u.n_intruders, u.d_max_m, u.alpha, u.delta, u.psi, u.omega) == \
         (150.0, 450.0, 2, 30, 3000.0, 1.0, 0.0003, 0.001, 0.001)
@@ -77,6 +84,19 @@ def test_config_overrides_reach_the_algorithm_and_use_case(tmp_path):
     assert tuple(w.shape) == (32, 9 + 3 * 11)  # hidden 32; ownship 9 + 3 intruders x 11
     resolved = (tmp_path / "resolved_config.yaml").read_text()
     assert "lr: 0.0123" in resolved and "n_intruders: 3" in resolved and "seed: 7" in resolved
+
+
+def test_ddqn_gradient_steps_follow_the_runs_environment_steps(tmp_path):
+    """The workers' environment steps reach the learner: one step per fragment x workers of them."""
+    summary = run_training(compose_train(
+        ["algorithm=ddqn", "train.iterations=2", "train.baseline_episodes=0", "algorithm.params.batch_size=8",
+         "algorithm.params.rollout_fragment_length=2", "algorithm.params.rllib_num_workers=2",
+         "algorithm.params.learning_starts=10", "algorithm.params.eps_decay_steps=100"]), tmp_path)
+    env = summary["env_steps"]
+    assert 12 < env < summary["aircraft_states"]  # two aircraft share most environment steps
+    last = curve_rows(tmp_path)[-1]
+    assert float(last["gradient_steps"]) == len(range(12, env + 1, 4))  # at 12, 16, ... <= env
+    assert float(last["epsilon"]) == pytest.approx(0.999 + env / 100 * (0.0001 - 0.999), rel=1e-5)
 
 
 def test_unknown_algorithm_parameter_is_rejected(tmp_path):

@@ -26,9 +26,12 @@ COMMON = [f"scenario={TINY}", "workers=0", "env.time_limit_s=600", "usecase.para
 TINY_HYPERPARAMETERS = {
     "d2mava_a": ["algorithm.params.lr=1e-3", "algorithm.params.batch_size=64", "algorithm.params.ent_coef=0.01",
                  "algorithm.params.clip=0.2"],
-    "ddqn": ["algorithm.params.lr=1e-3", "algorithm.params.batch_size=64", "algorithm.params.eps_decay_steps=3000",
-             "algorithm.params.learning_starts=200", "algorithm.params.target_update=500",
-             "algorithm.params.train_freq=1", "algorithm.params.replay_size=50000"],
+    # The default (RLlib's) schedule, counted in environment steps (about 2 aircraft each here): one
+    # gradient step per environment step instead of the paper's 160.
+    "ddqn": ["algorithm.params.lr=1e-3", "algorithm.params.batch_size=64", "algorithm.params.eps_decay_steps=1500",
+             "algorithm.params.learning_starts=100", "algorithm.params.target_update=250",
+             "algorithm.params.rollout_fragment_length=1", "algorithm.params.rllib_num_workers=1",
+             "algorithm.params.replay_size=50000"],
 }
 
 

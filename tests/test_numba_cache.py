@@ -26,6 +26,21 @@ def test_digest_changes_with_any_source_file(tmp_path):
     assert source_digest([pkg]) != second
 
 
+def test_the_bluesky_api_shim_keeps_the_cache_and_has_no_compiled_code(tmp_path):
+    """aamsim/compat is left out of the digest: it must hold no Numba code (nothing compiled reads it)."""
+    pkg = tmp_path / "aamsim"
+    (pkg / "compat" / "bluesky").mkdir(parents=True)
+    (pkg / "kernel.py").write_text("x = 1\n")
+    (pkg / "compat" / "bluesky" / "shim.py").write_text("y = 2\n")
+    first = source_digest([pkg])
+    (pkg / "compat" / "bluesky" / "shim.py").write_text("y = 3\n")
+    assert source_digest([pkg]) == first
+    (pkg / "kernel.py").write_text("x = 2\n")
+    assert source_digest([pkg]) != first
+    for path in (ROOT / "aamsim" / "compat").rglob("*.py"):
+        assert "numba" not in path.read_text(), path
+
+
 def test_package_roots_cover_the_packages():
     names = {p.name for p in package_roots()}
     assert {"aamsim", "rlbridge", "uamtoolkit_import"} <= names

@@ -29,7 +29,10 @@ def aamgym(args: list[str], cwd: Path, ok: bool = True) -> subprocess.CompletedP
 def test_ddqn_planner_train_evaluate_report(tmp_path):
     aamgym(["train", *SMALL, "algorithm=ddqn", "train.iterations=3", "train.baseline_episodes=1",
             "train.best_window=2", "algorithm.params.learning_starts=4", "algorithm.params.batch_size=8",
-            "algorithm.params.eps_decay_steps=20", "algorithm.params.target_update=8", "hydra.run.dir=train"],
+            "algorithm.params.eps_decay_steps=20", "algorithm.params.target_update=8",
+            # one gradient step per environment step (a planner episode has a handful of decisions)
+            "algorithm.params.rllib_num_workers=1", "algorithm.params.rollout_fragment_length=1",
+            "hydra.run.dir=train"],
            tmp_path)
     run = tmp_path / "train"
     with open(run / "learning_curve.csv", newline="") as fh:
@@ -52,7 +55,7 @@ def test_ddqn_planner_train_evaluate_report(tmp_path):
     aamgym(["report", "eval", "--train", "train", "-o", "report"], tmp_path)
     with open(tmp_path / "report" / "planning.csv", newline="") as fh:
         table = {r["Algorithm"]: r for r in csv.DictReader(fh)}
-    assert set(table) == {"DDQN", "Unequipped", "No planning (depart on schedule)", "FCFS strategic deconfliction"}
+    assert set(table) == {"DDQN (RLlib update ratio)", "Unequipped", "No planning (depart on schedule)", "FCFS strategic deconfliction"}
     fcfs = table["FCFS strategic deconfliction"]
     assert (fcfs["unplaced"], fcfs["mean delay [s]"], fcfs["flights planned"]) == ("1.00 ± 0.00", "60.0 ± 0.0",
                                                                                      "3.0 ± 0.0")

@@ -6,6 +6,7 @@ import csv
 import json
 import os
 import subprocess
+import sys
 from pathlib import Path
 
 import pytest
@@ -47,11 +48,13 @@ def test_smoke_study_runs_the_whole_pipeline(tmp_path):
     run_script(["usecase.params.n_intruders=4", "env.time_limit_s=600", "--smoke", "--work", str(work),
                 "--workers", "0", "--budget", "60", "--train-scenario", TINY, "--eval-scenarios", TINY], timeout=1800)
     out = work / "report"
-    labels = {"D2MAV-A No Shared Layers", "D2MAV-A Shared Layers", "DDQN"}
+    labels = {"D2MAV-A No Shared Layers", "D2MAV-A Shared Layers", "DDQN (RLlib update ratio)"}
     for sfx in ("", "_v1"):  # the paper's use case and the corrected variant, in separate tables
         table = rows(out / f"risk_ratio{sfx}.csv")
         names = {r["Algorithm"].split(" — ")[0] for r in table}
-        assert names == labels | {f"{lb}, sampled actions" for lb in labels} | {"MVP speed-only (rule-based)"}
+        sampled = {"D2MAV-A No Shared Layers, sampled actions", "D2MAV-A Shared Layers, sampled actions",
+                   "DDQN (RLlib update ratio), epsilon-greedy 0.05"}  # a value-based policy's "sampled" evaluation is named as what it is
+        assert names == labels | sampled | {"MVP speed-only (rule-based)"}
         for r in table:  # two training seeds x two evaluation episodes per learned row
             expected = "(n=2)" if r["Algorithm"].startswith("MVP") else "(n=4)"
             assert expected in r["Risk Ratio - tiny_conflict"]
@@ -62,6 +65,9 @@ def test_smoke_study_runs_the_whole_pipeline(tmp_path):
     for r in training:  # the equal budget: no run stops before it (iterations are whole episodes)
         assert int(r["aircraft-states"].replace(",", "")) >= 60
     assert (out / "reward_curve.png").read_bytes()[:4] == b"\x89PNG"
+    report = (out / "report.md").read_text()  # every departure from the paper named where the ratios are read
+    assert report.count("**Departures from the paper in these results:**") == 4  # 2 ratio tables x 2 variants
+    assert "training budget: 60 aircraft-states per run" in report and "epsilon 0.05" in report
     paper = (out / "paper.md").read_text()
     assert "quoted, not measured here" in paper and "0.0107 ± 0.0343" in paper and "0.4875 ± 0.0303" in paper
     index = json.loads((out / "study.json").read_text())
@@ -134,3 +140,48 @@ def test_a_study_interrupted_inside_a_training_run_continues_it_exactly(tmp_path
     provenance = json.loads((exported / "policy.json").read_text())["provenance"]
     assert provenance["seed"] == 0 and provenance["aircraft_states_budget"] == 200
     assert provenance["training_scenario"] == "tiny_conflict"
+
+
+def test_baseline_episodes_are_played_once_per_study_and_ddqn_sampled_means_epsilon_005(tmp_path, monkeypatch):
+    """The greedy and the sampled evaluation of a run share the unequipped episodes (cached, keyed by the code's
+    commit); a DDQN's sampled evaluation is epsilon-greedy 0.05 (before: its training's final 1e-4, i.e. greedy)."""
+    from rlbridge.experiment import study as study_module
+    from rlbridge.experiment import train as train_module
+
+    monkeypatch.setattr(train_module, "code_version", lambda: {"aamsim": "test", "commit": "f" * 40})
+    plan = _tiny_plan(contenders=["ddqn"], actions=["greedy", "sampled"], baselines=["mvp_speed"], episodes=2)
+    index = study_module.run_study(plan, tmp_path / "work", tmp_path / "out", ("train", "evaluate"))
+    assert len(index["evaluations"]) == 2
+    greedy, sampled = (json.loads((tmp_path / "work" / e / "evaluation.json").read_text()) for e in index["evaluations"])
+    assert greedy["explore"] == {"epsilon": 0.0} and sampled["explore"] == {"epsilon": 0.05}
+    assert sampled["policies"]["ddqn"]["label"] == "DDQN (RLlib update ratio), epsilon-greedy 0.05"
+    cache = tmp_path / "work" / "baselines"
+    kinds = sorted(d.name.split("-")[0] for d in cache.iterdir())
+    assert kinds == ["mvp_speed", "unequipped"]  # one entry each: the sampled evaluation reused unequipped
+    for e in index["evaluations"]:  # the very same unequipped episodes in both evaluations
+        assert (tmp_path / "work" / e / "episodes/unequipped/seed-0000/summary.json").read_text() == \
+            (tmp_path / "work" / index["evaluations"][0] / "episodes/unequipped/seed-0000/summary.json").read_text()
+    assert len(list(next(d for d in cache.iterdir() if d.name.startswith("unequipped")).glob("seed-*.json"))) == 2
+
+
+def test_the_reference_scores_table_has_every_use_case_its_baselines_and_intervals(tmp_path):
+    """`aamgym scores` as a user runs it (tiny traffic, 2 seeds): one row per contender that fits each use case."""
+    env = dict(os.environ, PYTHONPATH=str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", ""))
+    proc = subprocess.run([sys.executable, "-m", "rlbridge.experiment", "scores", "--usecases", "corridor_sa",
+                           "reach_destination", "--scenario", str(ROOT / TINY), "--episodes", "2",
+                           "--work", str(tmp_path / "work"), "--out", str(tmp_path / "out")],
+                          env=env, capture_output=True, text=True, timeout=1800, check=False)
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    table = rows(tmp_path / "out" / "scores.csv")
+    got = [(r["environment"], r["contender"]) for r in table]
+    assert got == [("aamgym/CorridorSA-v1", "Unequipped"), ("aamgym/CorridorSA-v1", "MVP speed-only (rule-based)"),
+                   ("aamgym/CorridorSA-v1", "DAA speed-only (DO-365/DAIDALUS)"),
+                   ("aamgym/ReachDestination-v1", "Unequipped"),
+                   ("aamgym/ReachDestination-v1", "DAA speed-only (DO-365/DAIDALUS)")]
+    assert all(r["episodes"] == "2" for r in table)
+    assert " ± " in table[0]["NMAC / episode"] or table[0]["NMAC / episode"].count(".") == 1
+    md = (tmp_path / "out" / "scores.md").read_text()
+    assert "aamgym scores --usecases corridor_sa reach_destination" in md and str(tmp_path) not in md
+    bad = subprocess.run([sys.executable, "-m", "rlbridge.experiment", "scores", "--usecases", "nope"], env=env,
+                         capture_output=True, text=True, timeout=300, check=False)
+    assert bad.returncode == 2 and "unknown use case(s) nope" in bad.stderr

@@ -160,3 +160,24 @@ def test_discovered_agents_and_typed_info_over_zmq(mixed_scenario):
     possible, trace = runs[0]
     assert len(possible) == 5 and {"X", "P1", "S1"} <= set(possible)
     assert all(isinstance(i["dist_m"], float) and isinstance(i["arrived"], bool) for step in trace for i in step.values())
+
+
+def test_reach_destination_counts_speed_changes_as_advisories_and_names_its_baselines():
+    """Its alert rate was always 0 (it never recorded an advisory), and mvp_speed's 'hold' selected 60 kt on it."""
+    from rlbridge.core import EpisodeCore
+
+    def advisories(actions_of_step) -> int:
+        core = EpisodeCore(THREE_WAY, "reach_destination", {"cruise_speed_kts": ()}, time_limit_s=300)
+        result = core.reset(1)
+        for k in range(6):
+            result = core.step({a: actions_of_step(k) for a in result.agents})
+        n = core.metrics()["operational"]["advisories"]
+        core.close()
+        return n
+
+    steady, changing = advisories(lambda k: 1), advisories(lambda k: k % 2)
+    assert steady == 3  # each of the three aircraft: one change (from its scenario speed to 60 kt), then repeats
+    assert changing > steady
+    from rlbridge.usecases.reach import ReachDestination
+
+    assert ReachDestination.baselines == ("daa",)

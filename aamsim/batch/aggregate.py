@@ -19,6 +19,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from aamsim.metrics.stats import t_critical
+
 # Top-level summary fields that are figures of the run (the rest describe it: paths, versions, seeds).
 RUN_FIGURES = ("sim_time_s", "wall_time_s", "aircraft_steps", "flights_created", "flights_deleted",
                "flights_arrived", "aircraft_at_end", "errors")
@@ -64,9 +66,7 @@ def describe(values: Sequence[float]) -> MetricStats:
     if n == 1:
         return MetricStats(1, mean, None, None, None)
     std = statistics.stdev(values)
-    from scipy.stats import t
-
-    half = float(t.ppf(0.975, n - 1)) * std / math.sqrt(n)
+    half = t_critical(n - 1) * std / math.sqrt(n)
     return MetricStats(n, mean, std, mean - half, mean + half)
 
 

@@ -221,6 +221,37 @@ def set_kinematic_state(traffic: Traffic, slots: np.ndarray, values: dict[str, n
         F[row, slots] = math.nan
 
 
+# Fields a direct write may set (BlueSky's ``traf.alt[i] = x``, see aamsim.compat.bluesky): public names
+# (aamsim.traffic.view) -> rows. Derived and cached rows (coslat, the c_* caches) follow from them.
+OVERWRITABLE_FLOATS = {name: f.FLOAT_FIELDS.index(name) for name in (
+    "lat", "lon", "alt", "hdg", "trk", "tas", "cas", "mach", "gs", "gsnorth", "gseast", "vs", "ax", "distflown",
+    "selspd", "selalt", "selvs", "ap_trk", "ap_tas", "ap_alt", "ap_vs", "bankdef")}
+OVERWRITABLE_FLAGS = {"lnav": f.B_SWLNAV, "vnav": f.B_SWVNAV, "vnav_speed": f.B_SWVNAVSPD,
+                      "selspd_mach": f.B_SELSPD_MACH}
+
+
+def overwrite_state(traffic: Traffic, slots: np.ndarray, name: str, values: np.ndarray) -> None:
+    """Set one field of ``slots`` as a plain write would, with no other effect (no mode switches).
+
+    Only the fields of :data:`OVERWRITABLE_FLOATS` / :data:`OVERWRITABLE_FLAGS`. The
+    caches that depend on the state are dropped, so the next step computes from the
+    written values (a written latitude also sets cos(lat), as BlueSky's next step would).
+    """
+    if name in OVERWRITABLE_FLAGS:
+        traffic.B[OVERWRITABLE_FLAGS[name], slots] = values
+        return
+    row = OVERWRITABLE_FLOATS.get(name)
+    if row is None:
+        raise KeyError(f"{name} cannot be written directly (writable: "
+                       f"{', '.join([*OVERWRITABLE_FLOATS, *OVERWRITABLE_FLAGS])})")
+    F = traffic.F
+    F[row, slots] = values
+    if row == f.LAT:
+        F[f.COSLAT, slots] = np.cos(np.radians(F[f.LAT, slots]))
+    for cache in (f.C_ALT, f.C_HDG, f.C_TAS_IN, f.C_SPD_IN, f.C_LAT, f.C_LA0, f.C_Q0, f.C_Q0COS, f.C_Q0SIN):
+        F[cache, slots] = math.nan
+
+
 def set_replay_state(traffic: Traffic, slots: np.ndarray, lat: np.ndarray, lon: np.ndarray, alt_m: np.ndarray,
                      gsnorth_mps: np.ndarray, gseast_mps: np.ndarray, vs_mps: np.ndarray) -> None:
     """Put replayed (non-cooperative) aircraft at a recorded state; velocities east/north/up [m/s].

@@ -47,6 +47,9 @@ PUBLIC_FLOATS: dict[str, str] = {
     "vmax": "maximum speed of the envelope [m/s]",
     "vsmin": "lowest vertical speed of the envelope [m/s] (negative; BlueSky's OpenAP fixed-wing data: a small positive rate)",
     "vsmax": "highest vertical speed of the envelope [m/s]",
+    "ap_trk": "track commanded by the autopilot [deg]",
+    "ap_tas": "TAS commanded by the autopilot [m/s]",
+    "ap_alt": "altitude commanded by the autopilot [m]",
     "ap_vs": "vertical speed commanded by the autopilot [m/s]",
     "ap_trk": "track the autopilot steers [deg]: the route's, or the one a selected heading gives",
     "axmax": "acceleration limit in use [m/s^2]",
@@ -199,6 +202,9 @@ class TrafficView:
     vmax = _float_view("vmax")
     vsmin = _float_view("vsmin")
     vsmax = _float_view("vsmax")
+    ap_trk = _float_view("ap_trk")
+    ap_tas = _float_view("ap_tas")
+    ap_alt = _float_view("ap_alt")
     ap_vs = _float_view("ap_vs")
     ap_trk = _float_view("ap_trk")
     axmax = _float_view("axmax")

@@ -228,7 +228,7 @@ class D2MAVALearner:
     def weights(self) -> dict[str, np.ndarray]:
         return to_numpy_state(self.model)
 
-    def explore(self, transitions: int) -> dict[str, Any]:
+    def explore(self, transitions: int, env_steps: int = 0) -> dict[str, Any]:
         return {"greedy": False}
 
     def eval_explore(self) -> dict[str, Any]:

@@ -2,15 +2,29 @@
 
 One Q-network (flat observation -> 128 -> 128 -> one value per action, ReLU) is shared by
 all aircraft; every agent's transitions go into one replay memory. Exploration is
-epsilon-greedy with a linear schedule over collected transitions (agent decisions). The
-target network is copied from the online one every ``target_update`` transitions.
+epsilon-greedy with a linear schedule; the target network is copied from the online one
+every ``target_update`` steps (both counted as the schedule below counts).
 ``double=True`` uses van Hasselt et al.'s Double-DQN target, ``double=False`` Mnih et al.'s.
 The loss is the Huber loss of Mnih et al. (2015). Defaults are the paper's DDQN table.
 
-Scheduling (a documented choice; the paper does not say): each training iteration first
-stores the iteration's episodes in the replay memory, then makes one gradient step per
-``train_freq`` new transitions (once ``learning_starts`` transitions were collected); the
-workers act with the epsilon reached at the start of the iteration.
+Scheduling (``schedule``). The paper's hyper-parameters are RLlib keys (Ray 1.x DQN), so the
+default ``schedule="rllib"`` counts as RLlib's DQN counted them (docs/algorithms.md cites the
+source): *environment steps* (decisions of the multi-agent environment, each advancing every
+aircraft by the decision interval; RLlib's ``count_steps_by="env_steps"``). With
+``training_intensity=None`` RLlib alternates one round of sampling (``rollout_fragment_length``
+environment steps from each of ``num_workers`` workers) with one gradient step of
+``batch_size`` (``train_batch_size``), so a gradient step falls at every multiple of
+``rollout_fragment_length x rllib_num_workers`` environment steps (4 x 40 = 160 for the paper's
+run; our own number of workers does not change the ratio). A step is taken once
+``learning_starts`` environment steps were added; the target network is copied after a step
+when ``target_update`` environment steps passed since the last copy; epsilon decays over
+``eps_decay_steps`` environment steps. ``schedule="per_transition"`` keeps this project's
+earlier choice: one gradient step per ``train_freq`` aircraft transitions, and
+``learning_starts``, ``target_update`` and the epsilon decay counted in aircraft transitions.
+
+Either way each training iteration first stores the iteration's episodes in the replay
+memory, then makes the gradient steps that fall within the iteration's counts; the workers act
+with the epsilon reached at the start of the iteration.
 
 The replay memory is a numpy ring of observation *rows* (see
 :mod:`rlbridge.agents.rollout`): an agent's next observation is the row ``next_off`` rows
@@ -32,24 +46,57 @@ from rlbridge.agents.d2mava import load_numpy_state, to_numpy_state
 from rlbridge.agents.rollout import ActOutput, EpisodeBatch
 from rlbridge.core import EpisodeCore, StepResult
 
+SCHEDULES = ("rllib", "per_transition")
+
 
 @dataclass
 class DDQNConfig:
-    """(D)DQN hyper-parameters (paper's Table "DDQN Hyperparameters" as defaults)."""
+    """(D)DQN hyper-parameters (paper's Table "DDQN Hyperparameters" as defaults).
+
+    The step counts (``eps_decay_steps``, ``target_update``, ``learning_starts``) are environment
+    steps with ``schedule="rllib"`` and aircraft transitions with ``schedule="per_transition"``.
+    """
 
     double: bool = True  # Double DQN target (False: DQN)
     lr: float = 1e-4
-    batch_size: int = 512
+    batch_size: int = 512  # RLlib's train_batch_size
     hidden: int = 128  # nodes per layer
     gamma: float = 0.99
     eps_start: float = 0.999
     eps_end: float = 0.0001
-    eps_decay_steps: int = 500_000  # transitions
+    eps_decay_steps: int = 500_000  # RLlib's exploration_config.epsilon_timesteps
     replay_size: int = 5_000_000  # rows
-    target_update: int = 50_000  # transitions between target-network copies
-    learning_starts: int = 10_000  # transitions before the first gradient step (not in the paper)
-    train_freq: int = 4  # transitions per gradient step (not in the paper)
+    target_update: int = 50_000  # steps between target-network copies (RLlib's target_network_update_freq)
+    # Update ratio (see the module docstring): "rllib" (the paper's run) or "per_transition".
+    schedule: str = "rllib"
+    rollout_fragment_length: int = 4  # rllib: RLlib DQN's default (not in the paper) [environment steps]
+    rllib_num_workers: int = 40  # rllib: the paper's N_workers (the ratio's, not this run's workers)
+    learning_starts: int = 1000  # steps before the first gradient step (RLlib's default; not in the paper)
+    train_freq: int = 4  # per_transition: transitions per gradient step (not in the paper)
     max_grad_norm: float = 10.0  # gradient clipping (not in the paper)
+
+    def __post_init__(self) -> None:
+        if self.schedule not in SCHEDULES:
+            raise ValueError(f"algorithm.params.schedule={self.schedule!r}: one of {', '.join(SCHEDULES)}")
+        for name in ("rollout_fragment_length", "rllib_num_workers", "train_freq", "batch_size"):
+            if int(getattr(self, name)) < 1:
+                raise ValueError(f"algorithm.params.{name} must be >= 1, not {getattr(self, name)!r}")
+
+    @property
+    def env_steps_per_gradient_step(self) -> int:
+        """``rollout_fragment_length x rllib_num_workers``: RLlib's natural ratio (schedule="rllib")."""
+        return int(self.rollout_fragment_length) * int(self.rllib_num_workers)
+
+
+def rllib_step_marks(start: int, end: int, period: int, learning_starts: int) -> list[int]:
+    """The environment-step counts in ``(start, end]`` at which RLlib's DQN takes a gradient step.
+
+    RLlib samples ``period`` environment steps per round (all workers) and then trains once, so
+    steps fall at the multiples of ``period``; a round trains only once the replay holds
+    ``learning_starts`` environment steps. Returns the counts ``m * period``, ascending.
+    """
+    first = max(start // period + 1, -(-int(learning_starts) // period), 1)
+    return [m * period for m in range(first, end // period + 1)]
 
 
 class QNetwork(nn.Module):
@@ -204,10 +251,11 @@ class DDQNLearner:
         self.memory = ReplayMemory(self.config.replay_size)
         self.rng = np.random.default_rng(seed)
         self.epsilon = LinearSchedule(self.config.eps_start, self.config.eps_end, self.config.eps_decay_steps)
-        self.transitions = 0  # collected so far
-        self.step_credit = 0.0  # transitions not yet paid for by a gradient step
+        self.transitions = 0  # aircraft transitions collected so far
+        self.env_steps = 0  # environment steps collected so far
+        self.step_credit = 0.0  # per_transition: transitions not yet paid for by a gradient step
         self.gradient_steps = 0
-        self.last_sync = 0  # transition count at the last target copy
+        self.last_sync = 0  # the count (env steps or transitions, as the schedule counts) at the last target copy
 
     # -------------------------------------------------------------- worker side
     def actor_spec(self, kind: str) -> dict[str, Any]:
@@ -216,8 +264,12 @@ class DDQNLearner:
     def weights(self) -> dict[str, np.ndarray]:
         return to_numpy_state(self.q)
 
-    def explore(self, transitions: int) -> dict[str, Any]:
-        return {"epsilon": self.epsilon(transitions)}
+    def explore(self, transitions: int, env_steps: int = 0) -> dict[str, Any]:
+        """Epsilon after ``transitions`` aircraft transitions / ``env_steps`` environment steps collected."""
+        return {"epsilon": self.epsilon(env_steps if self.config.schedule == "rllib" else transitions)}
+
+    def _count(self) -> int:
+        return self.env_steps if self.config.schedule == "rllib" else self.transitions
 
     def eval_explore(self) -> dict[str, Any]:
         return {"epsilon": 0.0}
@@ -244,42 +296,60 @@ class DDQNLearner:
         return nn.functional.smooth_l1_loss(q, self.targets(sample))
 
     def update(self, batches: list[EpisodeBatch]) -> dict[str, float]:
-        c = self.config
-        new = 0
+        """Store the episodes, then the gradient steps (and target copies) their counts call for."""
+        new = env_new = 0
         for b in batches:
             self.memory.add(b)
             new += len(b)
-        start = self.transitions
+            env_new += int(b.stats.env_steps)
+        start_tr, start_env = self.transitions, self.env_steps
         self.transitions += new
+        self.env_steps += env_new
+        marks = self._step_marks(start_tr, start_env)
+        losses = []
+        for mark in marks:
+            losses.append(self.gradient_step(self.memory.sample(self.config.batch_size, self.rng)))
+            if mark - self.last_sync >= self.config.target_update:
+                self.q_target.load_state_dict(self.q.state_dict())
+                self.last_sync = int(mark)
+        out = {"epsilon": self.epsilon(self._count()), "gradient_steps": float(self.gradient_steps),
+               "replay_rows": float(self.memory.size)}
+        if losses:
+            out["td_loss"] = float(torch.stack(losses).double().mean())  # one device read per update
+        elif self._count() >= self.config.learning_starts:
+            out["td_loss"] = float("nan")
+        return out
+
+    def _step_marks(self, start_tr: int, start_env: int) -> list[float]:
+        """The counts (as the schedule counts) at which this update's gradient steps fall, ascending."""
+        c = self.config
+        if c.schedule == "rllib":
+            return [float(m) for m in rllib_step_marks(start_env, self.env_steps, c.env_steps_per_gradient_step,
+                                                       c.learning_starts)]
         if self.transitions < c.learning_starts:
-            return {"epsilon": self.epsilon(self.transitions), "gradient_steps": float(self.gradient_steps)}
-        self.step_credit += self.transitions - max(start, c.learning_starts)
+            return []
+        self.step_credit += self.transitions - max(start_tr, c.learning_starts)
         steps = int(self.step_credit // c.train_freq)
         self.step_credit -= steps * c.train_freq
-        losses = []
-        for k in range(steps):
-            loss = self.td_loss(self.memory.sample(c.batch_size, self.rng))
-            self.optimizer.zero_grad()
-            loss.backward()
-            nn.utils.clip_grad_norm_(self.q.parameters(), c.max_grad_norm)
-            self.optimizer.step()
-            self.gradient_steps += 1
-            losses.append(loss.item())
-            # Target copies at the transition counts they belong to, spread over this iteration's steps.
-            reached = start + (k + 1) * (self.transitions - start) / max(steps, 1)
-            if reached - self.last_sync >= c.target_update:
-                self.q_target.load_state_dict(self.q.state_dict())
-                self.last_sync = int(reached)
-        return {"td_loss": float(np.mean(losses)) if losses else float("nan"),
-                "epsilon": self.epsilon(self.transitions), "gradient_steps": float(self.gradient_steps),
-                "replay_rows": float(self.memory.size)}
+        # Target copies at the transition counts they belong to, spread over this iteration's steps.
+        return [start_tr + (k + 1) * (self.transitions - start_tr) / max(steps, 1) for k in range(steps)]
+
+    def gradient_step(self, sample: dict[str, Any]) -> torch.Tensor:
+        """One Adam step on the Huber TD loss of ``sample``; returns the loss (0-d, detached, on the device)."""
+        loss = self.td_loss(sample)
+        self.optimizer.zero_grad()
+        loss.backward()
+        nn.utils.clip_grad_norm_(self.q.parameters(), self.config.max_grad_norm)
+        self.optimizer.step()
+        self.gradient_steps += 1
+        return loss.detach()
 
     # ------------------------------------------------------------- checkpoints
     def state_dict(self) -> dict[str, Any]:
         """Networks, optimiser and counters (the replay memory is not saved: it would take GBs)."""
         return {"model": self.q.state_dict(), "target": self.q_target.state_dict(),
                 "optimizer": self.optimizer.state_dict(), "rng": self.rng.bit_generator.state,
-                "transitions": self.transitions, "step_credit": self.step_credit,
+                "transitions": self.transitions, "env_steps": self.env_steps, "step_credit": self.step_credit,
                 "gradient_steps": self.gradient_steps, "last_sync": self.last_sync}
 
     def load_state_dict(self, state: dict[str, Any]) -> None:
@@ -288,6 +358,7 @@ class DDQNLearner:
         self.optimizer.load_state_dict(state["optimizer"])
         self.rng.bit_generator.state = state["rng"]
         self.transitions = int(state["transitions"])
+        self.env_steps = int(state.get("env_steps", 0))  # checkpoints before the rllib schedule: none counted
         self.step_credit = float(state["step_credit"])
         self.gradient_steps = int(state["gradient_steps"])
         self.last_sync = int(state["last_sync"])

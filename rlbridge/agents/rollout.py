@@ -66,6 +66,9 @@ class EpisodeStats:
     sim_s: float
     wall_s: float
     metrics: dict[str, Any] = field(default_factory=dict)  # standard safety/operational groups
+    # Environment steps: decisions of the multi-agent environment (one advances every aircraft by the
+    # decision interval), what RLlib counts by default (count_steps_by="env_steps").
+    env_steps: int = 0
 
     def to_dict(self) -> dict[str, Any]:
         return asdict(self)
@@ -295,6 +298,7 @@ class _EpisodeRun:
         self.result = core.reset(seed)
         self.rec = TrajectoryRecorder() if record else None
         self.transitions = 0
+        self.env_steps = 0
         self.reward_total = 0.0
         self.pending: dict[str, tuple[int, int, float]] = {}  # agent -> (row, action, logp) of its last decision
         self.finished = False
@@ -331,6 +335,7 @@ class _EpisodeRun:
         self.pending = {result.agents[k]: (int(rows[k]), int(act_rows[i]), float(lp[i]))
                         for i, k in enumerate(acting)}
         self.result = self.core.step(actions)
+        self.env_steps += 1
 
     def _finish(self) -> None:
         w, core, result = self.worker, self.core, self.result
@@ -344,7 +349,8 @@ class _EpisodeRun:
             transitions=self.transitions, reward_total=self.reward_total,
             reward_per_aircraft=self.reward_total / max(aircraft, 1),
             nmac_events=int(safety.get("nmac_events", 0)), lowc_events=int(safety.get("lowc_events", 0)),
-            sim_s=float(result.simt), wall_s=time.perf_counter() - self.t0, metrics=metrics)
+            sim_s=float(result.simt), wall_s=time.perf_counter() - self.t0, metrics=metrics,
+            env_steps=self.env_steps)
         self._batch = self.rec.batch(stats) if self.rec is not None else EpisodeBatch.empty(stats)
         self.finished = True
 

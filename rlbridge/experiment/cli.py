@@ -5,6 +5,8 @@
     aamgym evaluate run=runs/train/<run> scenario=nyc_eval_678 episodes=100
     aamgym report runs/eval/<run> runs/eval/<run> --train runs/train/<run> ... -o report/
     aamgym study [--smoke] [--plan]     # the paper's whole study: train, evaluate, report
+    aamgym scores                       # the reference-scores table of every use case
+    aamgym pretrained list              # the policies shipped with the package
 
 ``train`` and ``evaluate`` are Hydra applications (overrides, ``--multirun`` sweeps,
 ``--cfg job`` to print the configuration, ``--help``); ``report`` and ``study`` are plain commands.
@@ -14,12 +16,14 @@ from __future__ import annotations
 
 import sys
 
-USAGE = """usage: aamgym {train,evaluate,report,study} [args...]
+USAGE = """usage: aamgym {train,evaluate,report,study,scores,pretrained} [args...]
 
   train     train an algorithm (Hydra overrides: algorithm=ddqn scenario=... workers=2 train.hours=1)
   evaluate  a training run's best weights (run=RUN_DIR) or a baseline (baseline=daa scenario=...) against the baselines
   report    tables and figures from evaluation and training runs (EVAL_DIR... --train TRAIN_DIR... -o OUT)
   study     the paper's whole study: every contender, seed and use-case variant, trained, evaluated, reported
+  scores    the reference-scores table of every use case (baselines and shipped policies, held-out seeds)
+  pretrained  the policies shipped with the package (list), or ship one from a study's exported run (ship)
 
 'aamgym <command> --help' describes each command."""
 
@@ -39,6 +43,16 @@ def main(argv: list[str] | None = None) -> None:
         from rlbridge.experiment.study import main as study_main
 
         study_main(rest)
+        return
+    if command == "scores":
+        from rlbridge.experiment.scores import main as scores_main
+
+        scores_main(rest)
+        return
+    if command == "pretrained":
+        from rlbridge.pretrained.ship import main as pretrained_main
+
+        pretrained_main(rest)
         return
     if command not in ("train", "evaluate"):
         print(f"aamgym: unknown command {command!r}\n\n{USAGE}", file=sys.stderr)

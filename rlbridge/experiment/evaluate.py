@@ -11,7 +11,12 @@ altitude noise, ``alt_noise_ft``) of the trained policy loaded from the run's
   :mod:`aamsim.metrics.compare`) and mean safety/operational metrics per policy.
 
 The frozen policy acts greedily by default (D2MAV-A: its most likely action, DDQN: argmax Q);
-``greedy=false`` samples D2MAV-A's stochastic policy instead.
+``greedy=false`` samples D2MAV-A's stochastic policy instead, and makes DDQN epsilon-greedy with
+``sampled_epsilon`` (0.05, Mnih et al.'s evaluation protocol; :data:`SAMPLED_EPSILON`).
+
+Baselines (the unequipped aircraft, MVP, DAA, ...) do not depend on the trained policy: with a
+``baseline_cache`` directory, each baseline's episode on a seed is played once and reused by every
+evaluation on the same scenario, use-case parameters and code (``aamgym study`` passes one).
 
 ``baseline=<name>`` instead of ``run=`` evaluates a baseline (``unequipped``, ``mvp_speed``,
 ``daa``) against the others with no training run: on ``scenario=`` with the use case of
@@ -56,6 +61,12 @@ def baseline_label(name: str, env: EnvSpec) -> str:
         if "speed" not in kinds:
             return f"DAA {'/'.join(kinds)} (DO-365/DAIDALUS)"
     return BASELINE_LABELS.get(name, name)
+
+
+# What "sampled actions" means for a value-based policy (DDQN has no action distribution): epsilon-greedy
+# with epsilon = 0.05, the evaluation protocol of Mnih et al. (2015, Nature, "Methods: evaluation
+# procedure"). Its training schedule ends at 1e-4, which would be greedy in all but name.
+SAMPLED_EPSILON = 0.05
 
 
 def numpy_weights(state: dict[str, Any]) -> dict[str, np.ndarray]:
@@ -117,7 +128,8 @@ def with_altitude_noise(usecase: str, params: dict[str, Any], noise_ft: float, l
     params_class = getattr(usecase_class(usecase), "params_class", None)
     fields = {f.name for f in dataclass_fields(params_class)} if params_class is not None else set()
     if "alt_noise_ft" in fields:
-        return {**params, **noise}
+        # A planner's params may take the noise's size but fly their own layers (no lanes to give).
+        return {**params, **{k: v for k, v in noise.items() if k in fields}}
     if "corridor" in fields and params.get("train") == "tactical":
         return {**params, "corridor": {**params.get("corridor", {}), **noise}}
     return params
@@ -145,18 +157,63 @@ def evaluation_baselines(cfg: DictConfig, env: EnvSpec) -> list[str]:
     return names
 
 
-def run_evaluation(cfg: DictConfig, out_dir: str | Path) -> dict[str, Any]:
+def baseline_cache_dir(root: Path, env: EnvSpec, spec: dict[str, Any]) -> Path | None:
+    """Where a baseline's episodes on ``env`` are kept: a digest of everything that decides them (the
+    scenario's text, the use case and its parameters, step, time limit, metrics, backend, the baseline's
+    spec and the code's commit). None when the code has uncommitted changes: nothing is cached then."""
+    import hashlib
+
+    from rlbridge.experiment.train import code_version
+
+    commit = code_version().get("commit", "")
+    if not commit or commit.endswith("+dirty"):
+        return None
+    text = Path(env.scenario).read_bytes() if Path(env.scenario).is_file() else env.scenario.encode()
+    key = {"scenario_sha256": hashlib.sha256(text).hexdigest(), "usecase": env.usecase, "params": env.params,
+           "time_limit_s": env.time_limit_s, "dt": env.dt, "metrics": list(env.metrics), "backend": env.backend,
+           "policy": spec, "commit": commit}
+    digest = hashlib.sha256(json.dumps(key, sort_keys=True, default=str).encode()).hexdigest()[:24]
+    return root / f"{spec['kind']}-{digest}"
+
+
+def write_episode_summary(out: Path, policy: str, stats: EpisodeStats) -> None:
+    """``episodes/<policy>/seed-NNNN/summary.json``: the ``aamsim run`` schema (``aamsim compare`` reads it)."""
+    d = out / "episodes" / policy / f"seed-{stats.seed:04d}"
+    d.mkdir(parents=True, exist_ok=True)
+    (d / "summary.json").write_text(json.dumps({**stats.summary(), "policy": policy}, indent=2) + "\n")
+
+
+def load_cached_episode(cache: Path, seed: int) -> EpisodeStats | None:
+    path = cache / f"seed-{seed:04d}.json"
+    if not path.is_file():
+        return None
+    return EpisodeStats(**json.loads(path.read_text()))
+
+
+def store_cached_episode(cache: Path, stats: EpisodeStats) -> None:
+    cache.mkdir(parents=True, exist_ok=True)
+    tmp = cache / f".seed-{stats.seed:04d}.tmp"
+    tmp.write_text(json.dumps(stats.to_dict()) + "\n")
+    tmp.replace(cache / f"seed-{stats.seed:04d}.json")
+
+
+def run_evaluation(cfg: DictConfig, out_dir: str | Path, baseline_cache: str | Path | None = None) -> dict[str, Any]:
     out = Path(out_dir)
     has_run = cfg.get("run") not in (None, "")
     subject = cfg.get("baseline")
-    if has_run == (subject is not None):
-        raise ValueError("give run=<training run> (a trained policy against the baselines) or baseline=<name> "
-                         f"(a baseline against the others), not {'both' if has_run else 'neither'}; "
+    pretrained = cfg.get("policy")
+    given = [k for k, v in (("run", has_run), ("baseline", subject is not None), ("policy", pretrained)) if v]
+    if len(given) != 1:
+        raise ValueError("give one of run=<training run> (a trained policy against the baselines), "
+                         "policy=pretrained:<name> or policy=<exported policy folder>, or baseline=<name> (a baseline "
+                         f"against the others), not {' and '.join(given) if given else 'none'}; "
                          f"baselines: {', '.join(BASELINE_KINDS)}")
     check_baselines(([str(b) for b in cfg.baselines] if cfg.baselines is not None else [])
                     + ([str(subject)] if subject is not None else []))
     out.mkdir(parents=True, exist_ok=True)
     (out / "resolved_config.yaml").write_text(OmegaConf.to_yaml(cfg, resolve=True))
+    if pretrained:
+        return evaluate_pretrained(cfg, out, str(pretrained), baseline_cache)
     weights: dict[str, np.ndarray] | None = None
     ckpt: dict[str, Any] = {"state": {}}
     ckpt_path: Path | None = None
@@ -174,7 +231,7 @@ def run_evaluation(cfg: DictConfig, out_dir: str | Path) -> dict[str, Any]:
             explore: dict[str, Any] = {"greedy": greedy}
         else:
             greedy = True if cfg.greedy is None else bool(cfg.greedy)
-            explore = {"epsilon": 0.0 if greedy else float(algo["params"].get("eps_end", 0.0))}
+            explore = {"epsilon": 0.0 if greedy else float(cfg.get("sampled_epsilon", SAMPLED_EPSILON))}
         actors: dict[str, dict[str, Any]] = {name: {"kind": algo["kind"], "config": algo["params"],
                                                     "dims": ckpt["dims"]}}
         weights = numpy_weights(ckpt["learner"]["model"])
@@ -184,6 +241,40 @@ def run_evaluation(cfg: DictConfig, out_dir: str | Path) -> dict[str, Any]:
         env = evaluation_env(cfg, baseline_env(cfg))
         greedy, explore = True, {}
         actors = {name: {"kind": name}}
+    return play_and_report(cfg, out, env, name, label, actors, weights, explore, greedy, has_run, ckpt, ckpt_path,
+                           baseline_cache)
+
+
+def evaluate_pretrained(cfg: DictConfig, out: Path, which: str, baseline_cache: str | Path | None) -> dict[str, Any]:
+    """``policy=pretrained:<name>`` (or an exported policy folder): the shipped weights against the baselines,
+    on ``scenario`` (default: the policy's training scenario), in the use case it was trained for."""
+    from rlbridge.experiment.export import policy_env
+    from rlbridge.pretrained import load
+
+    policy = load(which)
+    exported = policy.exported
+    trained_env = policy_env(exported, str(cfg.scenario or exported.provenance["training_scenario"]))
+    env = evaluation_env(cfg, trained_env)
+    name, kind = exported.name, exported.actor_spec["kind"]
+    label = str(cfg.name or exported.label)
+    greedy = True if cfg.greedy is None else bool(cfg.greedy)
+    if kind == "d2mava":
+        explore: dict[str, Any] = {"greedy": greedy}
+    else:
+        explore = {"epsilon": 0.0 if greedy else float(cfg.get("sampled_epsilon", SAMPLED_EPSILON))}
+    actors = {name: dict(exported.actor_spec)}
+    prov = exported.provenance
+    ckpt = {"state": {"best_iteration": prov.get("best_iteration"), "iteration": prov.get("iterations")},
+            "run_dir": f"pretrained:{name}" if which.removeprefix("pretrained:") == name else Path(which).name}
+    return play_and_report(cfg, out, env, name, label, actors, exported.weights, explore, greedy, True, ckpt, None,
+                           baseline_cache)
+
+
+def play_and_report(cfg: DictConfig, out: Path, env: EnvSpec, name: str, label: str,
+                    actors: dict[str, dict[str, Any]], weights: dict[str, np.ndarray] | None,
+                    explore: dict[str, Any], greedy: bool, has_run: bool, ckpt: dict[str, Any],
+                    ckpt_path: Path | None, baseline_cache: str | Path | None) -> dict[str, Any]:
+    """Play the policy and the baselines on the same seeds; write the episodes, episodes.csv, evaluation.json."""
     scenario = env.scenario
     actors.setdefault("unequipped", {"kind": "unequipped"})
     for b in evaluation_baselines(cfg, env):
@@ -201,11 +292,21 @@ def run_evaluation(cfg: DictConfig, out_dir: str | Path) -> dict[str, Any]:
             w = weights if policy == name else None
             ex = explore if policy == name else {}
             got: list[EpisodeStats] = []
-            bar = tqdm(total=len(seeds), desc=policy, unit="ep", leave=False, disable=None, mininterval=2.0)
-            for stats in pool.map_episodes(seeds, policy, w, ex, record=False):
-                d = out / "episodes" / policy / f"seed-{stats.seed:04d}"
-                d.mkdir(parents=True, exist_ok=True)
-                (d / "summary.json").write_text(json.dumps({**stats.summary(), "policy": policy}, indent=2) + "\n")
+            cache = None if policy == name or baseline_cache is None else \
+                baseline_cache_dir(Path(baseline_cache), env, actors[policy])
+            cached = [c for c in (load_cached_episode(cache, s) for s in seeds) if c is not None] if cache else []
+            todo = [s for s in seeds if s not in {c.seed for c in cached}]
+            if cached:
+                log.info("%s: %d of %d episodes reused from the baseline cache", policy, len(cached), len(seeds))
+            bar = tqdm(total=len(seeds), desc=policy, unit="ep", leave=False, disable=None, mininterval=2.0,
+                       initial=len(cached))
+            for stats in cached:
+                write_episode_summary(out, policy, stats)
+                got.append(stats)
+            for stats in pool.map_episodes(todo, policy, w, ex, record=False) if todo else ():
+                write_episode_summary(out, policy, stats)
+                if cache is not None:
+                    store_cached_episode(cache, stats)
                 got.append(stats)
                 bar.update(1)
             bar.close()
@@ -247,6 +348,7 @@ def run_evaluation(cfg: DictConfig, out_dir: str | Path) -> dict[str, Any]:
                   "episodes": len(seeds),
                   "seeds": seeds, "alt_noise_ft": float(cfg.alt_noise_ft),
                   "alt_noise_lanes_ft": [float(x) for x in cfg.alt_noise_lanes_ft], "greedy": greedy,
+                  "explore": explore,
                   "checkpoint": None if ckpt_path is None else str(ckpt_path), "train_run": ckpt.get("run_dir"),
                   "algorithm": name,
                   "best_iteration": ckpt["state"].get("best_iteration"),

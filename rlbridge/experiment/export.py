@@ -29,9 +29,21 @@ class ExportedPolicy:
     actor_spec: dict[str, Any]  # {"kind", "config", "dims"}: what make_actor needs
     usecase: str
     usecase_params: dict[str, Any]
+    episode: dict[str, Any]  # time_limit_s, dt, metrics of the training episodes
     weights: dict[str, np.ndarray]
     provenance: dict[str, Any]
     greedy_explore: dict[str, Any]  # the explore settings of a greedy evaluation
+
+
+def policy_env(policy: ExportedPolicy, scenario: str) -> Any:
+    """The episode settings to run ``policy`` on ``scenario`` as it was trained (use case, parameters, step)."""
+    from rlbridge.agents.rollout import EnvSpec
+    from rlbridge.experiment.train import resolve_scenario_path
+
+    ep = policy.episode
+    return EnvSpec(resolve_scenario_path(scenario), policy.usecase, dict(policy.usecase_params),
+                   None if ep.get("time_limit_s") is None else float(ep["time_limit_s"]), float(ep.get("dt", 0.05)),
+                   tuple(ep.get("metrics", ("safety", "operational"))))
 
 
 def export_policy(checkpoint: str | Path, dest: str | Path, extra_provenance: dict[str, Any] | None = None) -> Path:
@@ -53,6 +65,8 @@ def export_policy(checkpoint: str | Path, dest: str | Path, extra_provenance: di
         "name": algo["name"], "label": algo.get("label", algo["name"]),
         "actor": {"kind": algo["kind"], "config": algo["params"], "dims": ckpt["dims"]},
         "usecase": env["usecase"], "usecase_params": env["params"],
+        "episode": {"time_limit_s": env.get("time_limit_s"), "dt": env.get("dt", 0.05),
+                    "metrics": list(env.get("metrics", ("safety", "operational")))},
         "provenance": {
             "training_scenario": Path(env["scenario"]).stem, "seed": ckpt["seed"],
             "aircraft_states_budget": config.get("train", {}).get("aircraft_states"),
@@ -88,8 +102,9 @@ def load_policy(path: str | Path) -> ExportedPolicy:
     _check_weights(actor, weights, folder)
     kind = actor["kind"]
     greedy = {"greedy": True} if kind == "d2mava" else {"epsilon": 0.0}
-    return ExportedPolicy(spec["name"], spec["label"], actor, spec["usecase"], spec["usecase_params"], weights,
-                          spec["provenance"], greedy)
+    episode = spec.get("episode", {"time_limit_s": None, "dt": 0.05, "metrics": ["safety", "operational"]})
+    return ExportedPolicy(spec["name"], spec["label"], actor, spec["usecase"], spec["usecase_params"], episode,
+                          weights, spec["provenance"], greedy)
 
 
 def _check_weights(actor: dict[str, Any], weights: dict[str, np.ndarray], folder: Path) -> None:

@@ -3,7 +3,8 @@
     aamgym report EVAL_DIR [EVAL_DIR ...] [--train TRAIN_DIR ...] [-o OUT] [--smooth N]
 
 Tables (CSV and Markdown; rows: algorithms, columns: scenarios; cells ``mean ± std`` over
-seed-paired episodes, as in the paper's tables):
+seed-paired episodes, as in the paper's tables, then the 95 % interval (Student's t) over the
+training runs, or over the episodes for a baseline):
 
 * ``risk_ratio.csv/.md`` — NMAC events / unequipped NMAC events on the same seed;
 * ``lowc_ratio.csv/.md`` — the same with LoWC events;
@@ -22,8 +23,9 @@ seed-paired episodes, as in the paper's tables):
 Figures (PNG, from the training runs' ``learning_curve.csv``):
 
 * ``reward_curve.png`` — mean reward per aircraft per iteration with a 95 % confidence band
-  (over training runs of the same algorithm, or over the iteration's episodes for a single
-  run), zoomed view on top and full view below, the unequipped baseline dashed;
+  (Student's t over the training runs of the same algorithm, on the iterations all of them
+  reached; for a single run, over the iteration's episodes), zoomed view on top and full view
+  below, the unequipped baseline dashed;
 * ``nmac_curve.png`` — NMAC events per aircraft per iteration, 95 % band;
 * ``states_per_hour.png`` — aircraft-states generated per wall-clock hour (and cumulative).
 
@@ -46,7 +48,8 @@ from typing import Any
 
 import numpy as np
 
-Z95 = 1.959964  # two-sided 95 % normal quantile
+from aamsim.metrics.stats import mean_interval
+
 BACKEND_LABELS = {"bluesky": "on BlueSky"}
 OPERATIONAL_COLUMNS = (
     ("nmac_events", "NMAC / episode"), ("lowc_events", "LoWC / episode"),
@@ -212,12 +215,36 @@ def parking_note(cells: dict[str, Cell], scenarios: list[str]) -> str:
     return " — PARKS AIRCRAFT: " + "; ".join(notes) if notes else ""
 
 
+def ratio_interval(ratios: dict[tuple[str, Any], float | None]) -> str:
+    """The 95 % interval of a ratio, Student's t over the sample that varies what was learned.
+
+    A learned policy's episodes come from its training runs (one evaluation directory each): the
+    interval is over the training runs' mean ratios, so two training seeds give 1 degree of freedom
+    (t = 12.71), however many episodes each ran. A baseline has no training seed: its interval is
+    over the episodes.
+    """
+    owners: dict[str, list[float]] = defaultdict(list)
+    for (owner, _), v in ratios.items():
+        if v is not None:
+            owners[owner].append(v)
+    if not owners:
+        return ""
+    learned = any(owners)
+    sample = [float(np.mean(v)) for v in owners.values()] if learned else owners[""]
+    mi = mean_interval(sample)
+    what = f"{len(sample)} training run{'s' * (len(sample) != 1)}" if learned else f"{len(sample)} episodes"
+    if mi is None or mi.half_width is None:
+        return f"; 95 % CI: n/a (1 {'training run' if learned else 'episode'})"
+    return f"; 95 % CI over {what}: {mi.mean - mi.half_width:.4f} .. {mi.mean + mi.half_width:.4f}"
+
+
 def ratio_tables(cells: dict[str, dict[str, Cell]], labels: list[str], scenarios: list[str], out: Path,
                  suffix: str = "", config: str = "") -> list[Path]:
     """Risk and LoWC ratio tables; each scenario's ratio sits beside what it cost (:data:`COST_COLUMNS`)."""
     written = []
-    for name, attr, title in (("risk_ratio", "risk", "Risk ratio (NMAC / unequipped NMAC), mean ± std over seeds"),
-                              ("lowc_ratio", "lowc", "LoWC ratio (LoWC / unequipped LoWC), mean ± std over seeds")):
+    spread = ", mean ± std over seed-paired episodes, and the 95 % interval (Student's t) over training runs"
+    for name, attr, title in (("risk_ratio", "risk", "Risk ratio (NMAC / unequipped NMAC)" + spread),
+                              ("lowc_ratio", "lowc", "LoWC ratio (LoWC / unequipped LoWC)" + spread)):
         ratio_title = name.replace("_", " ").title().replace("Lowc", "LoWC")
         header = ["Algorithm"]
         for s in scenarios:
@@ -229,11 +256,13 @@ def ratio_tables(cells: dict[str, dict[str, Cell]], labels: list[str], scenarios
             row = [label + parking_note(cells[label], scenarios)]
             for s in scenarios:
                 c = cells[label].get(s)
-                vals = list(getattr(c, attr).values()) if c else []
+                ratios = getattr(c, attr) if c else {}
+                vals = list(ratios.values())
                 n_undef = sum(v is None for v in vals)
                 txt = fmt_pm(mean_std([v for v in vals if v is not None]))
                 if c and vals:
                     txt += f" (n={len(vals) - n_undef}" + (f", {n_undef} undefined)" if n_undef else ")")
+                    txt += ratio_interval(ratios)
                 row += [txt] + cost_cells(c)
             rows.append(row)
         full_title = title + (f" — use case {config}" if config else "") + \
@@ -343,28 +372,31 @@ def smooth(x: np.ndarray, window: int) -> np.ndarray:
     return rolling_mean(x, window)
 
 
-def band(runs: list[TrainRun], key: str, episodes_attr: str) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Iterations, mean and 95 % half-width per iteration.
+def band(runs: list[TrainRun], key: str, episodes_attr: str) -> tuple[np.ndarray, np.ndarray, np.ndarray, str]:
+    """Iterations, mean, 95 % half-width (Student's t) per iteration, and what the band is over.
 
-    Over the runs that reached the iteration when there are several, else over the episodes
-    (workers) of the one run that did.
+    Several runs (training seeds): over the runs, on the iterations every run reached (the curve
+    ends where the shortest run ends, so the band never changes meaning along it). One run: over
+    that iteration's episodes (its workers); no band with one episode per iteration.
     """
-    n_it = max(len(r.curve["iteration"]) for r in runs)
-    it = np.arange(1, n_it + 1)
+    if len(runs) > 1:
+        n_it = min(len(r.curve[key]) for r in runs)
+        samples = [[float(r.curve[key][k]) for r in runs] for k in range(n_it)]
+        what = f"over {len(runs)} training runs"
+    else:
+        run = runs[0]
+        eps = getattr(run, episodes_attr)
+        n_it = len(run.curve[key])
+        samples = [eps[k] if k < len(eps) and eps[k] else [float(run.curve[key][k])] for k in range(n_it)]
+        what = "over the iteration's episodes of 1 run"
     mean = np.full(n_it, np.nan)
     half = np.zeros(n_it)
-    for k in range(n_it):
-        having = [r for r in runs if k < len(r.curve[key])]
-        if len(having) > 1:
-            xs = [r.curve[key][k] for r in having]
-        else:
-            eps = getattr(having[0], episodes_attr)
-            xs = eps[k] if k < len(eps) else [having[0].curve[key][k]]
-        xs = [x for x in xs if not math.isnan(x)]
-        if xs:
-            mean[k] = float(np.mean(xs))
-            half[k] = Z95 * float(np.std(xs, ddof=1)) / math.sqrt(len(xs)) if len(xs) > 1 else 0.0
-    return it, mean, half
+    for k, xs in enumerate(samples):
+        mi = mean_interval(xs)
+        if mi is not None:
+            mean[k] = mi.mean
+            half[k] = mi.half_width or 0.0
+    return np.arange(1, n_it + 1), mean, half, what
 
 
 def _baseline_value(runs: list[TrainRun], key: str) -> float | None:
@@ -389,10 +421,10 @@ def figures(train: list[TrainRun], out: Path, window: int) -> list[Path]:
     fig, (ax_zoom, ax_full) = plt.subplots(2, 1, figsize=(9, 8))
     tails = []
     for ci, (label, runs) in enumerate(groups.items()):
-        it, m, h = band(runs, "reward_mean", "episode_rewards")
+        it, m, h, what = band(runs, "reward_mean", "episode_rewards")
         m, h = smooth(m, window), smooth(h, window)
         for ax in (ax_zoom, ax_full):
-            ax.plot(it, m, color=colors[ci % len(colors)], label=f"{label} ({len(runs)} run{'s' * (len(runs) > 1)})")
+            ax.plot(it, m, color=colors[ci % len(colors)], label=f"{label} (band {what})")
             ax.fill_between(it, m - h, m + h, color=colors[ci % len(colors)], alpha=0.25, linewidth=0)
         cut = len(m) // 5
         tails.append((m - h)[cut:])
@@ -411,7 +443,7 @@ def figures(train: list[TrainRun], out: Path, window: int) -> list[Path]:
         pad = 0.05 * (hi - lo or 1.0)
         ax_zoom.set_ylim(lo - pad, hi + pad)
         ax_full.axhspan(lo - pad, hi + pad, color="grey", alpha=0.12, label="zoomed region")
-    ax_zoom.set_title("Mean reward learning curve, 95 % confidence band" + note + " — zoomed")
+    ax_zoom.set_title("Mean reward learning curve, 95 % confidence band (Student's t)" + note + " — zoomed")
     ax_full.set_title("Full learning curve")
     ax_full.legend(loc="lower right", fontsize=8)
     fig.tight_layout()
@@ -422,16 +454,16 @@ def figures(train: list[TrainRun], out: Path, window: int) -> list[Path]:
     # Normalised NMAC.
     fig, ax = plt.subplots(figsize=(9, 4.5))
     for ci, (label, runs) in enumerate(groups.items()):
-        it, m, h = band(runs, "nmac_per_aircraft", "episode_nmac")
+        it, m, h, what = band(runs, "nmac_per_aircraft", "episode_nmac")
         m, h = smooth(m, window), smooth(h, window)
-        ax.plot(it, m, color=colors[ci % len(colors)], label=label)
+        ax.plot(it, m, color=colors[ci % len(colors)], label=f"{label} (band {what})")
         ax.fill_between(it, np.maximum(m - h, 0), m + h, color=colors[ci % len(colors)], alpha=0.25, linewidth=0)
     b = [x for x in (_baseline_value(runs, "nmac_per_aircraft") for runs in groups.values()) if x is not None]
     if b:
         ax.axhline(float(np.mean(b)), color="k", linestyle="--", label="Unequipped")
     ax.set_xlabel("training iteration")
     ax.set_ylabel("NMAC events / aircraft")
-    ax.set_title("Normalised NMAC learning curve, 95 % confidence band" + note)
+    ax.set_title("Normalised NMAC learning curve, 95 % confidence band (Student's t)" + note)
     ax.grid(alpha=0.3)
     ax.legend(fontsize=8)
     fig.tight_layout()
@@ -510,9 +542,13 @@ def config_title(config: tuple[str, str]) -> str:
     return f"{config[0]} (the paper's reward)" if config[1] == "paper" else f"{config[0]} variant {config[1]}"
 
 
-def make_report(eval_dirs: list[Path], train_dirs: list[Path], out: Path, window: int = 1) -> list[Path]:
+def make_report(eval_dirs: list[Path], train_dirs: list[Path], out: Path, window: int = 1,
+                departures: list[str] | None = None) -> list[Path]:
+    """Write the tables, figures and ``report.md``; ``departures`` (what differs from the paper's setup)
+    is printed under every ratio table, where its results are read."""
     out.mkdir(parents=True, exist_ok=True)
     parts: list[str] = ["# AAM-Gym report", ""]
+    departure_text = ["**Departures from the paper in these results:**", ""] + [f"- {d}" for d in departures or []]
     written: list[Path] = []
     groups = group_by_config(eval_dirs)
     for config, dirs in groups.items():
@@ -532,6 +568,8 @@ def make_report(eval_dirs: list[Path], train_dirs: list[Path], out: Path, window
             parts += [f"## Use case {config_title(config)}", ""]
         for name in names:
             parts += [(out / f"{name}{sfx}.md").read_text(), ""]
+            if departures and name in ("risk_ratio", "lowc_ratio"):
+                parts += [*departure_text, ""]
         # Run names only: a report is meant to be committed, the machine's paths are not.
         parts += ["Evaluation runs: " + ", ".join(d.resolve().name for d in dirs), ""]
     if train_dirs:

@@ -49,7 +49,11 @@ PAPER_TABLES = {
 # Aircraft-states per second after the first iteration on the 2-core development machine with
 # train.mode=overlap and one worker, load average 2-4 (bench/bench_train.py, docs/algorithms.md
 # "Learning throughput"): the plan's time estimate. Pass --rates to use a machine's own figures.
-DEFAULT_RATES = {"d2mava_a": 5678.0, "d2mava_a_shared": 5691.0, "ddqn": 1024.0}
+# DDQN with RLlib's update ratio (one gradient step per 160 environment steps) is bound by its
+# rollouts: measured 1,065 at load 13-15 in the same invocation as D2MAV-A's 413
+# (`bench/bench_train.py --against 5349319 --paths new --algorithms ddqn d2mava_a --iterations 6`),
+# scaled by D2MAV-A's 5,678 / 413 to the load of the other figures: 14,600.
+DEFAULT_RATES = {"d2mava_a": 5678.0, "d2mava_a_shared": 5691.0, "ddqn": 14600.0}
 
 
 @dataclass
@@ -110,11 +114,35 @@ def train_overrides(plan: StudyPlan, usecase: str, algo: str, seed: int) -> list
     return over + list(plan.overrides)
 
 
-def eval_overrides(plan: StudyPlan, run: Path, scenario: str, actions: str, label: str) -> list[str]:
+def start_ray(plan: StudyPlan) -> None:
+    """One Ray for the whole study's evaluations (each pool then finds it running instead of starting its own)."""
+    if plan.workers <= 0:
+        return
+    import os
+
+    import ray
+
+    if not ray.is_initialized():
+        from rlbridge.experiment.workers import _code_root
+
+        paths = [_code_root()] + [p for p in os.environ.get("PYTHONPATH", "").split(os.pathsep) if p]
+        os.environ.setdefault("RAY_worker_niceness", "0")
+        ray.init(num_cpus=max(os.cpu_count() or 1, plan.workers), include_dashboard=False, log_to_driver=True,
+                 runtime_env={"env_vars": {"PYTHONPATH": os.pathsep.join(dict.fromkeys(paths))}})
+
+
+def sampled_label(label: str, algo: str) -> str:
+    """The label of a policy's non-greedy evaluation: what "sampled" means for it."""
+    kind = str(_compose("config", [f"algorithm={algo}"]).algorithm.kind)
+    return f"{label}, epsilon-greedy 0.05" if kind == "dqn" else f"{label}, sampled actions"
+
+
+def eval_overrides(plan: StudyPlan, run: Path, scenario: str, actions: str, label: str, algo: str = "d2mava_a"
+                   ) -> list[str]:
     greedy = actions == "greedy"
     # Baselines once per seed set (with the greedy evaluation); unequipped always (the ratios' reference).
     baselines = plan.baselines if greedy else []
-    name = label if greedy else f"{label}, sampled actions"
+    name = label if greedy else sampled_label(label, algo)
     return [f"run={run}", f"scenario={scenario}", f"episodes={plan.episodes}", f"workers={plan.workers}",
             f"greedy={str(greedy).lower()}", f"baselines=[{','.join(baselines)}]", f"name='{name}'"]
 
@@ -166,12 +194,14 @@ def run_study(plan: StudyPlan, work: Path, out: Path, stages: tuple[str, ...] = 
                 ev = work / "eval" / uc / f"{algo}_s{seed}" / f"{Path(scen).stem}_{actions}"
                 if "evaluate" in stages and not (ev / "evaluation.json").exists():
                     log.info("evaluating %s seed %d on %s (%s actions)", algo, seed, scen, actions)
-                    run_evaluation(_compose("evaluate", eval_overrides(plan, run, scen, actions, label)), ev)
+                    start_ray(plan)
+                    run_evaluation(_compose("evaluate", eval_overrides(plan, run, scen, actions, label, algo)), ev,
+                                   baseline_cache=work / "baselines")
                 if (ev / "evaluation.json").exists():
                     eval_dirs.append(ev)
     out.mkdir(parents=True, exist_ok=True)
     if "report" in stages and eval_dirs:
-        make_report(eval_dirs, train_dirs, out, plan.smooth)
+        make_report(eval_dirs, train_dirs, out, plan.smooth, departures(plan))
         copy_configs(work, train_dirs + eval_dirs, out / "configs")
         (out / "paper.md").write_text(paper_tables_md())
     index = {"plan": asdict(plan), "training_runs": [str(d.relative_to(work)) for d in train_dirs],
@@ -201,6 +231,28 @@ def export_run(work: Path, run: Path, dest: Path) -> None:
                 dest / "resolved_config.yaml")
     shutil.rmtree(dest.parent / ".configs")
     export_policy(run / "checkpoints" / "best.pt", dest)
+
+
+def departures(plan: StudyPlan) -> list[str]:
+    """What this study does differently from the paper (named under every table that shows its results)."""
+    out = [(f"training budget: {plan.budget:,} aircraft-states per run, the same for every contender (the paper: "
+           "100 h on 40 workers; 342 M aircraft-states for D2MAV-A No Shared Layers)"),
+           (f"{max(plan.workers, 1)} rollout worker(s), one episode per iteration (the paper: 40 workers, one "
+           f"episode each per iteration), so each update learns from {max(plan.workers, 1)} episode(s) and the "
+           f"best weights are chosen by the {plan.best_window}-iteration rolling mean over that many episodes"),
+           ("altitude noise drawn per episode seed (uniform ±100 ft about the lanes, the paper's distribution), in "
+           "training and evaluation (the paper: the scenario's single draw)"),
+           ("DDQN is updated as RLlib's DQN updated the paper's run (one gradient step of 512 per 160 environment "
+           "steps; learning_starts 1,000 environment steps, RLlib's default: not in the paper); DDQN's 'sampled' "
+           "evaluation is epsilon-greedy with epsilon 0.05 (Mnih et al. 2015), not in the paper"),
+           ("hyper-parameters the paper does not give: D2MAV-A value coefficient 0.5, gradient clip 0.5 (actor and "
+           "critic apart), per-minibatch advantage normalisation; a decision every 10 s; intruders within 10 km")]
+    if plan.mode == "overlap":
+        out.append("train.mode=overlap: the workers play iteration k+1 while the learner updates on iteration k "
+                   "(the episodes of an iteration come from the weights one update older than the paper's loop)")
+    if "corridor_sa_v1" in plan.usecases:
+        out.append("the _v1 tables: use case variant v1, the paper's reward plus a hover cost (not the paper's)")
+    return out
 
 
 def copy_configs(work: Path, dirs: list[Path], dest: Path) -> None:

@@ -58,6 +58,7 @@ class TrainState:
 
     iteration: int = 0
     transitions: int = 0  # aircraft-states collected
+    env_steps: int = 0  # environment steps (decisions of the multi-agent environment) collected
     episodes: int = 0
     wall_s: float = 0.0  # training wall-clock time [s], resumed runs included
     rollout_s: float = 0.0  # of which waiting for the workers' episodes [s]
@@ -190,6 +191,7 @@ def summarize_episodes(stats: list[EpisodeStats]) -> dict[str, Any]:
             "nmac_per_aircraft": float(np.mean([s.nmac_events / max(s.aircraft, 1) for s in stats])),
             "lowc_per_aircraft": float(np.mean([s.lowc_events / max(s.aircraft, 1) for s in stats])),
             "aircraft_states": int(sum(s.transitions for s in stats)),
+            "env_steps": int(sum(s.env_steps for s in stats)),
             "sim_s": float(sum(s.sim_s for s in stats)), "wall_s": float(sum(s.wall_s for s in stats))}
 
 
@@ -353,14 +355,14 @@ def run_training(cfg: DictConfig, run_dir: str | Path) -> dict[str, Any]:
                 return "hours"
             return None
 
-        def submit(it: int, weights: Any, collected: int) -> Any:
+        def submit(it: int, weights: Any, collected: int, env_steps: int) -> Any:
             lists = [[episode_seed(int(cfg.seed), it, w, e) for e in range(epw)] for w in range(slots)]
-            return pool.submit(lists, "policy", weights, learner.explore(collected), lockstep=overlap)
+            return pool.submit(lists, "policy", weights, learner.explore(collected, env_steps), lockstep=overlap)
 
         # overlap: the weights the in-flight iteration plays with (one update behind the learner's).
         behaviour = resumed_behaviour if resumed_behaviour is not None else learner.weights()
         stop = may_start(state.iteration, state.transitions)
-        pending = None if stop else submit(state.iteration + 1, behaviour, state.transitions)
+        pending = None if stop else submit(state.iteration + 1, behaviour, state.transitions, state.env_steps)
         t0 = time.perf_counter()
         while pending is not None:
             it = state.iteration + 1
@@ -375,11 +377,13 @@ def run_training(cfg: DictConfig, run_dir: str | Path) -> dict[str, Any]:
                 behaviour = learner.weights()
                 stop = may_start(it, state.transitions + ep["aircraft_states"])
                 if not stop:
-                    pending = submit(it + 1, behaviour, state.transitions + ep["aircraft_states"])
+                    pending = submit(it + 1, behaviour, state.transitions + ep["aircraft_states"],
+                                     state.env_steps + ep["env_steps"])
             lstats = learner.update(batches)
             t2 = time.perf_counter()
             state.iteration = it
             state.transitions += ep["aircraft_states"]
+            state.env_steps += ep["env_steps"]
             state.episodes += len(batches)
             state.wall_s = wall0 + (t2 - t_train)
             state.rollout_s += t1 - t0
@@ -414,7 +418,7 @@ def run_training(cfg: DictConfig, run_dir: str | Path) -> dict[str, Any]:
             if not overlap:
                 stop = may_start(it, state.transitions)
                 if not stop:
-                    pending = submit(it + 1, learner.weights(), state.transitions)
+                    pending = submit(it + 1, learner.weights(), state.transitions, state.env_steps)
             t0 = t2 if overlap else time.perf_counter()
         reason = stop or "iterations"
     finally:
@@ -431,7 +435,7 @@ def run_training(cfg: DictConfig, run_dir: str | Path) -> dict[str, Any]:
     summary: dict[str, Any] = {
                "algorithm": str(algo.name), "label": meta["algorithm"]["label"], "scenario": Path(env.scenario).stem,
                "workers": n_workers, "iterations": state.iteration, "episodes": state.episodes,
-               "aircraft_states": state.transitions, "wall_s": state.wall_s,
+               "aircraft_states": state.transitions, "env_steps": state.env_steps, "wall_s": state.wall_s,
                "states_per_s": state.transitions / state.wall_s if state.wall_s > 0 else None,
                "states_per_hour": 3600.0 * state.transitions / state.wall_s if state.wall_s > 0 else None,
                "rollout_s": state.rollout_s,

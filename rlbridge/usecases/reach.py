@@ -20,6 +20,7 @@ from typing import TYPE_CHECKING, Any, ClassVar
 import gymnasium as gym
 import numpy as np
 
+from aamsim.metrics import record_advisory
 from aamsim.units import KTS
 from rlbridge.usecases.protocol import Feedback, Observations, UseCaseBase, make_params, start_overlay
 from rlbridge.usecases.variation import PAPER_CRUISE_KTS, check_range, draw_cruise_speed
@@ -66,6 +67,9 @@ class ReachDestination(UseCaseBase):
     params_class = ReachParams
     advisory_kinds: ClassVar[tuple[str, ...]] = ("speed",)  # its actions select speeds
     fixed_traffic: ClassVar[dict[str, Any]] = {"cruise_speed_kts": ()}
+    # The rule-based baselines that fit: DAA steers with speed_action_targets (these speeds); the
+    # speed-only MVP baseline's actions are corridor_sa's decelerate/hold/accelerate, not speeds.
+    baselines: ClassVar[tuple[str, ...]] = ("daa",)
     info_fields = {"arrived": np.bool_, "dist_m": np.float64}  # noqa: RUF012
 
     def __init__(self, **params: Any):
@@ -131,8 +135,15 @@ class ReachDestination(UseCaseBase):
         bad = [c for c in codes if not 0 <= c < len(self.params.speeds_kts)]
         if bad:
             raise ValueError(f"action {bad[0]} is not in 0..{len(self.params.speeds_kts) - 1}")
-        if agents:
-            sim.select_speed(agents, np.array([self.params.speeds_kts[c] * KTS for c in codes]))
+        if not agents:
+            return
+        targets = np.array([self.params.speeds_kts[c] * KTS for c in codes])
+        # An advisory is an action that changes the aircraft's selected speed (repeating it is no alert).
+        before = sim.view.selspd[sim.slots(agents)]
+        sim.select_speed(agents, targets)
+        for a, old_mps, new_mps in zip(agents, before, targets):
+            if not abs(old_mps - new_mps) < 1e-6:
+                record_advisory(sim, a, f"speed {new_mps / KTS:.0f} kt")
 
     def feedback(self, sim: Simulation, agents: list[str], actions: dict[str, Any], since_s: float) -> Feedback:
         dist, _, _ = self._geometry(sim, agents)

@@ -49,6 +49,25 @@ def test_vnav_turn_keeps_the_selected_cas():
     assert sim.traffic.routes[0].iactwp == 2  # two turns flown
 
 
+def test_vnav_turn_after_a_speed_constraint_is_flown_at_the_constraint_speed():
+    """Section 4.3 with speed constraints (issue 32: an EC35 created at 500 ft, 60 kts, VNAV on, then
+    1500 ft / 120 kts and 1500 ft / 140 kts). Both simulators agree to the step until the first
+    waypoint (64.85 s); BlueSky then selects the 60 kts TAS stored at ADDWPT (31.09 m/s) as a CAS
+    through the turn, slows to 31 m/s, turns tighter and is back on 120 kts at 72.75 s, 154 m away;
+    after the last waypoint the two fly on 2.9 deg apart (2.8 km at 900 s). aamsim keeps 120 kts."""
+    sim = Simulation(seed=0, use_bluesky_navdata=False)
+    sim.load_text("00:00:00.00>CRE X EC35 40.70 -74.00 200 500 60\n00:00:00.00>ADDWPT X 40.68 -74.00 1500 120\n"
+                  "00:00:00.00>ADDWPT X 40.66 -74.03 1500 140\n00:00:00.00>VNAV X ON\n")
+    selected: list[tuple[float, float]] = []
+    sim.hooks.post_step.add(lambda s: s.view.n and selected.append((s.simt, float(s.view.selspd[0]))),
+                            interval_s=0.0, name="trace")
+    sim.run_until(100.0)
+    passed = next(t for t, _ in selected if t >= 64.85 - 1e-9)
+    assert sim.view.route(0).iactwp == 1 and passed == pytest.approx(64.85)
+    in_turn = [spd for t, spd in selected if 64.85 - 1e-9 <= t <= 75.0]
+    assert in_turn and all(spd == pytest.approx(120 * KTS) for spd in in_turn)
+
+
 def test_direct_and_delwpt_use_the_true_next_leg():
     """BlueSky's DIRECT (also via DELWPT of the active waypoint and LNAV ON)
     keeps the direction of the next leg from before the route changed, so it

@@ -1,0 +1,1 @@
+"""Compatibility layers: other simulators' Python APIs on aamsim (``aamsim.compat.bluesky``)."""

@@ -1,0 +1,153 @@
+"""``aamgym scores``: the reference-scores table of every registered use case.
+
+    aamgym scores                                   # every use case, held-out traffic, fixed seeds
+    aamgym scores --usecases corridor_sa --episodes 20 --out docs/results/scores
+
+For each use case (its Gymnasium id and version, its ``rlbridge/conf/usecase`` configuration): the
+reference contender (unequipped aircraft, or no planning for a planner), every rule-based baseline
+the use case names, and every shipped pretrained policy trained for it (``aamgym pretrained list``),
+on the same fixed held-out seeds of the held-out scenario. Each figure is a mean with its 95 %
+interval over those episodes (Student's t); every safety figure sits beside what it cost. The
+table (``scores.md``, ``scores.csv``) says how it was made, so a researcher can add a row made the
+same way (the same command with their policy).
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import json
+import logging
+import time
+from pathlib import Path
+from typing import Any
+
+from aamsim.metrics.stats import mean_interval
+
+log = logging.getLogger("aamgym.scores")
+
+SEEDS_START = 2000  # fixed held-out evaluation seeds: SEEDS_START .. SEEDS_START + episodes - 1
+# (figure key in summary.json, column title, digits): safety first, then what it cost.
+COLUMNS = (
+    ("reward_per_aircraft", "reward / aircraft", 3),
+    ("safety.nmac_events", "NMAC / episode", 2),
+    ("safety.lowc_events", "LoWC / episode", 2),
+    ("operational.flights_completed", "flights completed", 1),
+    ("operational.flights_unfinished", "flights unfinished", 1),
+    ("operational.airborne_holding_s", "airborne holding [s]", 0),
+    ("operational.mean_delay_s", "mean delay [s]", 1),
+    ("operational.alert_rate_per_flight_hour", "advisories / flight hour", 1),
+)
+
+
+def usecase_contenders(usecase: str) -> tuple[str, list[str], list[str]]:
+    """(reference baseline, other baselines, shipped pretrained policies) of a use case."""
+    from rlbridge.pretrained import available, load
+    from rlbridge.usecases.registry import make_usecase
+
+    own = list(getattr(make_usecase(usecase), "baselines", None) or ["mvp_speed", "daa"])
+    reference = "no_planning" if "no_planning" in own else "unequipped"
+    others = [b for b in own if b != reference]
+    learned = [n for n in available() if load(n).usecase == usecase]
+    return reference, others, learned
+
+
+def _episode_figures(eval_dir: Path, policy: str) -> list[dict[str, float]]:
+    out = []
+    for f in sorted((eval_dir / "episodes" / policy).glob("seed-*/summary.json")):
+        s = json.loads(f.read_text())
+        row = {"reward_per_aircraft": s.get("reward_total", 0.0) / max(s.get("flights_created", 1), 1)}
+        for group in ("safety", "operational"):
+            for k, v in (s.get(group) or {}).items():
+                if isinstance(v, (int, float)) and not isinstance(v, bool):
+                    row[f"{group}.{k}"] = float(v)
+        out.append(row)
+    return out
+
+
+def _cell(values: list[float], digits: int) -> str:
+    mi = mean_interval(values)
+    if mi is None:
+        return "n/a"
+    if mi.half_width is None:
+        return f"{mi.mean:.{digits}f}"
+    return f"{mi.mean:.{digits}f} ± {mi.half_width:.{digits}f}"
+
+
+def run_scores(usecases: list[str], scenario: str, episodes: int, out: Path, work: Path, workers: int) -> Path:
+    from rlbridge.experiment.evaluate import run_evaluation
+    from rlbridge.experiment.study import _compose
+    from rlbridge.usecases.registry import env_id
+
+    rows: list[list[str]] = []
+    t0 = time.perf_counter()
+    for uc in usecases:
+        reference, others, learned = usecase_contenders(uc)
+        common = [f"scenario={scenario}", f"episodes={episodes}", f"seed={SEEDS_START}", f"workers={workers}",
+                  f"usecase={uc}"]
+        evals: list[tuple[Path, str]] = []
+        base_dir = work / uc / "baselines"
+        if not (base_dir / "evaluation.json").exists():
+            log.info("%s: %s against %s", uc, reference, ", ".join(others) or "nothing else")
+            run_evaluation(_compose("evaluate", common + [f"baseline={reference}", f"baselines=[{','.join(others)}]"]),
+                           base_dir, baseline_cache=work / "cache")
+        evals += [(base_dir, p) for p in [reference, *others]]
+        for name in learned:
+            d = work / uc / f"pretrained_{name}"
+            if not (d / "evaluation.json").exists():
+                log.info("%s: pretrained %s", uc, name)
+                run_evaluation(_compose("evaluate", common + [f"policy=pretrained:{name}", "baselines=[]"]), d,
+                               baseline_cache=work / "cache")
+            evals.append((d, name))
+        for d, policy in evals:
+            ev = json.loads((d / "evaluation.json").read_text())
+            figures = _episode_figures(d, policy)
+            label = ev["policies"][policy]["label"] + (" (pretrained)" if policy in learned else "")
+            rows.append([env_id(uc), label, str(len(figures))]
+                        + [_cell([f[k] for f in figures if f.get(k) is not None], dg) for k, _, dg in COLUMNS])
+    out.mkdir(parents=True, exist_ok=True)
+    header = ["environment", "contender", "episodes", *[t for _, t, _ in COLUMNS]]
+    with open(out / "scores.csv", "w", newline="") as fh:
+        w = csv.writer(fh)
+        w.writerow(header)
+        w.writerows(rows)
+    stem = Path(scenario).stem
+    command = (f"aamgym scores --usecases {' '.join(usecases)} --scenario {stem} --episodes {episodes}")
+    intro = (f"Held-out traffic `{stem}`, seeds {SEEDS_START} .. {SEEDS_START + episodes - 1} (the same for every "
+             "contender), each use case with its configuration in `rlbridge/conf/usecase` and the episode variation "
+             "of its `-v1` environment (docs/usecases.md, \"Episode variation\"). Each cell: mean ± half-width of "
+             "the 95 % interval over the episodes (Student's t). Safety figures sit beside what they cost: "
+             "unfinished flights count in the delay (to the end of the episode) and the holding. A change of an "
+             "environment's behaviour bumps its version; compare rows of the same version only.")
+    made = (f"Made by `{command}` ({time.strftime('%Y-%m-%d')}); add your policy's row with "
+            f"`aamgym evaluate policy=<exported policy> scenario={stem} episodes={episodes} seed={SEEDS_START}`.")
+    lines = ["# Reference scores", "", intro, "", made, "",
+             "| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
+    lines += ["| " + " | ".join(r) + " |" for r in rows]
+    wall = f"{(time.perf_counter() - t0) / 60:.1f}"
+    note = f"Wall time of this table's evaluations on the machine that made it: {wall} min (cached episodes not counted)."
+    lines += ["", note]
+    (out / "scores.md").write_text("\n".join(lines) + "\n")
+    return out / "scores.md"
+
+
+def main(argv: list[str] | None = None) -> None:
+    from rlbridge.usecases.registry import available
+
+    ap = argparse.ArgumentParser(prog="aamgym scores", description=__doc__.split("\n\n")[0])
+    ap.add_argument("--usecases", nargs="+", default=None, help="default: every registered use case")
+    ap.add_argument("--scenario", default="nyc_eval_678", help="held-out traffic (default nyc_eval_678)")
+    ap.add_argument("--episodes", type=int, default=10, help="seeds per contender (default 10)")
+    ap.add_argument("--workers", type=int, default=0, help="Ray workers (0: in process)")
+    ap.add_argument("--work", type=Path, default=Path("runs/scores"), help="evaluation runs (default runs/scores)")
+    ap.add_argument("--out", type=Path, default=Path("docs/results/scores"))
+    args = ap.parse_args(argv)
+    known = available()
+    usecases: list[Any] = args.usecases or known
+    unknown = [u for u in usecases if u not in known]
+    if unknown:
+        ap.error(f"unknown use case(s) {', '.join(unknown)}; registered: {', '.join(known)}")
+    if args.episodes < 2:
+        ap.error("--episodes must be at least 2 (an interval needs two episodes)")
+    logging.basicConfig(level=logging.INFO, format="[%(asctime)s][%(name)s][%(levelname)s] - %(message)s")
+    print(run_scores(usecases, args.scenario, args.episodes, args.out, args.work, args.workers))

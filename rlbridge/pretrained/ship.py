@@ -1,0 +1,88 @@
+"""``aamgym pretrained``: list the shipped policies, or ship one from a study's exported run.
+
+    aamgym pretrained list
+    aamgym pretrained ship docs/results/study/runs/corridor_sa/d2mava_a_s0 d2mava_a --scenario nyc_eval_678
+
+Shipping copies ``policy.json`` and ``policy.npz`` into ``rlbridge/pretrained/<name>/`` and records
+``reference.json``: the greedy policy's figures on a few seeds of a scenario (NMAC and LoWC events,
+the use case's reward, flights completed), played in process. ``tests/test_pretrained.py`` plays the
+same seeds again and must find the same figures: a shipped file that no longer matches the code
+that loads it fails the tests instead of publishing wrong numbers.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import shutil
+from pathlib import Path
+from typing import Any
+
+from rlbridge.pretrained import SHIPPED_DIR, available, load, policy_dir
+
+REFERENCE_SEEDS = (1000, 1001, 1002)  # held apart from training (episode seeds there are 31-bit hashes)
+
+
+def reference_figures(folder: str | Path, scenario: str, seeds: tuple[int, ...] = REFERENCE_SEEDS
+                      ) -> list[dict[str, Any]]:
+    """The greedy policy's episode figures on ``seeds`` of ``scenario``, played in process."""
+    from rlbridge.agents.rollout import RolloutWorker
+    from rlbridge.experiment.export import policy_env
+
+    policy = load(folder)
+    env = policy_env(policy.exported, scenario)
+    worker = RolloutWorker(env, {"policy": policy.exported.actor_spec})
+    worker.set_weights(policy.exported.weights, "policy")
+    out = []
+    for stats in worker.collect(list(seeds), "policy", None, policy.exported.greedy_explore, record=False):
+        op = stats.metrics.get("operational", {})
+        out.append({"seed": stats.seed, "nmac_events": stats.nmac_events, "lowc_events": stats.lowc_events,
+                    "reward_total": stats.reward_total, "flights_completed": op.get("flights_completed"),
+                    "aircraft": stats.aircraft})
+    return out
+
+
+def ship(export_dir: Path, name: str, scenario: str, seeds: tuple[int, ...] = REFERENCE_SEEDS,
+         note: str = "") -> Path:
+    """Copy an exported policy into the package and record its reference figures."""
+    if not name.replace("_", "").isalnum():
+        raise ValueError(f"policy name {name!r}: letters, digits and underscores only")
+    dest = SHIPPED_DIR / name
+    dest.mkdir(parents=True, exist_ok=True)
+    for file in ("policy.json", "policy.npz"):
+        shutil.copy(export_dir / file, dest / file)
+    if note:
+        spec = json.loads((dest / "policy.json").read_text())
+        spec["provenance"]["note"] = note
+        (dest / "policy.json").write_text(json.dumps(spec, indent=2) + "\n")
+    figures = reference_figures(dest, scenario, seeds)
+    (dest / "reference.json").write_text(json.dumps({"scenario": Path(scenario).stem, "actions": "greedy",
+                                                     "episodes": figures}, indent=2) + "\n")
+    return dest
+
+
+def main(argv: list[str] | None = None) -> None:
+    ap = argparse.ArgumentParser(prog="aamgym pretrained", description=__doc__.split("\n\n")[0])
+    sub = ap.add_subparsers(dest="command", required=True)
+    sub.add_parser("list", help="the shipped policies and their provenance")
+    sp = sub.add_parser("ship", help="ship an exported policy (a folder with policy.json and policy.npz)")
+    sp.add_argument("export_dir", type=Path)
+    sp.add_argument("name")
+    sp.add_argument("--scenario", default="nyc_eval_678", help="scenario of the reference figures")
+    sp.add_argument("--seeds", type=int, nargs="+", default=list(REFERENCE_SEEDS))
+    sp.add_argument("--note", default="", help="a line added to the provenance (e.g. what is interim about it)")
+    args = ap.parse_args(argv)
+    if args.command == "list":
+        names = available()
+        if not names:
+            print("no pretrained policy ships yet")
+        for n in names:
+            pol = load(n)
+            prov = pol.provenance
+            print(f"{n}: {pol.exported.label} on {pol.usecase}, seed {prov.get('seed')}, "
+                  f"{prov.get('aircraft_states') or 0:,} aircraft-states (budget {prov.get('aircraft_states_budget')}),"
+                  f" best iteration {prov.get('best_iteration')}; {policy_dir(n)}"
+                  + (f"; {prov['note']}" if prov.get("note") else ""))
+        return
+    dest = ship(args.export_dir, args.name, args.scenario, tuple(args.seeds), args.note)
+    print(dest)
