@@ -256,7 +256,7 @@ def run(scenario: str, until: str | None, out_dir: Path | None, dt: float, seed:
             f"{s['scenario']}: {s['flights_created']} flights created, {s['flights_arrived']} arrived, "
             f"{s['aircraft_at_end']} still flying\n"
             f"sim time {s['sim_time_s']:.1f} s in {s['wall_time_s']:.2f} s wall "
-            f"(speed-up {s['speedup']:.0f}x, {s['aircraft_steps_per_s'] or 0:,.0f} aircraft-steps/s)\n"
+            f"(speed-up {s['speedup'] or 0:.0f}x, {s['aircraft_steps_per_s'] or 0:,.0f} aircraft-steps/s)\n"
             f"errors: {s['errors']}; results in {result.out_dir}"
         )
         if "safety" in s:
@@ -340,6 +340,7 @@ def view(run_dir: Path, host: str, port: int, allow_hosts: tuple[str, ...], open
     from aamsim.viewer.frames import ReplayError
     from aamsim.viewer.server import serve_replay
 
+    _warn_if_incomplete(run_dir)
     if video_path is not None:
         _write_video(run_dir, video_path, t_from, t_to, speed, fps, size)
         return
@@ -353,6 +354,24 @@ def view(run_dir: Path, host: str, port: int, allow_hosts: tuple[str, ...], open
     except OSError as exc:
         click.echo(f"error: cannot serve on {host}:{port}: {exc}", err=True)
         sys.exit(2)
+
+
+def _warn_if_incomplete(run_dir: Path) -> None:
+    """A warning when RUN_DIR's summary.json is a provisional one: its run was killed (or still runs)."""
+    import json
+
+    from aamsim.output.summary_file import IncompleteSummary, check_complete
+
+    try:
+        summary = json.loads((run_dir / "summary.json").read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return  # no summary, or a broken one: the replay reports what it needs
+    if not isinstance(summary, dict):
+        return
+    try:
+        check_complete(summary, str(run_dir))
+    except IncompleteSummary as exc:
+        click.echo(f"warning: {exc}; showing what it wrote", err=True)
 
 
 def figure_options(fn: Any) -> Any:

@@ -10,7 +10,6 @@ the ``finish`` callbacks in ``sim.extensions["run_outputs"]``.
 from __future__ import annotations
 
 import hashlib
-import json
 import math
 import platform
 import signal
@@ -26,6 +25,7 @@ import aamsim
 from aamsim.errors import ScenarioSyntaxError
 from aamsim.output.flights import write_flights
 from aamsim.output.recorder import TrajectoryRecorder
+from aamsim.output.summary_file import ProvisionalSummary, write_json_atomic
 from aamsim.scenarios import resolve_scenario
 from aamsim.simulation import Simulation, iter_flights
 from aamsim.stack.validate import validate_scenario
@@ -138,6 +138,10 @@ def run_scenario(
     if cfg.log_period_s > 0:
         recorder = TrajectoryRecorder(out_dir / "trajectories.csv", cfg.log_period_s)
         recorder.attach(sim)
+    # A run killed outright still leaves a summary: provisional ones from now on, replaced at the end.
+    provisional = ProvisionalSummary(out_dir / "summary.json", lambda wall: make_summary(sim, cfg, path, wall),
+                                     sim.report, before=recorder.sync if recorder is not None else None)
+    provisional.write(0.0)
     for line in cfg.commands:
         sim.stack(line)
     start_overlays(sim, cfg)
@@ -145,19 +149,23 @@ def run_scenario(
     if setup is not None:
         setup(sim, text)
     wall0 = time.perf_counter()
+
+    def chunk_done(s: Simulation) -> None:
+        wall = time.perf_counter() - wall0
+        provisional.maybe_write(wall)
+        if progress is not None:
+            progress(s, wall)
+
     with StopOnSignal(sim) as stop:
         try:
-            sim.run(
-                until_s=cfg.until_s,
-                progress=(lambda s: progress(s, time.perf_counter() - wall0)) if progress else None,
-                progress_interval_s=10.0,
-            )
+            sim.run(until_s=cfg.until_s, progress=chunk_done, progress_interval_s=10.0)
         finally:
             wall = time.perf_counter() - wall0
             if recorder is not None:
                 recorder.close()
         stop.hold()  # a second signal now would leave half-written files: the outputs come first
         summary = make_summary(sim, cfg, path, wall)
+        summary["complete"] = True
         summary["interrupted"] = stop.signal_name is not None
         if stop.signal_name is not None:
             summary["interrupted_by"] = stop.signal_name
@@ -165,7 +173,7 @@ def run_scenario(
         for finish in sim.extensions.get("run_outputs", []):
             finish(sim, out_dir, summary)
         write_flights(out_dir / "flights.csv", iter_flights(sim))
-        (out_dir / "summary.json").write_text(json.dumps(summary, indent=2, sort_keys=False) + "\n")
+        write_json_atomic(out_dir / "summary.json", summary)
         with open(out_dir / "messages.log", "w", encoding="utf-8") as fh:
             fh.writelines(f"{msg.simt:10.2f} {msg}\n" for msg in sim.reporter.messages)
     return RunResult(sim, out_dir, summary, wall)
@@ -244,8 +252,9 @@ def make_summary(sim: Simulation, cfg: RunConfig, path: Path, wall_s: float) -> 
         "threads": sim.threads,
         "until_s": cfg.until_s,
         "sim_time_s": round(simt, 6),
+        "ended_by": sim.ended_by,
         "wall_time_s": round(wall_s, 4),
-        "speedup": round(simt / wall_s, 2) if wall_s > 0 else math.inf,
+        "speedup": round(simt / wall_s, 2) if wall_s > 0 else None,  # None: not measured yet (valid JSON)
         "aircraft_steps": sim.aircraft_steps,
         "aircraft_steps_per_s": round(sim.aircraft_steps / wall_s, 1) if wall_s > 0 else None,
         "flights_created": len(flights),

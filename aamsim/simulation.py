@@ -53,7 +53,6 @@ from aamsim.units import FT, KTS, MAX_ALTITUDE_FT, MIN_ALTITUDE_FT, Speed
 PARALLEL_MIN_AIRCRAFT = 1000
 
 
-CONDITION_WAIT_LIMIT_S = 3600.0  # see Simulation._only_conditions_wait
 OVERSPEED_FACTOR = 2.0  # a created speed beyond this times the type's maximum is a typo (limited)
 MAX_MACH = 5.0  # for types without a Mach limit (rotorcraft: mmo = inf)
 
@@ -108,7 +107,7 @@ class Simulation(SimulationAPI):
         # Services with work still to come (a replay with tracks ahead) keep a run going: see is_quiescent.
         self.pending_work: list[Callable[[], bool]] = []
         self.quit_requested = False
-        self._conditions_idle_s = 0.0
+        self.ended_by = ""  # why the last run() stopped (see run)
         self._noted: set[str] = set()
         self._scratch_cap = 0
         self._alloc_scratch()
@@ -499,13 +498,20 @@ class Simulation(SimulationAPI):
 
     def run(self, until_s: float | None = None, progress: Callable[[Simulation], None] | None = None,
             progress_interval_s: float = 60.0) -> None:
-        """Run until ``until_s`` or until nothing is left to happen.
+        """Run until ``until_s``, or without it until the scenario can change nothing more.
 
-        Nothing is left when no command is pending, no conditional command
-        waits and no aircraft flies (or every remaining aircraft has finished
-        its route, so that it would fly straight on forever).
+        Without ``until_s`` the run stops when nothing is left (no command
+        pending, no conditional command waiting, no aircraft on a route), when
+        nothing has progressed for an hour after the last command, or at the
+        default horizon a day after it (:mod:`aamsim.run_end`, which says why
+        in a note). :attr:`ended_by` names the reason: ``"until"``, ``"quit"``,
+        ``"nothing_left"``, ``"no_progress"`` or ``"horizon"``.
         """
-        chunk = progress_interval_s
+        from aamsim.run_end import OpenEndWatch
+
+        watch = OpenEndWatch()
+        chunk = min(progress_interval_s, 60.0)  # the open-ended checks come at least every minute
+        self.ended_by = ""
         while True:
             target = self.simt + chunk
             if until_s is not None:
@@ -516,31 +522,20 @@ class Simulation(SimulationAPI):
             if self.state == self.STATE_HOLD:
                 self.note_once("hold", "HOLD: aamsim run has no operator to resume it; continuing")
                 self.state = self.STATE_OP
-            if self.quit_requested or (until_s is not None and self.simt_us >= to_us(until_s)):
+            if self.quit_requested:
+                self.ended_by = "quit"
                 return
-            if until_s is None and self.is_quiescent():
+            if until_s is not None:
+                if self.simt_us >= to_us(until_s):
+                    self.ended_by = "until"
+                    return
+                continue
+            stop = watch.check(self, chunk)
+            if stop is not None:
+                self.ended_by, message = stop
+                if message:
+                    self.report("note", message)
                 return
-            if until_s is None and self._only_conditions_wait(chunk):
-                return
-
-    def _only_conditions_wait(self, chunk_s: float) -> bool:
-        """True once conditional commands alone have kept a finished scenario going for an hour.
-
-        An aircraft that misses the position of its ATDIST condition (and has no
-        route left) would otherwise keep an open-ended run alive forever.
-        """
-        view = self.view
-        routes_active = view.n and (view.lnav.any() or view.vnav.any())
-        if len(self.queue) or not len(self.conditions) or routes_active:
-            self._conditions_idle_s = 0.0
-            return False
-        self._conditions_idle_s += chunk_s
-        if self._conditions_idle_s >= CONDITION_WAIT_LIMIT_S:
-            self.report("note", f"stopped: nothing scheduled and no aircraft on a route for "
-                                f"{CONDITION_WAIT_LIMIT_S:.0f} s; {len(self.conditions)} conditional command(s) "
-                                "never fired (use --until to run longer)")
-            return True
-        return False
 
     def is_quiescent(self) -> bool:
         """True when the scenario can produce no further change worth simulating."""

@@ -12,6 +12,7 @@ from rlbridge.agents.core import (
     LinearSchedule,
     PackedIntruders,
     attention_pool,
+    categorical_terms,
     compute_gae,
     ddqn_target,
     dqn_target,
@@ -186,6 +187,55 @@ def test_packed_gather_returns_each_rows_valid_intruders_in_order():
     rows, seg = packed.gather(torch.tensor([2, 1, 0]))
     assert rows[:, 0].tolist() == [8.0, 9.0, 10.0, 0.0, 1.0]
     assert seg.tolist() == [0, 0, 0, 2, 2]
+
+
+def test_static_gather_pads_to_the_bucket_with_an_extra_segment():
+    intr = torch.arange(3 * 4, dtype=torch.float32).reshape(3, 4, 1)
+    mask = torch.tensor([[1, 1, 0, 0], [0, 0, 0, 0], [1, 1, 1, 0]], dtype=torch.float32)
+    rows, seg = PackedIntruders.from_padded(intr, mask).gather_static(torch.tensor([2, 1, 0]), bucket=8)
+    # gather()'s five rows, then three padding rows (packed row 0) in segment 3 = len(idx).
+    assert rows[:, 0].tolist() == [8.0, 9.0, 10.0, 0.0, 1.0, 0.0, 0.0, 0.0]
+    assert seg.tolist() == [0, 0, 0, 2, 2, 3, 3, 3]
+    rows, seg = PackedIntruders.from_padded(intr, mask).gather_static(torch.tensor([1, 2]), bucket=3)
+    assert rows[:, 0].tolist() == [8.0, 9.0, 10.0] and seg.tolist() == [1, 1, 1]  # exactly full: no padding
+
+
+@pytest.mark.parametrize("shared", [False, True])
+def test_static_forward_gives_the_packed_networks_outputs_and_gradients(shared):
+    from rlbridge.agents.d2mava import ActorCritic, D2MAVAConfig
+
+    torch.manual_seed(2)
+    net = ActorCritic(9, 11, 3, D2MAVAConfig(shared=shared))
+    own, intr = torch.randn(6, 9), torch.randn(6, 5, 11)
+    mask = (torch.arange(5)[None, :] < torch.tensor([5, 0, 2, 1, 3, 0])[:, None]).float()
+    idx = torch.tensor([4, 0, 1, 2, 5])
+    packed = PackedIntruders.from_padded(intr, mask)
+    out = []
+    for static in (False, True):
+        net.zero_grad()
+        if static:
+            rows, seg = packed.gather_static(idx, bucket=16)  # 10 valid rows + 6 padding rows
+            logits, value = net.forward_static(own[idx], rows, seg)
+        else:
+            rows, seg = packed.gather(idx)
+            logits, value = net.forward_packed(own[idx], rows, seg)
+        (logits.square().sum() + value.sum()).backward()
+        out.append((logits.detach(), value.detach(), [p.grad.clone() for p in net.parameters()]))
+    torch.testing.assert_close(out[1][0], out[0][0], rtol=0, atol=0)
+    torch.testing.assert_close(out[1][1], out[0][1], rtol=0, atol=0)
+    for g_packed, g_static in zip(out[0][2], out[1][2]):
+        torch.testing.assert_close(g_static, g_packed, rtol=1e-6, atol=1e-7)
+
+
+def test_categorical_terms_are_torch_categoricals():
+    torch.manual_seed(0)
+    logits = torch.randn(64, 3) * 5
+    logits[0] = torch.tensor([-torch.inf, 0.0, 1.0])  # a masked action: clamped in the entropy, as torch does
+    actions = torch.randint(0, 3, (64,))
+    actions[0] = 2
+    dist = torch.distributions.Categorical(logits=logits)
+    logp, entropy = categorical_terms(logits, actions)
+    assert torch.equal(logp, dist.log_prob(actions)) and torch.equal(entropy, dist.entropy())
 
 
 @pytest.mark.parametrize("shared", [False, True])

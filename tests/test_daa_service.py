@@ -148,7 +148,8 @@ def test_aamgym_evaluate_unknown_baseline_lists_the_known_ones(tmp_path):
     assert "unknown baseline(s) acas_sxu; known: unequipped, mvp_speed, daa" in proc.stderr
     proc = run_cli(["-m", "rlbridge.experiment", "evaluate", "episodes=1", "hydra.run.dir=eval"], tmp_path,
                    timeout=120)
-    assert proc.returncode != 0 and "give run=<training run>" in proc.stderr
+    assert proc.returncode != 0
+    assert "give one of run=<training run>" in proc.stderr and "policy=pretrained:<name>" in proc.stderr
 
 
 def test_daa_policy_acts_on_any_use_case_with_speed_actions():

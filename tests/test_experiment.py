@@ -99,6 +99,19 @@ def test_ddqn_gradient_steps_follow_the_runs_environment_steps(tmp_path):
     assert float(last["epsilon"]) == pytest.approx(0.999 + env / 100 * (0.0001 - 0.999), rel=1e-5)
 
 
+@pytest.mark.skipif(torch.cuda.is_available(), reason="checks the error of a machine without CUDA")
+def test_device_cuda_without_cuda_is_one_clear_error_before_anything_starts(tmp_path):
+    env = dict(os.environ, PYTHONPATH=str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", ""))
+    run = tmp_path / "run"
+    proc = subprocess.run([sys.executable, "-m", "rlbridge.experiment", "train", "device=cuda", f"scenario={TINY}",
+                           "workers=0", f"hydra.run.dir={run}"], cwd=tmp_path, env=env, capture_output=True, text=True,
+                          timeout=300, check=False)
+    assert proc.returncode != 0
+    assert "device=cuda: CUDA is not available on this machine" in proc.stderr
+    # Nothing started: no configuration, curve or checkpoint written (Hydra's own .hydra/ and log aside).
+    assert {p.name for p in run.iterdir()} <= {".hydra", "train.log"}
+
+
 def test_unknown_algorithm_parameter_is_rejected(tmp_path):
     cfg = compose_train(["+algorithm.params.learning_rat=0.1", "train.iterations=1"])
     with pytest.raises(TypeError, match="learning_rat"):

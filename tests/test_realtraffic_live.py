@@ -105,6 +105,7 @@ def test_feed_survives_errors_timeouts_rate_limit_and_garbage():
             clock.t = 1_700_000_000.0 + step
             before = len(server.requests)
             feed.tracks_at(clock.t - feed.delay_s)
+            assert feed.wait_idle(30.0)  # polls run in the background; their results are taken at the next call
             if len(server.requests) > before:
                 times.append(step)
         texts = [t for _, t in messages]
@@ -125,7 +126,8 @@ def test_unreachable_server_is_a_message_not_a_crash():
         url = server.url
     sim = Simulation(dt=0.5)
     build_services(sim)
-    start_live(sim, BOX, LiveSettings(api_url=url, interval_s=0.2, timeout_s=0.3))
+    replay = start_live(sim, BOX, LiveSettings(api_url=url, interval_s=0.2, timeout_s=0.3))
+    assert replay.feed.wait_idle(30.0)  # type: ignore[attr-defined]  # the first poll, in the background
     sim.run_until(1.0)
     warnings = [str(m) for m in sim.reporter.messages if m.kind == "warning"]
     assert len(warnings) == 1 and "unreachable" in warnings[0] and "the simulation goes on" in warnings[0]

@@ -35,6 +35,30 @@ def test_plan_states_the_study_and_its_time_from_the_throughput():
     proc = run_script(["--plan"], timeout=120)
     assert "12 training runs of 15,000,000 aircraft-states" in proc.stdout
     assert "48 evaluations of 100 episodes" in proc.stdout
+    assert f"this machine: {os.cpu_count()} CPUs, learner on " in proc.stdout
+
+
+def test_machine_estimate_is_the_slower_of_rollouts_and_learner():
+    from rlbridge.experiment.machine import ROLLOUT_PER_CORE, machine_estimate
+
+    kinds = {"d2mava_a": "d2mava", "ddqn": "dqn"}
+    cpu_rates = {"d2mava_a": 5000.0, "ddqn": 20000.0}
+    gpu = machine_estimate(kinds, "cuda", 15, cpu_rates, cores=16)  # a GPU learner keeps up (not measured)
+    assert gpu.rates == {"d2mava_a": 15 * ROLLOUT_PER_CORE["d2mava"], "ddqn": 15 * ROLLOUT_PER_CORE["dqn"]}
+    assert set(gpu.bound.values()) == {"rollouts"}
+    cpu = machine_estimate(kinds, "cpu", 1, cpu_rates, cores=2)  # one worker: the rollouts bound DDQN
+    assert cpu.rates == {"d2mava_a": 5000.0, "ddqn": ROLLOUT_PER_CORE["dqn"]}
+    assert cpu.bound == {"d2mava_a": "measured on 2 cores", "ddqn": "rollouts"}
+
+
+@pytest.mark.skipif(__import__("torch").cuda.is_available(), reason="checks the error of a machine without CUDA")
+def test_study_with_device_cuda_without_cuda_fails_before_anything_starts(tmp_path):
+    env = dict(os.environ, PYTHONPATH=str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", ""))
+    proc = subprocess.run([str(ROOT / "scripts" / "reproduce_paper.sh"), "--work", str(tmp_path / "w"), "device=cuda"],
+                          env=env, check=False, capture_output=True, text=True, timeout=120)
+    assert proc.returncode == 2
+    assert "device=cuda: CUDA is not available on this machine" in proc.stderr
+    assert not (tmp_path / "w").exists()
 
 
 def rows(path: Path) -> list[dict[str, str]]:

@@ -20,6 +20,7 @@ from pathlib import Path
 from typing import Any
 
 from aamsim.metrics.stats import t_critical
+from aamsim.output.summary_file import check_complete
 
 # Top-level summary fields that are figures of the run (the rest describe it: paths, versions, seeds).
 RUN_FIGURES = ("sim_time_s", "wall_time_s", "aircraft_steps", "flights_created", "flights_deleted",
@@ -28,7 +29,13 @@ GROUPS = ("safety", "operational")
 
 
 def flatten_metrics(summary: dict[str, Any]) -> dict[str, float | None]:
-    """``summary.json`` -> {metric: value}: run figures, then ``safety.*`` and ``operational.*`` numbers."""
+    """``summary.json`` -> {metric: value}: run figures, then ``safety.*`` and ``operational.*`` numbers.
+
+    Raises:
+        IncompleteSummary: a provisional summary (``"complete": false``): its run was killed, and
+            its figures would enter the statistics as if it had finished.
+    """
+    check_complete(summary, f"summary.json of {summary.get('scenario', '?')} (seed {summary.get('seed')})")
     out: dict[str, float | None] = {}
     for key in RUN_FIGURES:
         if key in summary:

@@ -30,6 +30,7 @@ from aamsim.conflicts.events import EventLog, SeparationEvent
 from aamsim.conflicts.fused import detect_all, new_pair_count, volume_pass
 from aamsim.conflicts.grid import candidate_pairs, snapshot_arrays, swept_boxes
 from aamsim.conflicts.pairs import nearest_per_aircraft, slant_distances
+from aamsim.conflicts.zone_advice import zone_advice
 from aamsim.traffic.view import field_rows, kinematic_matrix
 from aamsim.units import R_EARTH
 
@@ -140,6 +141,7 @@ class ConflictService:
     _serial_version: tuple | None = None  # (traffic, layout version) the serial cache was built for
     _conflicts_hint: int = 0  # conflicts at the last check: sizes the next check's output
     _last_check_s: float = -math.inf
+    _zone_advised: bool = False  # the airliner-zone warning (zone_advice) was given
 
     # ------------------------------------------------------------- lifecycle
     def attach(self, sim: Simulation) -> None:
@@ -155,6 +157,7 @@ class ConflictService:
         self._serials.clear()
         self._serial_version = None
         self._last_check_s = -math.inf
+        self._zone_advised = False
         self.state = None
         self._closest_ids, self._closest_arr = (), np.empty(0)
 
@@ -188,6 +191,11 @@ class ConflictService:
                                      self._conflicts_hint)
         self._conflicts_hint = len(ci) + len(ci) // 4
         ids_now = tuple(t.ids)
+        if cd_on and not self._zone_advised and n:
+            advice = zone_advice(sim)
+            if advice is not None:
+                self._zone_advised = True
+                sim.report("warning", advice)
         if cd_on:
             self.state = ConflictState(ids_now, ci, cj, tcpa, dcpa, tin, li, lj, inconf, tcpamax)
             self._count_new_conflicts(self._serials_of(t)[0], ci, cj)

@@ -17,6 +17,8 @@ from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Any
 
+from aamsim.output.summary_file import IncompleteSummary, check_complete
+
 
 class ComparisonError(ValueError):
     """The runs cannot be compared (different scenarios or seeds, missing metrics)."""
@@ -61,6 +63,10 @@ def load_run(path: str | Path) -> RunMetrics:
     if not summary_path.exists():
         raise ComparisonError(f"{path}: no summary.json (not a run directory)")
     data = json.loads(summary_path.read_text())
+    try:
+        check_complete(data, str(summary_path))
+    except IncompleteSummary as exc:
+        raise ComparisonError(str(exc)) from None
     safety = data.get("safety")
     if not safety or "nmac_events" not in safety:
         raise ComparisonError(f"{summary_path}: no safety metrics (run with --metrics safety)")

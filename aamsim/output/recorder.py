@@ -85,6 +85,13 @@ class TrajectoryRecorder:
         self._chunks.clear()
         self._buffered = 0
 
+    def sync(self) -> None:
+        """Write every buffered row and hand them to the operating system (a run killed after this
+        leaves them all in the file, complete)."""
+        self.flush()
+        if self._file is not None:
+            self._file.flush()
+
     def close(self) -> None:
         self.flush()
         if self._file is not None:

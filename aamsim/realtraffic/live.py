@@ -21,16 +21,17 @@ from __future__ import annotations
 import json
 import math
 import os
+import threading
 import time
 import urllib.error
 import urllib.parse
-import urllib.request
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
 from aamsim.errors import CommandError
 from aamsim.realtraffic.columns import ColumnPlan, plan_columns
+from aamsim.realtraffic.http_get import Answer, FetchProblem, fetch
 from aamsim.realtraffic.normalise import normalise
 from aamsim.realtraffic.reports import SkipLog, StateReports
 from aamsim.realtraffic.sources import rest_response_chunks
@@ -46,7 +47,12 @@ ANONYMOUS_INTERVAL_S = 10.0  # OpenSky's time resolution for anonymous users
 ACCOUNT_INTERVAL_S = 5.0  # ... and for users with an account
 DAILY_CREDITS = {"anonymous": 400, "account": 4000}
 MAX_BACKOFF_S = 300.0
-TIMEOUT_S = 5.0
+TIMEOUT_S = 5.0  # each socket operation of a poll
+DEADLINE_S = 15.0  # a whole poll: connection, redirects, headers and body
+# The largest answer read [bytes]. OpenSky's states/all for the whole world, about 10,000 aircraft,
+# is about 2 MB of JSON; a box is far less. (A 400 MB answer used to be read whole: 975 MB resident.)
+MAX_BODY_BYTES = 16 * 1024 * 1024
+MAX_TOKEN_BYTES = 64 * 1024
 
 
 def credits_per_request(box: BBox) -> int:
@@ -65,20 +71,24 @@ class LiveSettings:
     client_secret: str = field(default="", repr=False)
     interval_s: float | None = None  # None: OpenSky's resolution (10 s anonymous, 5 s with an account)
     timeout_s: float = TIMEOUT_S
+    deadline_s: float = DEADLINE_S
+    max_body_bytes: int = MAX_BODY_BYTES
 
     @staticmethod
     def from_env(env: dict[str, str] | None = None) -> LiveSettings:
         """``OPENSKY_CLIENT_ID`` / ``OPENSKY_CLIENT_SECRET`` (an account), ``AAMSIM_OPENSKY_URL`` and
         ``AAMSIM_OPENSKY_TOKEN_URL`` (another server, e.g. a recorded one), ``AAMSIM_OPENSKY_INTERVAL_S``,
-        ``AAMSIM_OPENSKY_TIMEOUT_S``."""
+        ``AAMSIM_OPENSKY_TIMEOUT_S`` (each socket operation), ``AAMSIM_OPENSKY_DEADLINE_S`` (a whole poll)."""
         env = dict(os.environ) if env is None else env
         interval = env.get("AAMSIM_OPENSKY_INTERVAL_S")
         timeout = env.get("AAMSIM_OPENSKY_TIMEOUT_S")
+        deadline = env.get("AAMSIM_OPENSKY_DEADLINE_S")
         return LiveSettings(
             api_url=env.get("AAMSIM_OPENSKY_URL", OPENSKY_API_URL).rstrip("/"),
             token_url=env.get("AAMSIM_OPENSKY_TOKEN_URL", OPENSKY_TOKEN_URL),
             client_id=env.get("OPENSKY_CLIENT_ID", ""), client_secret=env.get("OPENSKY_CLIENT_SECRET", ""),
             interval_s=float(interval) if interval else None, timeout_s=float(timeout) if timeout else TIMEOUT_S,
+            deadline_s=float(deadline) if deadline else DEADLINE_S,
         )
 
     @property
@@ -119,44 +129,53 @@ class OpenSkyClient:
         query = urllib.parse.urlencode({"lamin": lat0, "lomin": lon0, "lamax": lat1, "lomax": lon1})
         return f"{self.settings.api_url}/states/all?{query}"
 
+    def _fetch(self, url: str, headers: dict[str, str], data: bytes | None = None,
+               max_bytes: int | None = None) -> Answer:
+        st = self.settings
+        return fetch(url, headers=headers, data=data, timeout_s=st.timeout_s, deadline_s=st.deadline_s,
+                     max_bytes=st.max_body_bytes if max_bytes is None else max_bytes)
+
     def _bearer(self) -> dict[str, str]:
         if not self.settings.account:
             return {}
         if time.time() >= self._token_until:
             form = urllib.parse.urlencode({"grant_type": "client_credentials", "client_id": self.settings.client_id,
                                            "client_secret": self.settings.client_secret}).encode()
-            with urllib.request.urlopen(urllib.request.Request(self.settings.token_url, data=form),
-                                        timeout=self.settings.timeout_s) as answer:
-                token = json.loads(answer.read())
+            answer = self._fetch(self.settings.token_url, {}, data=form, max_bytes=MAX_TOKEN_BYTES)
+            token = json.loads(answer.body)
+            if not isinstance(token, dict):
+                raise ValueError("the token answer is not a JSON object")
             self._token = str(token["access_token"])
             self._token_until = time.time() + float(token.get("expires_in", 1800)) - 60.0
         return {"Authorization": f"Bearer {self._token}"}
 
     def poll(self) -> PollResult:
-        """One request; every failure comes back as a :class:`PollResult` with its ``problem``."""
+        """One request, bounded (:mod:`aamsim.realtraffic.http_get`); every failure comes back as a
+        :class:`PollResult` with its ``problem``."""
         self.polls += 1
         try:
-            request = urllib.request.Request(self.url, headers={"Accept": "application/json", **self._bearer()})
-            with urllib.request.urlopen(request, timeout=self.settings.timeout_s) as answer:
-                remaining = answer.headers.get("X-Rate-Limit-Remaining")
-                self.remaining_credits = int(remaining) if remaining and remaining.isdigit() else None
-                body = answer.read()
+            answer = self._fetch(self.url, {"Accept": "application/json", **self._bearer()})
+            remaining = answer.headers.get("X-Rate-Limit-Remaining")
+            self.remaining_credits = int(remaining) if remaining and remaining.isdigit() else None
+            body = answer.body
         except urllib.error.HTTPError as err:
             retry = err.headers.get("X-Rate-Limit-Retry-After-Seconds") if err.headers else None
             if err.code == 429:
-                return PollResult(None, "rate limit reached (HTTP 429)", float(retry) if retry else None)
+                return PollResult(None, "rate limit reached (HTTP 429)", _seconds(retry))
             return PollResult(None, f"HTTP {err.code} {err.reason}")
+        except FetchProblem as err:
+            return PollResult(None, err.problem)
         except TimeoutError:
             return PollResult(None, f"no answer within {self.settings.timeout_s:g} s")
         except (urllib.error.URLError, OSError) as err:
             reason = getattr(err, "reason", err)
             return PollResult(None, f"unreachable ({reason})")
-        except (KeyError, ValueError) as err:
-            return PollResult(None, f"authentication failed ({err})")
+        except (KeyError, ValueError, TypeError, RecursionError) as err:
+            return PollResult(None, f"authentication failed ({type(err).__name__}: {str(err)[:200]})")
         try:
             response = json.loads(body)
-        except ValueError as err:
-            return PollResult(None, f"not JSON ({err})")
+        except (ValueError, RecursionError) as err:  # RecursionError: arrays nested thousands deep
+            return PollResult(None, f"not JSON ({type(err).__name__}: {str(err)[:200]})")
         if not isinstance(response, dict) or "states" not in response:
             return PollResult(None, "not a states/all answer (no 'states')")
         return PollResult(self._reports(response))
@@ -171,9 +190,25 @@ class OpenSkyClient:
         return StateReports.concat(blocks)
 
 
+def _seconds(text: str | None) -> float | None:
+    """A ``Retry-After``-style number of seconds, or None when it is missing or not a sane number."""
+    try:
+        value = float(text) if text else None
+    except ValueError:
+        return None
+    return value if value is not None and 0.0 <= value <= 86_400.0 else None
+
+
 class LiveFeed:
     """Polled OpenSky state vectors as a :class:`~aamsim.realtraffic.replay.TrackFeed` (recording time =
-    the wall clock less ``delay_s``)."""
+    the wall clock less ``delay_s``).
+
+    Polls run in a background thread, one at a time: the simulation loop only
+    starts a poll when one is due and takes its result once it has come, so a
+    slow or hostile server never holds up a step, ``--until`` or a signal (the
+    poll itself is bounded by :mod:`aamsim.realtraffic.http_get`). A poll
+    still running when the run ends is abandoned (its thread is a daemon).
+    """
 
     def __init__(self, client: OpenSkyClient, *, max_gap_s: float = 60.0, clock: Callable[[], float] = time.time,
                  report: Callable[[str, str], None] | None = None):
@@ -185,6 +220,7 @@ class LiveFeed:
         self._tracks: TrackSet = build_tracks(self._reports)
         self._next_poll = -math.inf
         self._backoff = self.interval_s
+        self._in_flight: tuple[threading.Thread, float, list[PollResult]] | None = None  # thread, start, result
         self.problem = ""
         self.failures = 0
         self.problems: dict[str, int] = {}
@@ -198,10 +234,38 @@ class LiveFeed:
         return self.clock() - self.delay_s
 
     def _poll_if_due(self) -> None:
+        if self._in_flight is not None:
+            thread, started, done = self._in_flight
+            if thread.is_alive():
+                return
+            self._in_flight = None
+            self._take(done[0], started)
         now = self.clock()
         if now < self._next_poll:
             return
-        result = self.client.poll()
+        self._next_poll = math.inf  # set when the result is taken
+        result: list[PollResult] = []
+        thread = threading.Thread(target=self._poll_into, args=(result,), name="opensky-poll", daemon=True)
+        self._in_flight = (thread, now, result)
+        thread.start()
+
+    def _poll_into(self, result: list[PollResult]) -> None:
+        """The poll thread: one poll, its result (or the failure that escaped it) into ``result``."""
+        try:
+            result.append(self.client.poll())
+        except Exception as exc:  # noqa: BLE001 - a failed poll is a message; the run goes on
+            result.append(PollResult(None, f"the poll failed ({type(exc).__name__}: {str(exc)[:200]})"))
+
+    def wait_idle(self, timeout_s: float) -> bool:
+        """Wait for the poll in flight, if any, for at most ``timeout_s``; True when none is left in flight
+        (tests, and a caller that wants the newest picture now)."""
+        if self._in_flight is not None:
+            self._in_flight[0].join(timeout_s)
+            return not self._in_flight[0].is_alive()
+        return True
+
+    def _take(self, result: PollResult, started: float) -> None:
+        """A poll's result: schedules the next poll from the time this one started."""
         if result.reports is None:
             self.failures += 1
             self.problems[result.problem] = self.problems.get(result.problem, 0) + 1
@@ -211,13 +275,13 @@ class LiveFeed:
                 self.report("warning", f"OpenSky {self.client.url}: {result.problem}; the simulation goes on, "
                                        f"next try in {wait:.0f} s")
             self.problem = result.problem
-            self._next_poll = now + wait
+            self._next_poll = started + wait
             return
         if self.problem:
             self.report("note", f"OpenSky answers again after {self.problem}")
         self.problem, self._backoff = "", self.interval_s
-        self._next_poll = now + self.interval_s
-        keep = self._reports.t_s >= now - self.delay_s - 2.0 * self.max_gap_s
+        self._next_poll = started + self.interval_s
+        keep = self._reports.t_s >= started - self.delay_s - 2.0 * self.max_gap_s
         self._reports = StateReports.concat([self._reports.take(keep), result.reports])
         self._tracks = build_tracks(self._reports, max_gap_s=self.max_gap_s)
 

@@ -118,32 +118,56 @@ class PairGeometry:
     tlos: np.ndarray
 
 
+# A pair whose push BlueSky's arithmetic makes infinite or NaN (aircraft at one spot, a time to
+# CPA or to resolve of zero: two aircraft with the same track and speed have a time to CPA of
+# exactly 0) is resolved over this time instead [s]: one detection cycle (DT ASAS's default).
+DEGENERATE_TIME_S = 1.0
+# A finite push beyond this [m/s] (only a subnormal time gets there) is clipped, so that the
+# pushes of many pairs add up without overflowing into inf - inf = NaN.
+MAX_PUSH_MPS = 1e100
+
+
 def mvp_pairs(g: PairGeometry, rpz_m: float, hpz_m: float, dtlook_s: float) -> tuple[np.ndarray, np.ndarray]:
     """MVP's push on each pair's relative velocity (m, 3) and the time to resolve vertically (m,).
 
     ``rpz_m`` and ``hpz_m`` are the resolution zone (the protected zone times
     the resolution factors). The push is the intruder's view: the ownship's
-    velocity changes by minus it (see :func:`combine`).
+    velocity changes by minus it (see :func:`combine`). Every push is finite
+    (see :func:`_mvp_one`).
     """
     drel, vrel, tcpa, tlos = g.drel, g.vrel, g.tcpa, g.tlos
     m = tcpa.shape[0]
     dv = np.zeros((m, 3))
     tsol = np.zeros(m)
     for k in range(m):
+        own, intr = int(g.own[k]), int(g.intr[k])
         dv[k], tsol[k] = _mvp_one(drel[k], vrel[k], float(tcpa[k]), float(tlos[k]), rpz_m, hpz_m, dtlook_s)
+        horizontal_ok = math.isfinite(dv[k, 0]) and math.isfinite(dv[k, 1])
+        vertical_ok = math.isfinite(dv[k, 2]) and math.isfinite(tsol[k])
+        if not (horizontal_ok and vertical_ok):
+            # Only the part BlueSky's arithmetic left non-finite is replaced.
+            side = 1.0 if own < intr else -1.0
+            fix, fix_tsol = _mvp_degenerate(drel[k], vrel[k], float(tcpa[k]), float(tlos[k]), rpz_m, hpz_m,
+                                            dtlook_s, side)
+            if not horizontal_ok:
+                dv[k, :2] = fix[:2]
+            if not vertical_ok:
+                dv[k, 2], tsol[k] = fix[2], fix_tsol
+    np.clip(dv, -MAX_PUSH_MPS, MAX_PUSH_MPS, out=dv)
     return dv, tsol
 
 
 def _mvp_one(drel: np.ndarray, vrel: np.ndarray, tcpa: float, tlos: float, rpz: float, hpz: float,
              dtlook: float) -> tuple[np.ndarray, float]:
     """One directed pair (see :func:`mvp_pairs`); IEEE arithmetic as BlueSky's NumPy scalars (x/0 is inf)."""
-    # NumPy scalars: co-located aircraft give inf and NaN, as in BlueSky, not an exception.
+    # NumPy scalars: co-located aircraft give inf and NaN, as in BlueSky, not an exception;
+    # mvp_pairs then resolves the pair with _mvp_degenerate.
     dx, dy, dz = np.float64(drel[0]), np.float64(drel[1]), float(drel[2])
     dist = np.float64(math.hypot(dx, dy))
     cx, cy = dx + vrel[0] * tcpa, dy + vrel[1] * tcpa  # miss-distance vector at CPA
     dabs = math.hypot(cx, cy)
     intrusion = rpz - dabs
-    with np.errstate(divide="ignore", invalid="ignore"):
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
         if dabs <= 10.0:
             # Head-on: push perpendicular to the line between the aircraft.
             dabs = 10.0
@@ -168,6 +192,67 @@ def _mvp_one(drel: np.ndarray, vrel: np.ndarray, tcpa: float, tlos: float, rpz: 
         if abs(dvz) > 0.0:
             dv3 = dv3 * (-dvz / abs(dvz))  # the faster climber or descender moderates
     return np.array([dv1, dv2, dv3]), float(tsol)
+
+
+def _mvp_degenerate(drel: np.ndarray, vrel: np.ndarray, tcpa: float, tlos: float, rpz: float, hpz: float,
+                    dtlook: float, side: float) -> tuple[np.ndarray, float]:
+    """A pair whose BlueSky push is not finite (BlueSky flies its aircraft into NaN; aamsim does not).
+
+    The same push as :func:`_mvp_one`, with three changes that only apply where
+    BlueSky divides by zero: times to CPA and to resolve shorter than
+    :data:`DEGENERATE_TIME_S` (zero, for two aircraft with the same velocity)
+    take that time; the sideways push of a head-on pair at one horizontal spot
+    is perpendicular to the relative velocity (east or west, by ``side``, when
+    there is none, so that the two aircraft of the pair part); and products
+    that overflow are clipped to :data:`MAX_PUSH_MPS`.
+    """
+    dx, dy, dz = float(drel[0]), float(drel[1]), float(drel[2])
+    ux, uy = float(vrel[0]), float(vrel[1])
+    dist = math.hypot(dx, dy)
+    cx, cy = dx + ux * tcpa, dy + uy * tcpa
+    dabs = math.hypot(cx, cy)
+    if not math.isfinite(dabs):
+        cx, cy, dabs = dx, dy, dist
+    intrusion = rpz - dabs
+    if dabs <= 10.0:
+        speed = math.hypot(ux, uy)
+        if dist > 0.0:
+            lx, ly = dx / dist, dy / dist
+        elif speed > 0.0:
+            lx, ly = ux / speed, uy / speed
+        else:
+            lx, ly = 0.0, side  # the pair's line taken north-south: pushed east and west
+        dabs = 10.0
+        cx, cy = ly * dabs, -lx * dabs
+    if rpz < dist and dabs < dist:
+        erratum = math.cos(math.asin(rpz / dist) - math.asin(dabs / dist))
+        push = rpz / erratum - dabs
+    else:
+        push = intrusion
+    push = _clipped(push)  # a tangent nearly along the line of sight: a huge erratum factor
+    t = max(abs(tcpa), DEGENERATE_TIME_S) * dabs
+    dv1 = _clipped(push * cx / t)
+    dv2 = _clipped(push * cy / t)
+    dvz = float(vrel[2])
+    if abs(dvz) > 0.0:
+        iv, tsol = hpz, abs(dz / dvz) if math.isfinite(dz / dvz) else math.inf
+    else:
+        iv, tsol = hpz - abs(dz), tlos
+    if tsol > dtlook:
+        iv, tsol = hpz, tlos
+    if not abs(tsol) >= DEGENERATE_TIME_S:  # also NaN
+        tsol = math.copysign(DEGENERATE_TIME_S, tsol) if math.isfinite(tsol) else DEGENERATE_TIME_S
+    dv3 = _clipped(iv / tsol)
+    if abs(dvz) > 0.0:
+        dv3 = -dv3 if dvz > 0.0 else dv3
+    return np.array([dv1, dv2, dv3]), float(tsol)
+
+
+def _clipped(x: float) -> float:
+    """``x`` within +-:data:`MAX_PUSH_MPS` (an overflow to inf included; NaN, no push, is 0)."""
+    if math.isnan(x):
+        return 0.0
+    return min(max(x, -MAX_PUSH_MPS), MAX_PUSH_MPS)
 
 
 def _priority_share(code: str, vs_own: float, vs_intr: float, push: np.ndarray) -> tuple[bool, np.ndarray]:

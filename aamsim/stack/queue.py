@@ -25,6 +25,7 @@ class CommandQueue:
 
     _heap: list[tuple[int, int, TimedCommand]] = field(default_factory=list)
     _seq: itertools.count = field(default_factory=itertools.count)
+    last_due_us: int | None = None  # due time of the last command popped (when the scenario last acted)
 
     def push(self, cmd: TimedCommand) -> None:
         heapq.heappush(self._heap, (to_us(cmd.time_s), next(self._seq), cmd))
@@ -41,7 +42,9 @@ class CommandQueue:
         """Remove and return every command due at or before ``now_us``, in order."""
         due = []
         while self._heap and self._heap[0][0] <= now_us:
-            due.append(heapq.heappop(self._heap)[2])
+            t_us, _, cmd = heapq.heappop(self._heap)
+            due.append(cmd)
+            self.last_due_us = t_us
         return due
 
     def clear(self) -> None:

@@ -101,16 +101,19 @@ def make_actor(spec: dict[str, Any]) -> Any:
 
 
 def make_learner(kind: str, config: dict[str, Any], dims: dict[str, Any], device: str = "cpu",
-                 seed: int = 0) -> Any:
-    """Build a learner (``d2mava`` or ``dqn``) from its hyper-parameters (unknown keys are an error)."""
+                 seed: int = 0, static: bool | None = None) -> Any:
+    """Build a learner (``d2mava`` or ``dqn``) from its hyper-parameters (unknown keys are an error).
+
+    ``static``: the fixed-shape update a GPU replays as a CUDA graph (same losses); None: on CUDA only.
+    """
     if kind == "d2mava":
         from rlbridge.agents.d2mava import D2MAVALearner
 
-        return D2MAVALearner(config, dims, device, seed)
+        return D2MAVALearner(config, dims, device, seed, static)
     if kind == "dqn":
         from rlbridge.agents.ddqn import DDQNLearner
 
-        return DDQNLearner(config, dims, device, seed)
+        return DDQNLearner(config, dims, device, seed, static)
     raise KeyError(f"unknown learner kind {kind!r}; known: {', '.join(LEARNER_KINDS)}")
 
 

@@ -11,7 +11,10 @@
 * :class:`PackedIntruders`, :func:`segment_attention_pool` — the same attention over only the
   valid intruders, packed row after row (the learner's path: on ``nyc_train_100`` an aircraft
   observes 11.2 of its 30 intruder slots on average, so the padded path spends 63 % of its
-  intruder work on rows whose weight is exactly zero);
+  intruder work on rows whose weight is exactly zero); :meth:`PackedIntruders.gather_static`
+  gathers them into a fixed number of rows (the static path a CUDA graph replays);
+* :func:`categorical_terms` — a categorical policy's log-probabilities and entropy, as
+  ``torch.distributions.Categorical`` computes them, without its host-reading argument checks;
 * :class:`LinearSchedule` — the epsilon schedule;
 * :func:`rolling_mean` — the 25-iteration rolling mean that picks the best weights;
 * :func:`episode_seed` — deterministic seeds from (seed, iteration, worker).
@@ -212,6 +215,38 @@ class PackedIntruders:
         pos = self.offsets.index_select(0, idx).index_select(0, seg) + torch.arange(len(seg), device=idx.device) \
             - first.index_select(0, seg)
         return self.rows.index_select(0, pos), seg
+
+    def gather_static(self, idx: torch.Tensor, bucket: int) -> tuple[torch.Tensor, torch.Tensor]:
+        """:meth:`gather` into exactly ``bucket`` rows, with shapes that do not depend on the data.
+
+        The first rows are :meth:`gather`'s; the rest are padding, whose segment is ``len(idx)``: an
+        extra ownship that :meth:`~rlbridge.agents.d2mava.AttentionEncoder.forward_static` pools apart
+        and drops. Padding rows repeat packed row 0, so they stay finite. The caller checks that the
+        minibatch's intruders fit (``counts[idx].sum() <= bucket``): more are cut off, silently.
+        """
+        c = self.counts.index_select(0, idx)
+        end = torch.cumsum(c, 0)
+        j = torch.arange(bucket, device=idx.device)
+        seg = torch.searchsorted(end, j, right=True)  # ownship of row j; len(idx) past the last one
+        real = seg < len(idx)
+        own = seg.clamp(max=len(idx) - 1)
+        pos = self.offsets.index_select(0, idx).index_select(0, own) + j - (end - c).index_select(0, own)
+        pos = torch.where(real, pos, torch.zeros_like(pos))
+        return self.rows.index_select(0, pos), seg
+
+
+def categorical_terms(logits: torch.Tensor, actions: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+    """``log pi(a | s)`` of ``actions`` and the entropy of ``softmax(logits)``, row by row.
+
+    The operations of ``torch.distributions.Categorical(logits=...)``'s ``log_prob`` and ``entropy``
+    (so the same floats), without the distribution's argument checks: those read the device, a host
+    sync per gradient step that a captured CUDA graph cannot contain.
+    """
+    norm = logits - logits.logsumexp(dim=-1, keepdim=True)
+    logp = norm.gather(-1, actions.long().unsqueeze(-1)).squeeze(-1)
+    probs = torch.softmax(norm, dim=-1)
+    entropy = -(torch.clamp(norm, min=torch.finfo(norm.dtype).min) * probs).sum(-1)
+    return logp, entropy
 
 
 # ------------------------------------------------------------------------------ schedules

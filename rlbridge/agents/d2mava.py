@@ -21,6 +21,7 @@ Advantages are normalised per minibatch (a documented choice, not in the paper).
 
 from __future__ import annotations
 
+import logging
 from dataclasses import asdict, dataclass
 from typing import Any
 
@@ -28,6 +29,7 @@ import numpy as np
 import torch
 from torch import nn
 
+from rlbridge.agents.capture import check_device, host_to_device, load_optimizer_state, static_optimizer
 from rlbridge.agents.core import (
     PackedIntruders,
     attention_pool,
@@ -39,7 +41,10 @@ from rlbridge.agents.core import (
     value_loss,
 )
 from rlbridge.agents.rollout import ActOutput, EpisodeBatch
+from rlbridge.agents.static_ppo import StaticPPO
 from rlbridge.core import EpisodeCore, StepResult
+
+log = logging.getLogger("rlbridge.d2mava")
 
 
 @dataclass
@@ -96,6 +101,18 @@ class AttentionEncoder(nn.Module):
         context, _ = segment_attention_pool(hi, scores, seg, own.shape[0])
         return self.trunk(torch.cat([ho, context], dim=-1))
 
+    def forward_static(self, own: torch.Tensor, rows: torch.Tensor, seg: torch.Tensor) -> torch.Tensor:
+        """:meth:`forward_packed` where ``seg`` may also be ``len(own)``: padding rows of a fixed-size
+        gather (:meth:`~rlbridge.agents.core.PackedIntruders.gather_static`), pooled as an extra ownship
+        that is dropped; they change neither the features nor the gradients of the real ones."""
+        ho = self.own(own)
+        hi = self.intr(rows)
+        q = self.query(ho)
+        q = torch.cat([q, q.new_zeros(1, q.shape[1])])
+        scores = (q.index_select(0, seg) * hi).sum(dim=-1) * self.scale
+        context, _ = segment_attention_pool(hi, scores, seg, own.shape[0] + 1)
+        return self.trunk(torch.cat([ho, context[:-1]], dim=-1))
+
 
 class ActorCritic(nn.Module):
     """Policy logits and state value from (ownship, intruders, mask)."""
@@ -133,6 +150,13 @@ class ActorCritic(nn.Module):
         """:meth:`forward` with packed intruders (:class:`~rlbridge.agents.core.PackedIntruders`)."""
         za = self.actor_enc.forward_packed(own, rows, seg)
         zc = za if self.critic_enc is None else self.critic_enc.forward_packed(own, rows, seg)
+        return self.pi(za), self.v(zc).squeeze(-1)
+
+    def forward_static(self, own: torch.Tensor, rows: torch.Tensor, seg: torch.Tensor
+                       ) -> tuple[torch.Tensor, torch.Tensor]:
+        """:meth:`forward_packed` on a fixed-size gather (:meth:`AttentionEncoder.forward_static`)."""
+        za = self.actor_enc.forward_static(own, rows, seg)
+        zc = za if self.critic_enc is None else self.critic_enc.forward_static(own, rows, seg)
         return self.pi(za), self.v(zc).squeeze(-1)
 
 
@@ -209,17 +233,27 @@ class D2MAVALearner:
 
     obs_format = "dict"
 
-    def __init__(self, config: dict[str, Any], dims: dict[str, Any], device: str = "cpu", seed: int = 0):
+    def __init__(self, config: dict[str, Any], dims: dict[str, Any], device: str = "cpu", seed: int = 0,
+                 static: bool | None = None):
+        """``static``: the fixed-shape update of :mod:`rlbridge.agents.static_ppo` (captured in a CUDA
+        graph on a GPU); None: on CUDA only. The eager update stays the CPU's: same losses, no padding."""
         self.config = D2MAVAConfig(**config)
         self.dims = dict(dims)
-        self.device = torch.device(device)
+        self.device = check_device(device)
         own_dim, intr_dim = obs_dims(dims)
         torch.manual_seed(seed)
         self.model = ActorCritic(own_dim, intr_dim, int(dims["n_actions"]), self.config).to(self.device)
-        self.optimizer = torch.optim.Adam(self.model.parameters(), lr=self.config.lr, eps=1e-5)
+        use_static = self.device.type == "cuda" if static is None else bool(static)
+        if use_static and not self.config.packed_attention:
+            log.info("packed_attention=false: the eager update (the static one gathers packed intruders)")
+            use_static = False
+        params = list(self.model.parameters())
+        self.optimizer = static_optimizer(params, self.device, self.config.lr, 1e-5) if use_static \
+            else torch.optim.Adam(params, lr=self.config.lr, eps=1e-5)
         self.clip_groups = self.model.clip_groups()
         self.gen = torch.Generator().manual_seed(seed)
         self.updates = 0
+        self.static = StaticPPO(self, capture=self.device.type == "cuda") if use_static else None
 
     # -------------------------------------------------------------- worker side
     def actor_spec(self, kind: str) -> dict[str, Any]:
@@ -257,49 +291,60 @@ class D2MAVALearner:
 
     def update(self, batches: list[EpisodeBatch]) -> dict[str, float]:
         """``epochs`` passes of minibatch PPO over the transitions of ``batches``."""
-        c = self.config
         data = self.prepare(batches)
-        n = len(data["actions"])
-        if n == 0:
+        if len(data["actions"]) == 0:
             return {}
-        t = {k: torch.as_tensor(v, device=self.device) for k, v in data.items()}
-        packed = PackedIntruders.from_padded(t["intruders"], t["mask"]) if c.packed_attention else None
         self.model.train()
+        totals, steps = self.static.update(data) if self.static is not None else self._update_eager(data)
+        self.model.eval()
         names = ("policy_loss", "value_loss", "entropy", "approx_kl", "clip_fraction")
-        totals = torch.zeros(len(names), dtype=torch.float64, device=self.device)  # read once, after the loop
+        ret, val = data["ret"], data["values"]
+        var = float(np.var(ret))
+        out = dict(zip(names, (totals / max(steps, 1)).tolist()))  # the one device read of the update
+        out["explained_variance"] = float(1.0 - np.var(ret - val) / var) if var > 0 else 0.0
+        out["gradient_steps"] = float(self.updates)
+        return out
+
+    def _update_eager(self, data: dict[str, np.ndarray]) -> tuple[torch.Tensor, int]:
+        """The eager update: summed losses (a device tensor, read once by the caller) and gradient steps."""
+        c = self.config
+        n = len(data["actions"])
+        t = {k: host_to_device(v, self.device) for k, v in data.items()}
+        packed = PackedIntruders.from_padded(t["intruders"], t["mask"]) if c.packed_attention else None
+        totals = torch.zeros(5, dtype=torch.float64, device=self.device)
         steps = 0
         for _ in range(c.epochs):
             perm = torch.randperm(n, generator=self.gen).to(self.device)
             for start, end in minibatch_bounds(n, c.batch_size):
-                idx = perm[start:end]
-                if packed is not None:
-                    rows, seg = packed.gather(idx)
-                    logits, values = self.model.forward_packed(t["ownship"][idx], rows, seg)
-                else:
-                    logits, values = self.model(t["ownship"][idx], t["intruders"][idx], t["mask"][idx])
-                dist = torch.distributions.Categorical(logits=logits)
-                logp = dist.log_prob(t["actions"][idx])
-                adv = normalize(t["adv"][idx]) if c.norm_adv else t["adv"][idx]
-                pl, info = ppo_clip_loss(logp, t["logp"][idx], adv, c.clip)
-                vl = value_loss(values, t["ret"][idx])
-                ent = dist.entropy().mean()
-                loss = pl + c.vf_coef * vl - c.ent_coef * ent
-                self.optimizer.zero_grad()
-                loss.backward()
-                for group in self.clip_groups:
-                    nn.utils.clip_grad_norm_(group, c.max_grad_norm)
-                self.optimizer.step()
+                self.minibatch_step(t, packed, perm[start:end], totals)
                 self.updates += 1
                 steps += 1
-                totals += torch.stack([pl.detach(), vl.detach(), ent.detach(), info.approx_kl,
-                                       info.clip_fraction]).to(totals.dtype)
-        self.model.eval()
-        ret, val = data["ret"], data["values"]
-        var = float(np.var(ret))
-        out = dict(zip(names, (totals / max(steps, 1)).tolist()))
-        out["explained_variance"] = float(1.0 - np.var(ret - val) / var) if var > 0 else 0.0
-        out["gradient_steps"] = float(self.updates)
-        return out
+        return totals, steps
+
+    def minibatch_step(self, t: dict[str, torch.Tensor], packed: PackedIntruders | None, idx: torch.Tensor,
+                       totals: torch.Tensor) -> None:
+        """One eager gradient step on the transitions ``idx`` of ``t``; adds its losses to ``totals``
+        (policy loss, value loss, entropy, approx. KL, clip fraction)."""
+        c = self.config
+        if packed is not None:
+            rows, seg = packed.gather(idx)
+            logits, values = self.model.forward_packed(t["ownship"][idx], rows, seg)
+        else:
+            logits, values = self.model(t["ownship"][idx], t["intruders"][idx], t["mask"][idx])
+        dist = torch.distributions.Categorical(logits=logits)
+        logp = dist.log_prob(t["actions"][idx])
+        adv = normalize(t["adv"][idx]) if c.norm_adv else t["adv"][idx]
+        pl, info = ppo_clip_loss(logp, t["logp"][idx], adv, c.clip)
+        vl = value_loss(values, t["ret"][idx])
+        ent = dist.entropy().mean()
+        loss = pl + c.vf_coef * vl - c.ent_coef * ent
+        self.optimizer.zero_grad()
+        loss.backward()
+        for group in self.clip_groups:
+            nn.utils.clip_grad_norm_(group, c.max_grad_norm)
+        self.optimizer.step()
+        totals += torch.stack([pl.detach(), vl.detach(), ent.detach(), info.approx_kl,
+                               info.clip_fraction]).to(totals.dtype)
 
     # ------------------------------------------------------------- checkpoints
     def state_dict(self) -> dict[str, Any]:
@@ -308,6 +353,6 @@ class D2MAVALearner:
 
     def load_state_dict(self, state: dict[str, Any]) -> None:
         self.model.load_state_dict(state["model"])
-        self.optimizer.load_state_dict(state["optimizer"])
+        load_optimizer_state(self.optimizer, state["optimizer"])
         self.gen.set_state(state["gen"])
         self.updates = int(state["updates"])

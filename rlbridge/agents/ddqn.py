@@ -26,6 +26,10 @@ Either way each training iteration first stores the iteration's episodes in the 
 memory, then makes the gradient steps that fall within the iteration's counts; the workers act
 with the epsilon reached at the start of the iteration.
 
+On CUDA (``static``) the replay memory lives on the device (:mod:`rlbridge.agents.device_replay`,
+sampled there) and the gradient step is captured once in a CUDA graph and replayed
+(:mod:`rlbridge.agents.capture`); on a CPU the same step runs eagerly from the numpy memory.
+
 The replay memory is a numpy ring of observation *rows* (see
 :mod:`rlbridge.agents.rollout`): an agent's next observation is the row ``next_off`` rows
 later, so each observation is stored once. It is allocated lazily and grows by doubling up
@@ -41,8 +45,10 @@ import numpy as np
 import torch
 from torch import nn
 
+from rlbridge.agents.capture import CapturedStep, check_device, load_optimizer_state, static_optimizer
 from rlbridge.agents.core import LinearSchedule, ddqn_target, dqn_target
 from rlbridge.agents.d2mava import load_numpy_state, to_numpy_state
+from rlbridge.agents.device_replay import DeviceReplay, ring_rows
 from rlbridge.agents.rollout import ActOutput, EpisodeBatch
 from rlbridge.core import EpisodeCore, StepResult
 
@@ -130,9 +136,7 @@ class ReplayMemory:
         return len(self.actions)
 
     def _grow(self, rows: int, template: dict[str, np.ndarray]) -> None:
-        new = min(self.capacity, max(self._initial, self.allocated))
-        while new < rows and new < self.capacity:
-            new = min(self.capacity, new * 2)
+        new = ring_rows(self.allocated, rows, self.capacity, self._initial)
         if new == self.allocated:
             return
 
@@ -238,18 +242,34 @@ class DDQNLearner:
 
     obs_format = "flat"
 
-    def __init__(self, config: dict[str, Any], dims: dict[str, Any], device: str = "cpu", seed: int = 0):
+    def __init__(self, config: dict[str, Any], dims: dict[str, Any], device: str = "cpu", seed: int = 0,
+                 static: bool | None = None):
+        """``static``: the replay on the device and a fixed-shape gradient step (captured in a CUDA graph
+        on a GPU, see the module docstring); None: on CUDA only. The CPU keeps the numpy replay."""
         self.config = DDQNConfig(**config)
         self.dims = dict(dims)
-        self.device = torch.device(device)
+        self.device = check_device(device)
         torch.manual_seed(seed)
         n_act = int(dims["n_actions"])
         self.q = QNetwork(flat_dim(dims), n_act, self.config.hidden).to(self.device)
         self.q_target = QNetwork(flat_dim(dims), n_act, self.config.hidden).to(self.device)
         self.q_target.load_state_dict(self.q.state_dict())
-        self.optimizer = torch.optim.Adam(self.q.parameters(), lr=self.config.lr)
-        self.memory = ReplayMemory(self.config.replay_size)
+        self.static = self.device.type == "cuda" if static is None else bool(static)
+        params = list(self.q.parameters())
+        self.optimizer = static_optimizer(params, self.device, self.config.lr, 1e-8) if self.static \
+            else torch.optim.Adam(params, lr=self.config.lr)
+        self.memory: ReplayMemory | DeviceReplay = DeviceReplay(self.config.replay_size, self.device, seed) \
+            if self.static else ReplayMemory(self.config.replay_size)
         self.rng = np.random.default_rng(seed)
+        if self.static:
+            b, dev = self.config.batch_size, self.device
+            self._batch: dict[str, Any] = {  # the captured step's inputs (filled on the device each step)
+                "obs": {"flat": torch.zeros((b, flat_dim(dims)), device=dev)},
+                "next_obs": {"flat": torch.zeros((b, flat_dim(dims)), device=dev)},
+                "actions": torch.zeros(b, dtype=torch.int64, device=dev), "rewards": torch.zeros(b, device=dev),
+                "terminated": torch.zeros(b, dtype=torch.bool, device=dev)}
+            self._loss_sum = torch.zeros((), dtype=torch.float64, device=dev)
+            self._step = CapturedStep(self._static_step, params, self.optimizer, capture=dev.type == "cuda")
         self.epsilon = LinearSchedule(self.config.eps_start, self.config.eps_end, self.config.eps_decay_steps)
         self.transitions = 0  # aircraft transitions collected so far
         self.env_steps = 0  # environment steps collected so far
@@ -277,11 +297,13 @@ class DDQNLearner:
     # ------------------------------------------------------------------ update
     def targets(self, sample: dict[str, Any]) -> torch.Tensor:
         """One-step targets of a sample: Double-DQN or DQN (see :mod:`rlbridge.agents.core`)."""
-        c = self.config
         dev = self.device
-        nxt = torch.as_tensor(sample["next_obs"]["flat"], device=dev)
-        rewards = torch.as_tensor(sample["rewards"], device=dev)
-        term = torch.as_tensor(sample["terminated"], device=dev)
+        return self._targets(torch.as_tensor(sample["next_obs"]["flat"], device=dev),
+                             torch.as_tensor(sample["rewards"], device=dev),
+                             torch.as_tensor(sample["terminated"], device=dev))
+
+    def _targets(self, nxt: torch.Tensor, rewards: torch.Tensor, term: torch.Tensor) -> torch.Tensor:
+        c = self.config
         with torch.no_grad():
             q_next_target = self.q_target(nxt)
             if c.double:
@@ -290,10 +312,26 @@ class DDQNLearner:
 
     def td_loss(self, sample: dict[str, Any]) -> torch.Tensor:
         """Huber loss between Q(s, a) and the targets."""
-        obs = torch.as_tensor(sample["obs"]["flat"], device=self.device)
-        actions = torch.as_tensor(sample["actions"], device=self.device)
+        dev = self.device
+        return self._td_loss(torch.as_tensor(sample["obs"]["flat"], device=dev),
+                             torch.as_tensor(sample["actions"], device=dev),
+                             torch.as_tensor(sample["next_obs"]["flat"], device=dev),
+                             torch.as_tensor(sample["rewards"], device=dev),
+                             torch.as_tensor(sample["terminated"], device=dev))
+
+    def _td_loss(self, obs: torch.Tensor, actions: torch.Tensor, nxt: torch.Tensor, rewards: torch.Tensor,
+                 term: torch.Tensor) -> torch.Tensor:
         q = self.q(obs).gather(1, actions.unsqueeze(1)).squeeze(1)
-        return nn.functional.smooth_l1_loss(q, self.targets(sample))
+        return nn.functional.smooth_l1_loss(q, self._targets(nxt, rewards, term))
+
+    def _static_step(self) -> None:
+        """The gradient step on ``self._batch`` (what the CUDA graph records): no zero_grad, no host read."""
+        s = self._batch
+        loss = self._td_loss(s["obs"]["flat"], s["actions"], s["next_obs"]["flat"], s["rewards"], s["terminated"])
+        loss.backward()
+        nn.utils.clip_grad_norm_(self.q.parameters(), self.config.max_grad_norm)
+        self.optimizer.step()
+        self._loss_sum += loss.detach().to(self._loss_sum.dtype)
 
     def update(self, batches: list[EpisodeBatch]) -> dict[str, float]:
         """Store the episodes, then the gradient steps (and target copies) their counts call for."""
@@ -307,15 +345,27 @@ class DDQNLearner:
         self.env_steps += env_new
         marks = self._step_marks(start_tr, start_env)
         losses = []
+        if self.static and marks:
+            self._loss_sum.zero_()
         for mark in marks:
-            losses.append(self.gradient_step(self.memory.sample(self.config.batch_size, self.rng)))
+            if self.static:
+                assert isinstance(self.memory, DeviceReplay)
+                self.memory.gather(self.memory.sample_slots(self.config.batch_size), self._batch)
+                if self._step.prepare():  # the first step records the graph (CUDA) from this batch
+                    self._loss_sum.zero_()
+                self._step()
+                self.gradient_steps += 1
+            else:
+                assert isinstance(self.memory, ReplayMemory)
+                losses.append(self.gradient_step(self.memory.sample(self.config.batch_size, self.rng)))
             if mark - self.last_sync >= self.config.target_update:
-                self.q_target.load_state_dict(self.q.state_dict())
+                self.q_target.load_state_dict(self.q.state_dict())  # in place: a captured step stays valid
                 self.last_sync = int(mark)
         out = {"epsilon": self.epsilon(self._count()), "gradient_steps": float(self.gradient_steps),
                "replay_rows": float(self.memory.size)}
-        if losses:
-            out["td_loss"] = float(torch.stack(losses).double().mean())  # one device read per update
+        if marks:  # one device read per update
+            out["td_loss"] = float(self._loss_sum) / len(marks) if self.static \
+                else float(torch.stack(losses).double().mean())
         elif self._count() >= self.config.learning_starts:
             out["td_loss"] = float("nan")
         return out
@@ -347,7 +397,8 @@ class DDQNLearner:
     # ------------------------------------------------------------- checkpoints
     def state_dict(self) -> dict[str, Any]:
         """Networks, optimiser and counters (the replay memory is not saved: it would take GBs)."""
-        return {"model": self.q.state_dict(), "target": self.q_target.state_dict(),
+        extra = {"device_rng": self.memory.gen.get_state()} if isinstance(self.memory, DeviceReplay) else {}
+        return {**extra, "model": self.q.state_dict(), "target": self.q_target.state_dict(),
                 "optimizer": self.optimizer.state_dict(), "rng": self.rng.bit_generator.state,
                 "transitions": self.transitions, "env_steps": self.env_steps, "step_credit": self.step_credit,
                 "gradient_steps": self.gradient_steps, "last_sync": self.last_sync}
@@ -355,8 +406,10 @@ class DDQNLearner:
     def load_state_dict(self, state: dict[str, Any]) -> None:
         self.q.load_state_dict(state["model"])
         self.q_target.load_state_dict(state["target"])
-        self.optimizer.load_state_dict(state["optimizer"])
+        load_optimizer_state(self.optimizer, state["optimizer"])
         self.rng.bit_generator.state = state["rng"]
+        if isinstance(self.memory, DeviceReplay) and "device_rng" in state:
+            self.memory.gen.set_state(state["device_rng"])
         self.transitions = int(state["transitions"])
         self.env_steps = int(state.get("env_steps", 0))  # checkpoints before the rllib schedule: none counted
         self.step_credit = float(state["step_credit"])

@@ -27,6 +27,7 @@ from __future__ import annotations
 import argparse
 import json
 import logging
+import os
 import time
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
@@ -69,7 +70,7 @@ class StudyPlan:
     episodes: int = 100  # evaluation episodes per policy and scenario
     baselines: list[str] = field(default_factory=lambda: ["mvp_speed"])
     actions: list[str] = field(default_factory=lambda: ["greedy", "sampled"])
-    workers: int = 1
+    workers: int | str = 1  # or "auto": the cores the learner leaves (train.resolve_workers)
     mode: str = "overlap"
     best_window: int = 25
     smooth: int = 25  # rolling mean of the report's curves [iterations]
@@ -143,7 +144,9 @@ def eval_overrides(plan: StudyPlan, run: Path, scenario: str, actions: str, labe
     # Baselines once per seed set (with the greedy evaluation); unequipped always (the ratios' reference).
     baselines = plan.baselines if greedy else []
     name = label if greedy else sampled_label(label, algo)
-    return [f"run={run}", f"scenario={scenario}", f"episodes={plan.episodes}", f"workers={plan.workers}",
+    # Evaluations have no learner: workers=auto leaves the driver one core.
+    workers = plan.workers if str(plan.workers) != "auto" else max(1, (os.cpu_count() or 2) - 1)
+    return [f"run={run}", f"scenario={scenario}", f"episodes={plan.episodes}", f"workers={workers}",
             f"greedy={str(greedy).lower()}", f"baselines=[{','.join(baselines)}]", f"name='{name}'"]
 
 
@@ -285,6 +288,25 @@ def paper_tables_md() -> str:
     return "\n".join(lines)
 
 
+def _workers(text: str) -> int | str:
+    return "auto" if text == "auto" else int(text)
+
+
+def machine_line(plan: StudyPlan, device: str, workers: int, rates: dict[str, float]) -> str:
+    """The estimate for this machine (:mod:`rlbridge.experiment.machine`), as --plan prints it."""
+    from rlbridge.experiment.machine import machine_estimate
+
+    kinds = {a: str(_compose("config", [f"algorithm={a}"]).algorithm.kind) for a in plan.contenders}
+    m = machine_estimate(kinds, device, workers, rates)
+    hours = {a: plan.budget / m.rates[a] / 3600.0 for a in plan.contenders}
+    total = sum(hours[a] for _, a, _ in plan.runs())
+    gpu = " (the GPU learner's rate is not measured: assumed to keep up)" if device.startswith("cuda") else \
+        " (a CPU learner: at least the rates above)"
+    return (f"this machine: {m.cores} CPUs, learner on {device}, {m.workers} worker(s){gpu}: "
+            + ", ".join(f"{a} {hours[a]:.2f} h per run ({m.rates[a]:,.0f} aircraft-states/s: {m.bound[a]})"
+                        for a in plan.contenders) + f", all training runs {total:.1f} h")
+
+
 def main(argv: list[str] | None = None) -> None:
     plan = StudyPlan()
     ap = argparse.ArgumentParser(prog="aamgym study", description=__doc__.split("\n\n")[0],
@@ -304,7 +326,8 @@ def main(argv: list[str] | None = None) -> None:
     ap.add_argument("--episodes", type=int, default=plan.episodes, help="evaluation episodes per policy")
     ap.add_argument("--baselines", nargs="*", default=plan.baselines,
                     help="baselines beside unequipped (mvp_speed, daa, ...)")
-    ap.add_argument("--workers", type=int, default=plan.workers, help="Ray workers per run (stated in the report)")
+    ap.add_argument("--workers", type=_workers, default=plan.workers,
+                    help="Ray workers per run (stated in the report); auto: the cores the learner leaves")
     ap.add_argument("--mode", default=plan.mode, choices=("serial", "overlap"), help="train.mode")
     ap.add_argument("--rates", type=json.loads, default=None,
                     help='aircraft-states/s per contender for the estimate, e.g. \'{"ddqn": 900}\'')
@@ -320,12 +343,22 @@ def main(argv: list[str] | None = None) -> None:
     if args.smoke:
         plan = smoke_plan(plan)
     out = args.out or (args.work / "report" if args.smoke else Path("docs/results/study"))
+    from rlbridge.experiment.train import resolve_device, resolve_workers
+
+    try:  # the learner's device, checked before anything starts (the runs take device=auto unless told)
+        device = resolve_device(next((o.split("=", 1)[1] for o in reversed(plan.overrides)
+                                      if o.startswith("device=")), "auto"))
+        workers = resolve_workers(plan.workers, device)
+    except ValueError as exc:
+        ap.error(str(exc))
     rates = {**DEFAULT_RATES, **(args.rates or {})}
     est = estimate_hours(plan, rates)
     print(f"{len(plan.runs())} training runs of {plan.budget:,} aircraft-states "
           f"({', '.join(plan.contenders)} x {', '.join(plan.usecases)} x seeds {plan.seeds}), "
           f"{len(plan.runs()) * len(plan.eval_scenarios) * len(plan.actions)} evaluations of {plan.episodes} episodes")
-    print("estimated training time: " + ", ".join(f"{k} {v:.1f} h" for k, v in est.items()))
+    print("estimated training time (rates measured on the 2-core development machine, overlap, 1 worker"
+          + (", or --rates" if args.rates else "") + "): " + ", ".join(f"{k} {v:.1f} h" for k, v in est.items()))
+    print(machine_line(plan, device, workers, rates))
     if args.plan:
         return
     logging.basicConfig(level=logging.INFO, format="[%(asctime)s][%(name)s][%(levelname)s] - %(message)s")

@@ -37,6 +37,7 @@ import torch
 from omegaconf import DictConfig, OmegaConf
 
 from rlbridge.agents import make_learner, usecase_dims
+from rlbridge.agents.capture import check_device
 from rlbridge.agents.core import episode_seed, rolling_mean
 from rlbridge.agents.rollout import EnvSpec, EpisodeBatch, EpisodeStats
 from rlbridge.experiment.workers import make_pool
@@ -84,11 +85,27 @@ def learner_threads(setting: Any, workers: int) -> int:
 
 
 def resolve_device(name: str) -> str:
+    """``auto``: cuda when there is a GPU, else cpu; any other name is checked here
+    (:func:`~rlbridge.agents.capture.check_device`: a ValueError saying why it cannot be used)."""
     if name == "auto":
         return "cuda" if torch.cuda.is_available() else "cpu"
-    if name.startswith("cuda") and not torch.cuda.is_available():
-        raise RuntimeError(f"device={name} but CUDA is not available")
-    return name
+    return str(check_device(name))
+
+
+def resolve_workers(setting: Any, device: str, cores: int | None = None) -> int:
+    """Rollout workers: a number, or ``auto``: the cores the learner leaves.
+
+    With the learner on CUDA its process needs one core to drive the GPU and every other core
+    plays episodes (``cores - 1``); on a CPU the learner computes with the cores the workers
+    leave (``train.torch_threads=auto``), so the workers take half of them. At least 1.
+    """
+    if str(setting) != "auto":
+        n = int(setting)
+        if n < 0:
+            raise ValueError(f"workers must be >= 0 or auto, not {setting!r}")
+        return n
+    cores = int(cores or os.cpu_count() or 1)
+    return max(1, cores - 1 if device.startswith("cuda") else cores // 2)
 
 
 def resolve_scenario_path(name: str) -> str:
@@ -268,19 +285,25 @@ def code_version() -> dict[str, str]:
 
 def run_training(cfg: DictConfig, run_dir: str | Path) -> dict[str, Any]:
     """Train ``cfg.algorithm`` on ``cfg.scenario``; everything goes to ``run_dir``."""
+    device = resolve_device(str(cfg.device))  # a clear error before anything starts
+    n_workers = resolve_workers(cfg.workers, device)
+    cfg.workers = n_workers  # the run's resolved configuration records the number (workers=auto)
     run_dir = Path(run_dir)
     run_dir.mkdir(parents=True, exist_ok=True)
     if not (cfg.train.resume and (run_dir / "resolved_config.yaml").exists()):
         # A run continued in place keeps the configuration it started with (no resume path in it).
         (run_dir / "resolved_config.yaml").write_text(OmegaConf.to_yaml(cfg, resolve=True))
     tc = cfg.train
-    torch.set_num_threads(learner_threads(tc.torch_threads, int(cfg.workers)))
-    device = resolve_device(str(cfg.device))
+    torch.set_num_threads(learner_threads(tc.torch_threads, n_workers))
     algo = cfg.algorithm
     env = env_spec_from(cfg)
     dims = usecase_dims(env.usecase, env.params)
     params = dict(OmegaConf.to_container(algo.params, resolve=True))  # type: ignore[arg-type]
-    learner = make_learner(str(algo.kind), params, dims, device, int(cfg.seed))
+    static = str(tc.get("static_learner", "auto")).lower()
+    if static not in ("auto", "true", "false"):
+        raise ValueError(f"train.static_learner={static!r}: auto, true or false")
+    learner = make_learner(str(algo.kind), params, dims, device, int(cfg.seed),
+                           None if static == "auto" else static == "true")
     state = TrainState()
     mode = str(tc.get("mode", "serial"))
     if mode not in TRAIN_MODES:
@@ -317,7 +340,6 @@ def run_training(cfg: DictConfig, run_dir: str | Path) -> dict[str, Any]:
                 ckpt_dir.mkdir(exist_ok=True)
                 shutil.copy(src_run / "checkpoints" / "best.pt", ckpt_dir / "best.pt")
         log.info("resumed from %s at iteration %d (%d aircraft-states)", src, state.iteration, state.transitions)
-    n_workers = int(cfg.workers)
     slots = max(n_workers, 1)
     epw = int(tc.episodes_per_worker)
     max_iter = tc.iterations
