@@ -35,7 +35,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 
@@ -44,7 +44,7 @@ from aamsim.units import KTS
 from rlbridge.agents.daa_manoeuvre import ManoeuvreDAA
 from rlbridge.agents.rollout import ActOutput
 from rlbridge.core import EpisodeCore, StepResult
-from rlbridge.usecases.protocol import ADVISORY_KINDS, check_advisory_kinds
+from rlbridge.usecases.protocol import ADVISORY_KINDS, UseCaseBase, check_advisory_kinds
 
 
 @dataclass(frozen=True)
@@ -104,7 +104,7 @@ class DAAActor:
         involved = alerted | np.array([a in self._held for a in names], dtype=bool)
         bands = self.daa.gs_bands(sim, slots[involved])
         # The speed each action reaches within one decision interval, as ground speed.
-        targets = np.asarray(usecase.action_targets(sim, slots, "speed"), dtype=np.float64)
+        targets = np.asarray(cast(UseCaseBase, usecase).action_targets(sim, slots, "speed"), dtype=np.float64)
         cas = np.asarray(view.cas[slots], dtype=np.float64)[:, None]
         step = (np.asarray(view.axmax[slots], dtype=np.float64) * usecase.decision_interval_s)[:, None]
         end_cas = cas + np.clip(targets - cas, -step, step)
@@ -127,9 +127,9 @@ class DAAActor:
                 ready.append(r)
         if ready:
             # Each ready agent's own trajectory: its own speed along its track.
-            own_gs = self.daa.gs_for(sim, slots[ready], np.array([self._held[names[r]].resume_cas for r in ready]))
+            resumed_gs = self.daa.gs_for(sim, slots[ready], np.array([self._held[names[r]].resume_cas for r in ready]))
             trk = np.radians(np.asarray(view.trk, dtype=np.float64)[slots[ready]])
-            vel = np.column_stack([own_gs * np.sin(trk), own_gs * np.cos(trk), view.vs[slots[ready]]])
+            vel = np.column_stack([resumed_gs * np.sin(trk), resumed_gs * np.cos(trk), view.vs[slots[ready]]])
             go = self.daa.resume_order(sim, slots[ready], vel)
             for r, now in zip(ready, go.tolist()):
                 if now:  # steer back to its own speed

@@ -150,7 +150,7 @@ class HeadingAltitudeSA(UseCaseBase):
                 "ownship": gym.spaces.Box(-big, big, shape=(OWN_DIM,), dtype=np.float32),
                 "intruders": gym.spaces.Box(-big, big, shape=(p.n_intruders, INTRUDER_DIM), dtype=np.float32),
                 "mask": gym.spaces.Box(0.0, 1.0, shape=(p.n_intruders,), dtype=np.float32)})
-        self._act_space = gym.spaces.Discrete(self.n_actions)
+        self._act_space: gym.spaces.Discrete = gym.spaces.Discrete(self.n_actions)
         self.ep = _Episode({}, {}, {}, set(), set(), {})
 
     @property
