@@ -357,3 +357,21 @@ def test_evaluation_keeps_the_training_runs_time_limit_and_dt_unless_overridden(
     assert (env.time_limit_s, env.dt) == (90.0, 0.25)
     # A training run on the engine's default stays on it.
     assert evaluation_env(default, EnvSpec(TINY)).time_limit_s is None
+
+
+def test_d2mava_on_a_flat_observation_is_refused_naming_the_algorithm_that_fits():
+    # reach_destination observes its own aircraft only: no intruders for D2MAV-A's attention to read.
+    dims = usecase_dims("reach_destination", {})
+    with pytest.raises(ValueError, match="needs an observation of an ownship and its intruders.*algorithm=ddqn"):
+        make_learner("d2mava", {}, dims, "cpu", 0)
+
+
+def test_ddqn_trains_on_a_use_case_with_one_observation_format(tmp_path):
+    # reach_destination has no obs_format parameter: DDQN's flat observation is its only one.
+    with initialize_config_module("rlbridge.conf", version_base="1.3"):
+        cfg = compose("config", overrides=["usecase=reach_destination", "algorithm=ddqn_per_transition",
+                                            f"scenario={TINY}", "workers=0", "train.iterations=2",
+                                            "env.time_limit_s=300", "train.baseline_episodes=1"])
+    run_training(cfg, tmp_path)
+    rows = list(csv.DictReader((tmp_path / "learning_curve.csv").open()))
+    assert len(rows) == 2 and int(rows[-1]["aircraft_states_total"]) > 0

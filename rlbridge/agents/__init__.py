@@ -40,14 +40,14 @@ def usecase_dims(usecase: str, params: dict[str, Any]) -> dict[str, int]:
     ``corridor_sa``) adds ``own_dim``, ``intruder_dim`` and ``n_intruders``.
     """
     p = {k: v for k, v in params.items() if k != "obs_format"}
-    flat_uc = make_usecase(usecase, **p, obs_format="flat") if _has_obs_format(usecase) else make_usecase(usecase, **p)
+    flat_uc = make_usecase(usecase, **p, obs_format="flat") if has_obs_format(usecase) else make_usecase(usecase, **p)
     act = flat_uc.action_space()
     dims = {"flat_dim": int(gym.spaces.flatdim(flat_uc.observation_space()))}
     if isinstance(act, gym.spaces.Discrete):
         dims["n_actions"] = int(act.n)
     else:
         dims["action_dim"] = int(gym.spaces.flatdim(act))
-    if _has_obs_format(usecase):
+    if has_obs_format(usecase):
         parts = make_usecase(usecase, **p, obs_format="dict").observation_space()
         if isinstance(parts, gym.spaces.Dict) and {"ownship", "intruders"} <= set(parts.spaces):
             own, intr = parts.spaces["ownship"], parts.spaces["intruders"]
@@ -56,7 +56,7 @@ def usecase_dims(usecase: str, params: dict[str, Any]) -> dict[str, int]:
     return dims
 
 
-def _has_obs_format(usecase: str) -> bool:
+def has_obs_format(usecase: str) -> bool:
     """Whether the use case takes an ``obs_format`` parameter (flat or dict observations)."""
     params = getattr(usecase_class(usecase), "params_class", None)
     return params is not None and "obs_format" in {f.name for f in fields(params)}

@@ -161,6 +161,11 @@ class ActorCritic(nn.Module):
 
 
 def obs_dims(spec_dims: dict[str, Any]) -> tuple[int, int]:
+    """Ownship and intruder feature sizes of an ownship-plus-intruders observation; another is refused."""
+    if "own_dim" not in spec_dims or "intruder_dim" not in spec_dims:
+        # D2MAV-A attends over intruders: a flat observation (e.g. reach_destination's) has none to read.
+        raise ValueError("D2MAV-A needs an observation of an ownship and its intruders (obs_format 'ownship'); "
+                         f"this use case gives {sorted(spec_dims)}: train it with algorithm=ddqn instead")
     return int(spec_dims["own_dim"]), int(spec_dims["intruder_dim"])
 
 

@@ -154,8 +154,11 @@ class EnvSpec:
                              "(the baselines and policies read the episode's simulation in process)")
 
     def make(self, obs_format: str | None = None) -> EpisodeCore:
+        from rlbridge.agents import has_obs_format
+
         params = dict(self.params)
-        if obs_format is not None:
+        # A use case without the parameter has one observation (flat): DDQN's format, nothing to choose.
+        if obs_format is not None and has_obs_format(self.usecase):
             params["obs_format"] = obs_format
         if self.backend == "bluesky":
             from rlbridge.backends.bluesky import BlueSkyEpisode
