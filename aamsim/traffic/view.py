@@ -51,7 +51,6 @@ PUBLIC_FLOATS: dict[str, str] = {
     "ap_tas": "TAS commanded by the autopilot [m/s]",
     "ap_alt": "altitude commanded by the autopilot [m]",
     "ap_vs": "vertical speed commanded by the autopilot [m/s]",
-    "ap_trk": "track the autopilot steers [deg]: the route's, or the one a selected heading gives",
     "axmax": "acceleration limit in use [m/s^2]",
     "dist2wp": "distance to the active waypoint [m]",
     "qdr2wp": "bearing to the active waypoint [deg]",
@@ -206,7 +205,6 @@ class TrafficView:
     ap_tas = _float_view("ap_tas")
     ap_alt = _float_view("ap_alt")
     ap_vs = _float_view("ap_vs")
-    ap_trk = _float_view("ap_trk")
     axmax = _float_view("axmax")
     dist2wp = _float_view("dist2wp")
     qdr2wp = _float_view("qdr2wp")
