@@ -11,8 +11,8 @@ from typing import Any
 import click
 
 from aamsim.errors import CommandError
-from aamsim.limits import DEFAULT_MAX_AIRCRAFT
 from aamsim.extras import MissingExtra, require
+from aamsim.limits import DEFAULT_MAX_AIRCRAFT
 from aamsim.units import UnitParseError, parse_time
 
 

@@ -6,6 +6,7 @@
     env = gymnasium.make("aamgym/ReachDestination-v1", scenario="...")  # every use case has its id
     env = gymnasium.make("aamgym/CorridorSA-v0", scenario="...")   # the same on fixed traffic (results made before v1)
     envs = gymnasium.make_vec("aamgym/CorridorSA-v1", num_envs=16)   # 16 in one process (rlbridge.vector)
+    env = rlbridge.aec_env(scenario="nyc_train_100.scn")            # PettingZoo AEC: a departure planner per vertiport
 """
 
 from __future__ import annotations
@@ -13,6 +14,7 @@ from __future__ import annotations
 import gymnasium
 
 from aamsim import __version__ as aamsim_version
+from rlbridge.aec import StrategicPlanningAEC, aec_env
 from rlbridge.core import EpisodeCore, StepResult
 from rlbridge.envs import AamParallelEnv, AamSingleAgentEnv, CorridorSAEnv, parallel_env
 from rlbridge.usecases.registry import BUILTIN_USECASES, env_id
@@ -50,4 +52,4 @@ for _name in BUILTIN_USECASES:
     register_env(_name)
 
 __all__ = ["ENV_ID", "AamParallelEnv", "AamSingleAgentEnv", "CorridorSAEnv", "EpisodeCore", "StepResult",
-           "parallel_env", "register_env"]
+           "StrategicPlanningAEC", "aec_env", "parallel_env", "register_env"]

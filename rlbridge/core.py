@@ -146,6 +146,10 @@ class EpisodeCore:
         template = Simulation(use_bluesky_navdata=True)
         self._parsed = template.parse(self.text, str(path))
         self.parse_errors = [str(e) for e in self._parsed.errors]
+        # A use case whose agents depend on the scenario (a planner per vertiport) reads it first.
+        bind = getattr(self.usecase, "bind_scenario", None)
+        if bind is not None:
+            bind(list(self._parsed.commands), template.commands.__contains__)
         standing = list(self.usecase.standing_agents)
         # Aircraft named by CRE lines are known agents before the run, unless the use case's agents are not
         # aircraft (a planner).

@@ -43,17 +43,19 @@ def test_aamsim_run_with_reso_daa_has_fewer_losses_of_well_clear(tmp_path):
     assert daa["daa"]["alerts"]["corrective"] + daa["daa"]["alerts"]["warning"] >= 3
 
 
-def crossing_sim(reso: str) -> Simulation:
+def crossing_sim(reso: str, axes: str = "") -> Simulation:
     sim = Simulation(seed=0)
     sim.require_services()
     sim.stack("CRE C1 EC35 40.700000 -74.100000 0 1000 100")
     sim.stack("CRE C2 EC35 40.720000 -74.085000 270 1000 60")
     sim.stack(f"RESO {reso}")
+    if axes:
+        sim.stack(f"DAA RESOAXES {axes}")
     return sim
 
 
 def test_advisory_is_held_until_clear_then_the_own_speed_resumes():
-    sim = crossing_sim("DAA")
+    sim = crossing_sim("DAA", "GS")  # speed-only resolutions
     service = sim.services.daa
     sim.run_until(3.0)
     advised = set(service.advisories)
@@ -168,3 +170,52 @@ def test_daa_policy_acts_on_any_use_case_with_speed_actions():
         result = core.step(acts)
     assert advised > 0
     assert core.metrics(("safety",))["safety"]["nmac_events"] == 0
+
+
+def test_daa_policy_releases_an_agent_its_actions_cannot_bring_closer_to_its_own_speed(tmp_path):
+    # Regression (nyc_train_100: aircraft held hovering for minutes): RA1 is ready to resume but no action
+    # brings it closer to its own speed (the corridor's actions move 35 m/s per decision); kept "ready" it
+    # deferred every nearby aircraft with a later callsign (resume_order) for as long as it flew, here RB2,
+    # which can resume. Released with the hold action instead; RB2, 2 km beside it, is not held up.
+    from rlbridge.agents import make_actor
+    from rlbridge.agents.daa import _Held
+    from rlbridge.core import EpisodeCore
+
+    scn = tmp_path / "parallel.scn"
+    scn.write_text("00:00:00.00>CRE RA1 EC35 40.700000 -74.000000 90 1000 100\n"
+                   "00:00:00.00>CRE RB2 EC35 40.718000 -74.000000 90 1000 40\n"  # 2 km apart, parallel
+                   "00:00:00.00>ADDWPT RA1 40.700000 -73.700000\n00:00:00.00>ADDWPT RB2 40.718000 -73.700000\n")
+    core = EpisodeCore(str(scn), "corridor_sa", {"alt_noise_ft": 0.0}, time_limit_s=300.0)
+    actor = make_actor({"kind": "daa"})
+    rng = np.random.default_rng(0)
+    result = core.reset(0)
+    out = actor.act(result, core, rng, {})
+    assert not out.advise.any()  # parallel, 2 km apart: no alert
+    view = core.sim.view
+    cas = {a: float(view.cas[view.slot(a)]) for a in ("RA1", "RB2")}
+    actor._held.update({"RA1": _Held(1, cas["RA1"] + 12.0), "RB2": _Held(1, cas["RB2"] + 34.0)})
+    out = actor.act(result, core, rng, {})
+    seen = {a: (int(x), bool(g)) for a, x, g in zip(result.agents, out.actions, out.advise)}
+    assert seen["RA1"] == (1, True) and "RA1" not in actor._held  # holds the speed it has, released
+    assert seen["RB2"] == (2, True)  # accelerates towards its own speed at once
+
+
+def test_resume_order_defers_only_ready_aircraft_whose_resumed_paths_meet():
+    # B1 hovers 1 km ahead of A1 on A1's line, C1 3 km to the side on a parallel line; all three ready.
+    sim = Simulation(seed=0)
+    sim.require_services()
+    for line in ("CRE A1 EC35 40.700000 -74.000000 90 1000 60", "CRE B1 EC35 40.700000 -73.988150 90 1000 0",
+                 "CRE C1 EC35 40.727000 -74.000000 90 1000 0"):
+        sim.stack(line)
+    sim.run_until(0.0)
+    daa = sim.services.daa.daa
+    slots = np.array([sim.view.slot(a) for a in ("B1", "A1", "C1")])
+    # Resumed A1 at 60 m/s closes on B1 at 20 m/s (within 450 m in 28 s): A1, the first callsign, resumes
+    # and B1 waits; C1 stays well clear of both and resumes too.
+    resumed = np.array([[20.0, 0.0, 0.0], [60.0, 0.0, 0.0], [60.0, 0.0, 0.0]])
+    assert daa.resume_order(sim, slots, resumed).tolist() == [False, True, True]
+    # Default: as they fly now (A1 at 60 kt towards the hovering B1): the same.
+    assert daa.resume_order(sim, slots).tolist() == [False, True, True]
+    # B1 resuming away from A1 faster than A1: they never meet, both go.
+    apart = np.array([[60.0, 0.0, 0.0], [20.0, 0.0, 0.0], [0.0, 0.0, 0.0]])
+    assert daa.resume_order(sim, slots, apart).tolist() == [True, True, True]

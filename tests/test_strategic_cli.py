@@ -64,7 +64,7 @@ def test_ddqn_planner_train_evaluate_report(tmp_path):
     proc = aamgym(["evaluate", f"run={run}", "episodes=1", "workers=0", "baselines=[dax]", "hydra.run.dir=e2"],
                   tmp_path, ok=False)
     assert proc.returncode != 0
-    assert "unknown baseline(s) dax; known: unequipped, mvp_speed, daa, no_planning, fcfs" in proc.stderr
+    assert "unknown baseline(s) dax; known: unequipped, mvp_speed, daa, mvp, no_planning, fcfs" in proc.stderr
     proc = aamgym(["evaluate", f"run={run}", "episodes=1", "workers=0", "baselines=[mvp_speed]",
                    "hydra.run.dir=e3"], tmp_path, ok=False)
     assert "baseline 'mvp_speed' does not apply to use case strategic_planning; its baselines: unequipped, " \
@@ -99,3 +99,26 @@ def test_evaluation_baselines_per_use_case():
     with pytest.raises(ValueError, match="baseline 'fcfs' does not apply to use case corridor_sa; its baselines: "
                                          "unequipped, mvp_speed, daa"):
         pick("corridor_sa", ["fcfs"])
+    # Heading and altitude advisories: DAA on those axes and heading/altitude MVP; the speed baseline is refused.
+    assert pick("heading_altitude_sa", None) == ["daa", "mvp"]
+    with pytest.raises(ValueError, match="baseline 'mvp_speed' does not apply to use case heading_altitude_sa; its "
+                                         "baselines: unequipped, daa, mvp"):
+        pick("heading_altitude_sa", ["mvp_speed"])
+    with pytest.raises(ValueError, match="baseline 'mvp' does not apply to use case corridor_sa"):
+        pick("corridor_sa", ["mvp"])
+
+
+def test_evaluation_noise_goes_only_to_the_parameters_a_use_case_declares():
+    # Regression: the strategic use case (alt_noise_ft, no lanes) was given alt_noise_lanes_ft and refused it,
+    # so `aamgym evaluate run=<strategic run>` failed before playing an episode.
+    from rlbridge.experiment.evaluate import with_altitude_noise
+    from rlbridge.usecases.registry import make_usecase
+
+    lanes = [500.0, 1200.0]
+    strategic = with_altitude_noise("strategic_planning", {"slot_s": 30.0}, 50.0, lanes)
+    assert strategic == {"slot_s": 30.0, "alt_noise_ft": 50.0}
+    assert make_usecase("strategic_planning", **strategic).params.alt_noise_ft == 50.0
+    assert with_altitude_noise("corridor_sa", {}, 50.0, lanes) == {"alt_noise_ft": 50.0, "alt_noise_lanes_ft": lanes}
+    assert with_altitude_noise("hierarchical", {"train": "tactical"}, 50.0, lanes) == {
+        "train": "tactical", "corridor": {"alt_noise_ft": 50.0, "alt_noise_lanes_ft": lanes}}
+    assert with_altitude_noise("hierarchical", {"train": "planning"}, 50.0, lanes) == {"train": "planning"}

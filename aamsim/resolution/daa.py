@@ -30,16 +30,19 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from aamsim.aero import cas2tas, tas2cas
+from aamsim.conflicts.axis_bands import velocity_intervals
 from aamsim.conflicts.bands import pair_exit_times, pair_gs_bands
 from aamsim.conflicts.service import TrafficSnapshot, search_pairs, traffic_snapshot
 from aamsim.conflicts.wellclear import pair_alerts
-from aamsim.units import FT, KTS
+from aamsim.units import FPM, FT, KTS
 
 if TYPE_CHECKING:
     from aamsim.api import SimulationAPI
 
 NONE, PREVENTIVE, CORRECTIVE, WARNING = 0, 1, 2, 3
 LEVEL_NAMES = ("none", "preventive", "corrective", "warning")
+# Resolution axes (stack names HDG, VS, GS): track, vertical speed, ground speed.
+RESOLUTION_AXES = ("hdg", "vs", "gs")
 
 
 @dataclass
@@ -70,9 +73,26 @@ class DAAParams:
     margin_mps: float = 1.0  # a resolution lies this far inside its conflict-free band (ground speed)
     resolve_level: int = CORRECTIVE  # the alert level from which a resolution is issued
     interval_s: float = 1.0  # the service's cycle (DAIDALUS runs at 1 Hz)
+    # The axes RESO DAA resolves on, in order of preference: the first with a conflict-free value
+    # flies it. Default: the guidance of DAIDALUS's DO-365 configurations (track, vertical speed,
+    # horizontal speed; docs/daa.md).
+    resolution_axes: tuple[str, ...] = RESOLUTION_AXES
+    hdg_step_deg: float = 1.0  # heading bands: sampling step (DAIDALUS's step_hdir)
+    hdg_margin_deg: float = 5.0  # a heading resolution lies this far inside its band (bands assume instant turns)
+    max_turn_deg: float = 180.0  # turn limit each way (DAIDALUS's DO-365 left_hdir / right_hdir)
+    vs_max_mps: float = 1000.0 * FPM  # vertical-speed resolutions within +-this (and the envelope)
+    vs_margin_mps: float = 0.5  # a vertical-speed resolution lies this far inside its band
+    vs_step_mps: float = 0.25  # vertical-speed grid of the recovery search
+    alt_min_m: float = 100.0 * FT  # no vertical resolution crosses this floor (DAIDALUS's min_alt) ...
+    alt_max_m: float = 3000.0 * FT  # ... or this ceiling within the look-ahead
+    persist_hdg_deg: float = 15.0  # preferred direction kept unless the other is closer by this (DAIDALUS)
+    persist_vs_mps: float = 250.0 * FPM
 
     def __post_init__(self) -> None:
+        self.resolution_axes = check_axes(self.resolution_axes)
         for f in fields(self):
+            if f.name == "resolution_axes":
+                continue
             value = getattr(self, f.name)
             if not math.isfinite(value) or value < 0:
                 raise ValueError(f"DAA {f.name} must be a finite number >= 0, not {value!r}")
@@ -82,6 +102,9 @@ class DAAParams:
             raise ValueError("DAA speed_min_kts is above speed_max_kts")
         if int(self.resolve_level) != self.resolve_level or not PREVENTIVE <= self.resolve_level <= WARNING:
             raise ValueError("DAA resolve_level must be 1 (preventive), 2 (corrective) or 3 (warning)")
+
+        if self.alt_min_m >= self.alt_max_m:
+            raise ValueError("DAA alt_min_m must be below alt_max_m")
 
     def volumes(self) -> np.ndarray:
         """Rows DMOD, HMD, TAUMOD, ZTHR, TCOA of the preventive, corrective and warning volumes."""
@@ -98,6 +121,41 @@ class DAAParams:
 
 
 PARAM_NAMES = tuple(f.name for f in fields(DAAParams))
+
+
+def isotropic_pairs(sim: SimulationAPI, slots: np.ndarray, horizon_s: float,
+                    radius_m: float) -> tuple[TrafficSnapshot, np.ndarray, np.ndarray]:
+    """The snapshot and directed candidate pairs (ownship in ``slots``, intruder) that can come within
+    ``radius_m`` over ``horizon_s`` whatever direction and speed (up to the fastest envelope) either takes."""
+    s = traffic_snapshot(sim)  # type: ignore[arg-type]
+    n = len(s.ids)
+    speed = np.hypot(np.hypot(s.u, s.v), s.w)
+    reach = float(max(speed.max(initial=0.0), float(np.max(sim.view.vmax, initial=0.0))))
+    still = TrafficSnapshot(s.ids, s.lat, s.lon, s.alt, np.zeros(n), np.zeros(n), s.w, s.x, s.y, s.frame_err,
+                            s.frame)
+    pi, pj = search_pairs(still, np.zeros(n), np.zeros(n), radius_m + 2.0 * reach * horizon_s + 1.0)
+    wanted = np.zeros(n, dtype=bool)
+    wanted[np.asarray(slots, dtype=np.int64)] = True
+    own = np.concatenate([pi[wanted[pi]], pj[wanted[pj]]])
+    intr = np.concatenate([pj[wanted[pi]], pi[wanted[pj]]])
+    return s, own, intr
+
+
+def check_axes(axes: Any) -> tuple[str, ...]:
+    """Resolution axes as lower-case names; an unknown or repeated axis is an error naming it."""
+    names = (axes,) if isinstance(axes, str) else tuple(axes)
+    out: list[str] = []
+    for a in names:
+        key = str(a).lower()
+        if key not in RESOLUTION_AXES:
+            known = ", ".join(x.upper() for x in RESOLUTION_AXES)
+            raise ValueError(f"unknown DAA resolution axis {a!r}; known: {known}")
+        if key in out:
+            raise ValueError(f"DAA resolution axis {str(a).upper()} is given twice")
+        out.append(key)
+    if not out:
+        raise ValueError("DAA needs at least one resolution axis (HDG, VS, GS)")
+    return tuple(out)
 
 
 @dataclass(frozen=True)
@@ -322,21 +380,42 @@ class DetectAndAvoid:
             out[k] = 1 if lead > 0 else -1
         return out
 
-    def resume_order(self, sim: SimulationAPI, slots: np.ndarray) -> np.ndarray:
-        """Which of the aircraft in ``slots``, all ready to resume their own speed, resume now.
+    def resume_order(self, sim: SimulationAPI, slots: np.ndarray, velocities: np.ndarray | None = None) -> np.ndarray:
+        """Which of the aircraft in ``slots``, all ready to resume their own trajectory, resume now.
 
         Two aircraft that held each other up would both resume at once and meet again
-        (each checked its own speed against the other holding still); of those that are
-        candidate pairs, only the callsign that sorts first resumes this cycle.
+        (each checked its own way against the other as it flies now). Of two ready
+        aircraft whose resumed trajectories (``velocities``: east, north, up [m/s] per
+        slot; default: as they fly now) lose well clear of each other within the
+        look-ahead, only the callsign that sorts first resumes this cycle. Ready aircraft
+        that stay well clear of each other both resume: one that cannot resume yet does
+        not hold up every other aircraft near it (on nyc_train_100 it held departures
+        hovering for minutes, docs/daa.md).
         """
         slots = np.asarray(slots, dtype=np.int64)
         allowed = np.ones(slots.size, dtype=bool)
         if slots.size < 2:
             return allowed
-        _s, own, intr, _ex, _ey = self._directed(sim, slots)
+        p = self.params
+        s, own, intr = isotropic_pairs(sim, slots, p.lookahead_s, max(p.dmod_m, p.recovery_m))
         ids = sim.view.ids
-        ready = set(slots.tolist())
-        deferred = {int(o) for o, j in zip(own.tolist(), intr.tolist()) if j in ready and ids[j] < ids[o]}
+        ready = np.zeros(len(s.ids), dtype=bool)
+        ready[slots] = True
+        first = np.array([ids[j] < ids[o] for o, j in zip(own.tolist(), intr.tolist())], dtype=bool)
+        sel = ready[intr] & first if own.size else np.zeros(0, dtype=bool)
+        own, intr = own[sel], intr[sel]
+        if own.size == 0:
+            return allowed
+        u, v, w = s.u.copy(), s.v.copy(), s.w.copy()
+        if velocities is not None:
+            vel = np.asarray(velocities, dtype=np.float64)
+            u[slots], v[slots], w[slots] = vel[:, 0], vel[:, 1], vel[:, 2]
+        order = np.sort(slots)  # candidate rows: the ready aircraft by slot
+        row = np.searchsorted(order, own)
+        cu, cv, cw = (x[order][:, None].copy() for x in (u, v, w))
+        t_in, _ = velocity_intervals(*s.frame, s.alt, u, v, w, own, intr, row, cu, cv, cw, p.dmod_m, p.hmd_m,
+                                     p.taumod_s, p.zthr_m, p.tcoa_s)
+        deferred = set(own[t_in[:, 0] <= p.lookahead_s].tolist())
         return np.array([i not in deferred for i in slots.tolist()], dtype=bool)
 
     # ----------------------------------------------------------- resolutions
@@ -361,12 +440,13 @@ class DetectAndAvoid:
             if not bands.free_of(i):
                 saturated.append(k)
                 continue
-            target[k] = self._pick(bands, i, float(view.gs[i]), int(sides[k]))
+            target[k] = self.pick(bands, i, float(view.gs[i]), int(sides[k]))
         if saturated:
             target[saturated] = self.recovery_speeds(sim, slots[saturated])
         return target, self.cas_for(sim, slots, target)
 
-    def _pick(self, bands: SpeedBands, slot: int, gs: float, side: int) -> float:
+    def pick(self, bands: SpeedBands, slot: int, gs: float, side: int) -> float:
+        """The conflict-free ground speed closest to ``gs`` on ``side`` (NaN: passes first at its speed)."""
         conflict = bands.of(slot)
         edges = {x for band in conflict for x in band}
         free = bands.free_of(slot)

@@ -124,22 +124,11 @@ class MVPService:
 
     def _resolve(self, sim: Simulation, conf: DirectedConflicts, keep: np.ndarray) -> None:
         view, st = sim.view, sim.settings
-        own, intr = conf.own[keep], conf.intr[keep]
-        qdr = np.radians(conf.qdr_deg[keep])
-        dist = conf.dist_m[keep]
-        alt = np.asarray(view.alt)
-        drel = np.column_stack([np.sin(qdr) * dist, np.cos(qdr) * dist, alt[intr] - alt[own]])
-        vel = np.column_stack([view.gseast, view.gsnorth, view.vs])
-        g = PairGeometry(own, intr, drel, vel[intr] - vel[own], conf.tcpa_s[keep], conf.tlos_s[keep])
-        push, tsol = mvp_pairs(g, st.zoner_m * self.settings.factor_h, st.zonedh_m * self.settings.factor_v,
-                               st.dtlook_s)
         ids = view.ids
         no_reso = np.array([a in self.no_reso for a in ids], dtype=bool)
         reso_off = np.array([a in self.reso_off for a in ids], dtype=bool)
-        dv, tsolv = combine(view.n, g, push, tsol, self.settings, np.asarray(view.vs), no_reso, reso_off)
-        s = OwnState(view.gseast, view.gsnorth, view.vs, view.trk, view.gs, view.alt, view.selalt, view.ap_vs,
-                     view.vmin, view.vmax, view.vsmin, view.vsmax)
-        trk, gs, vs, alt_cmd = commands(s, dv, tsolv, self.settings, st.dtlook_s)
+        trk, gs, vs, alt_cmd = mvp_commands(sim, conf, keep, self.settings, st.zoner_m, st.zonedh_m, st.dtlook_s,
+                                            no_reso, reso_off)
         coop = np.flatnonzero(~np.asarray(view.noncooperative))
         sim.command_resolution(coop, trk[coop], gs[coop], vs[coop], alt_cmd[coop])
 
@@ -206,6 +195,29 @@ class MVPService:
 
     def summary(self) -> dict[str, object]:
         return {"resolutions_started": self.resolutions, "settings": self.settings.describe()}
+
+
+def mvp_commands(sim: Simulation, conf: DirectedConflicts, keep: np.ndarray, settings: MVPSettings, rpz_m: float,
+                 hpz_m: float, dtlook_s: float, no_reso: np.ndarray | None = None,
+                 reso_off: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """MVP's track [deg], ground speed, vertical speed [m/s] and altitude [m] for every aircraft, from the
+    directed conflicts ``conf`` (rows ``keep``; BlueSky's cycle, :class:`MVPService`). ``no_reso``: aircraft
+    nobody avoids, ``reso_off``: aircraft that avoid nobody (per slot; default none)."""
+    view = sim.view
+    own, intr = conf.own[keep], conf.intr[keep]
+    qdr = np.radians(conf.qdr_deg[keep])
+    dist = conf.dist_m[keep]
+    alt = np.asarray(view.alt)
+    drel = np.column_stack([np.sin(qdr) * dist, np.cos(qdr) * dist, alt[intr] - alt[own]])
+    vel = np.column_stack([view.gseast, view.gsnorth, view.vs])
+    g = PairGeometry(own, intr, drel, vel[intr] - vel[own], conf.tcpa_s[keep], conf.tlos_s[keep])
+    push, tsol = mvp_pairs(g, rpz_m * settings.factor_h, hpz_m * settings.factor_v, dtlook_s)
+    none = np.zeros(view.n, dtype=bool)
+    dv, tsolv = combine(view.n, g, push, tsol, settings, np.asarray(view.vs),
+                        none if no_reso is None else no_reso, none if reso_off is None else reso_off)
+    s = OwnState(view.gseast, view.gsnorth, view.vs, view.trk, view.gs, view.alt, view.selalt, view.ap_vs,
+                 view.vmin, view.vmax, view.vsmin, view.vsmax)
+    return commands(s, dv, tsolv, settings, dtlook_s)
 
 
 def _angle_difference(a: float, b: float) -> float:

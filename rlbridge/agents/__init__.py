@@ -8,7 +8,8 @@ module                    contents
 ``agents.ddqn``           DQN / Double DQN (parameter-shared Q-network, replay memory)
 ``agents.d2mava``         D2MAV-A (PPO + attention over intruders, shared or separate layers)
 ``agents.baselines``      unequipped aircraft, speed-only MVP conflict resolution
-``agents.daa``            speed-only DO-365 / DAIDALUS detect and avoid (``baseline=daa``)
+``agents.daa``            DO-365 / DAIDALUS detect and avoid (``baseline=daa``): speed, or heading and altitude
+``agents.mvp``            heading and altitude MVP (``baseline=mvp``) for heading / altitude use cases
 ``agents.planners``       departure planning: no planning, FCFS strategic deconfliction
 ========================  =====================================================================
 
@@ -26,7 +27,7 @@ import gymnasium as gym
 from rlbridge.usecases.registry import make_usecase, usecase_class
 
 LEARNER_KINDS = ("d2mava", "dqn")
-BASELINE_KINDS = ("unequipped", "mvp_speed", "daa", "no_planning", "fcfs")
+BASELINE_KINDS = ("unequipped", "mvp_speed", "daa", "mvp", "no_planning", "fcfs")
 
 
 def usecase_dims(usecase: str, params: dict[str, Any]) -> dict[str, int]:
@@ -84,6 +85,10 @@ def make_actor(spec: dict[str, Any]) -> Any:
         from rlbridge.agents.daa import DAAActor, DAAPolicyConfig
 
         return DAAActor(DAAPolicyConfig(**spec.get("config", {})))
+    if kind == "mvp":
+        from rlbridge.agents.mvp import MVPActor, MVPConfig
+
+        return MVPActor(MVPConfig(**spec.get("config", {})))
     if kind == "no_planning":
         from rlbridge.agents.planners import NoPlanningActor
 

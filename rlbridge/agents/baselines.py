@@ -27,6 +27,7 @@ from aamsim.conflicts.service import search_pairs, traffic_snapshot
 from aamsim.units import KTS
 from rlbridge.agents.rollout import ActOutput
 from rlbridge.core import EpisodeCore, StepResult
+from rlbridge.usecases.protocol import check_advisory_kinds
 
 DECELERATE, HOLD, ACCELERATE = 0, 1, 2
 
@@ -120,6 +121,8 @@ class SpeedMVPActor:
         assert sim is not None
         key = (core.seed, id(sim))
         if key != self._episode:  # a new episode: forget the previous aircraft
+            if core.usecase is not None:  # its actions 0/1/2 are decelerate / hold / accelerate
+                check_advisory_kinds(core.usecase, ("speed",), "baseline mvp_speed")
             self._episode, self._cruise, self._advised = key, {}, set()
         t = sim.traffic
         view = sim.view

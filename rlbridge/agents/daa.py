@@ -20,25 +20,31 @@ advisories are those a learned policy could give:
 * clear of conflict, the agent steers back to its own speed (the action ending
   closest to it; of two nearby agents ready at once, one first:
   :meth:`aamsim.resolution.DetectAndAvoid.resume_order`) and gets no advisory
-  once within ``resume_band_kts`` of it.
+  once within ``resume_band_kts`` of it, or once no action brings it closer
+  (the use case's actions may be coarser than the band).
 
 Agents never alerted get no advisory (as the unequipped aircraft). The use case
 must say which speed each action selects (:class:`rlbridge.usecases.protocol.SpeedActions`):
-``corridor_sa`` and ``reach_destination`` do.
+``corridor_sa`` and ``reach_destination`` do. On a use case whose advisories are
+headings and altitudes (``advisory_kinds``; ``heading_altitude_sa``), the same
+logic turns and changes level: :mod:`rlbridge.agents.daa_manoeuvre`. A use case
+with none of these kinds is refused, naming its kinds.
 """
 
 from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 
 from aamsim.resolution import DAAParams, DetectAndAvoid, SpeedBands
 from aamsim.units import KTS
+from rlbridge.agents.daa_manoeuvre import ManoeuvreDAA
 from rlbridge.agents.rollout import ActOutput
 from rlbridge.core import EpisodeCore, StepResult
+from rlbridge.usecases.protocol import ADVISORY_KINDS, UseCaseBase, check_advisory_kinds
 
 
 @dataclass(frozen=True)
@@ -64,7 +70,9 @@ class DAAActor:
         self.config = config or DAAPolicyConfig()
         self.daa = DetectAndAvoid(DAAParams(**self.config.daa))
         self._held: dict[str, _Held] = {}
+        self._own: dict[str, float] = {}  # each agent's own CAS, noted at its first advisory [m/s]
         self._episode: tuple[int | None, int] | None = None
+        self._manoeuvre = ManoeuvreDAA(self.daa)
 
     def set_weights(self, weights: Any) -> None:
         pass
@@ -74,13 +82,13 @@ class DAAActor:
         sim = core.sim
         assert sim is not None
         usecase = core.usecase
-        targets_of = getattr(usecase, "speed_action_targets", None)
-        if targets_of is None:
-            raise TypeError(f"baseline daa needs a use case whose actions select speeds (speed_action_targets); "
-                            f"{usecase.name} has none")
         key = (core.seed, id(sim))
         if key != self._episode:  # a new episode: forget the previous aircraft
-            self._episode, self._held = key, {}
+            check_advisory_kinds(usecase, ADVISORY_KINDS, "baseline daa", any_of=True)
+            self._episode, self._held, self._own = key, {}, {}
+            self._manoeuvre = ManoeuvreDAA(self.daa)
+        if "speed" not in getattr(usecase, "advisory_kinds", ()):
+            return self._act_manoeuvres(result, core)
         view = sim.view
         alive = set(result.alive)
         rows = [k for k, a in enumerate(result.agents) if a in alive and a in view]
@@ -96,7 +104,7 @@ class DAAActor:
         involved = alerted | np.array([a in self._held for a in names], dtype=bool)
         bands = self.daa.gs_bands(sim, slots[involved])
         # The speed each action reaches within one decision interval, as ground speed.
-        targets = np.asarray(targets_of(sim, slots), dtype=np.float64)
+        targets = np.asarray(cast(UseCaseBase, usecase).action_targets(sim, slots, "speed"), dtype=np.float64)
         cas = np.asarray(view.cas[slots], dtype=np.float64)[:, None]
         step = (np.asarray(view.axmax[slots], dtype=np.float64) * usecase.decision_interval_s)[:, None]
         end_cas = cas + np.clip(targets - cas, -step, step)
@@ -118,11 +126,27 @@ class DAAActor:
             else:
                 ready.append(r)
         if ready:
-            go = self.daa.resume_order(sim, slots[ready])
+            # Each ready agent's own trajectory: its own speed along its track.
+            resumed_gs = self.daa.gs_for(sim, slots[ready], np.array([self._held[names[r]].resume_cas for r in ready]))
+            trk = np.radians(np.asarray(view.trk, dtype=np.float64)[slots[ready]])
+            vel = np.column_stack([resumed_gs * np.sin(trk), resumed_gs * np.cos(trk), view.vs[slots[ready]]])
+            go = self.daa.resume_order(sim, slots[ready], vel)
             for r, now in zip(ready, go.tolist()):
                 if now:  # steer back to its own speed
                     held = self._held[names[r]]
-                    held.action = int(np.argmin(np.abs(end_cas[r] - held.resume_cas)))
+                    gap = np.abs(end_cas[r] - held.resume_cas)
+                    best = int(np.argmin(gap))
+                    if gap[best] >= abs(float(cas[r, 0]) - held.resume_cas) - 1e-6:
+                        # No action brings it closer to its own speed (the actions are coarser than the
+                        # resumption band): it holds the speed it has, which is as close as it gets, and is
+                        # clear of conflict. Kept as "ready", it would defer every nearby aircraft with a
+                        # later callsign (resume_order) for as long as it flies: aircraft held hovering
+                        # for minutes (docs/daa.md).
+                        del self._held[names[r]]
+                        actions[rows[r]] = int(np.argmin(np.abs(targets[r] - cas[r, 0])))
+                        advise[rows[r]] = True
+                        continue
+                    held.action = best
                     actions[rows[r]], advise[rows[r]] = held.action, True
                 else:
                     resolve.append(r)  # waits for the one resuming first (holds once conflict-free)
@@ -136,10 +160,29 @@ class DAAActor:
                 acid = names[r]
                 held = self._held.get(acid)
                 if held is None:
-                    self._held[acid] = _Held(a, float(view.selspd[slots[r]]))
+                    # Its own speed: the one selected before its first advisory of the episode (a later
+                    # advisory finds the speed an earlier one left, e.g. a hover).
+                    own = self._own.setdefault(acid, float(view.selspd[slots[r]]))
+                    self._held[acid] = _Held(a, own)
                 else:
                     held.action = a
                 actions[rows[r]], advise[rows[r]] = a, True
+        return ActOutput(actions, advise=advise)
+
+    def _act_manoeuvres(self, result: StepResult, core: EpisodeCore) -> ActOutput:
+        """Heading and altitude advisories (rlbridge.agents.daa_manoeuvre)."""
+        sim = core.sim
+        assert sim is not None
+        view = sim.view
+        alive = set(result.alive)
+        rows = [k for k, a in enumerate(result.agents) if a in alive and a in view]
+        actions = np.zeros(len(result.agents), dtype=np.int64)
+        advise = np.zeros(len(result.agents), dtype=bool)
+        if rows:
+            names = [result.agents[k] for k in rows]
+            slots = np.array([view.slot(a) for a in names], dtype=np.int64)
+            acts, adv = self._manoeuvre.act(sim, core.usecase, names, slots)
+            actions[rows], advise[rows] = acts, adv
         return ActOutput(actions, advise=advise)
 
     @staticmethod

@@ -68,7 +68,8 @@ class _PlannerBaseline:
     def act(self, result: StepResult, core: EpisodeCore, rng: np.random.Generator,
             explore: dict[str, Any]) -> ActOutput:
         planner = _planner(core)
-        mine = np.array([a == PLANNER for a in result.agents], bool)
+        decider = planner.decider() if hasattr(planner, "decider") else PLANNER  # a planner per vertiport: its own
+        mine = np.array([a == decider for a in result.agents], bool)
         actions = np.array([self.choose(planner) if m else 0 for m in mine], np.int64)
         return ActOutput(actions, advise=mine)
 

@@ -12,10 +12,14 @@ intents, as on the other backends):
   time and overwrites the mirror's positions, speeds and directions with
   BlueSky's, before the conflict check runs, so observations, rewards and
   NMAC/LoWC events are computed on BlueSky's trajectories;
-* actions: after the use case applied its intents to the mirror, the selected
-  speeds that changed are sent to BlueSky as ``SPD`` commands (the corridor
-  use case's speed advisories; altitude and heading intents are not forwarded
-  yet);
+* actions: after the use case applied its intents to the mirror, what they
+  changed is sent to BlueSky as its own commands: a selected speed as ``SPD``,
+  a selected altitude as ``ALT`` (with the selected vertical speed), a selected
+  heading (LNAV switched off, or the autopilot's track changed while off) as
+  ``HDG``, and the route resumed (LNAV switched on) as ``LNAV ON`` (the speed
+  advisories of the corridor use case, the heading and altitude advisories of
+  ``heading_altitude_sa``). In wind the heading sent is the track the mirror's
+  autopilot holds;
 * altitude offsets given to aircraft as they are created (the corridor use
   case's per-episode altitude noise) are applied to BlueSky's aircraft too.
 
@@ -39,10 +43,37 @@ import numpy as np
 from aamsim import Simulation
 from aamsim.extras import require
 from aamsim.traffic.intents import SYNC_FIELDS, set_kinematic_state
-from aamsim.units import KTS
+from aamsim.units import FPM, FT, KTS
 from rlbridge.core import EpisodeCore, StepResult
 
 _BLUESKY: dict[str, Any] = {}  # BlueSky's module and the open episode: BlueSky itself is process-global
+_INTENT_FIELDS = ("selspd", "selspd_mach", "selalt", "selvs", "lnav", "ap_trk")
+
+
+def _intent_state(sim: Simulation) -> dict[str, tuple[Any, ...]]:
+    """Per callsign, the intent fields a use case changes (speed, altitude, heading, route guidance)."""
+    view = sim.view
+    cols = [getattr(view, name).tolist() for name in _INTENT_FIELDS]
+    return {acid: tuple(c[k] for c in cols) for k, acid in enumerate(view.ids)}
+
+
+def intent_commands(before: dict[str, tuple[Any, ...]], after: dict[str, tuple[Any, ...]]) -> list[str]:
+    """BlueSky commands for the intents that changed between two :func:`_intent_state` snapshots."""
+    lines: list[str] = []
+    for acid, (spd, mach, alt, vs, lnav, trk) in after.items():
+        old = before.get(acid)
+        if old is None:
+            continue
+        spd0, _mach0, alt0, _vs0, lnav0, trk0 = old
+        if spd != spd0 and not mach:
+            lines.append(f"SPD {acid} {spd / KTS:.6f}")
+        if alt != alt0:
+            lines.append(f"ALT {acid} {alt / FT:.6f}" + (f" {vs / FPM:.6f}" if vs else ""))
+        if not lnav and (lnav0 or trk != trk0):
+            lines.append(f"HDG {acid} {trk:.6f}")
+        elif lnav and not lnav0:
+            lines.append(f"LNAV {acid} ON")
+    return lines
 
 
 def _bluesky() -> Any:
@@ -140,16 +171,14 @@ class BlueSkyEpisode(EpisodeCore):
     # ----------------------------------------------------------------- steps
     def step(self, actions: dict[str, Any]) -> StepResult:
         if self.sim is not None:
-            self._pending = dict(zip(self.sim.view.ids, self.sim.view.selspd.tolist()))
+            self._pending = _intent_state(self.sim)
         return super().step(actions)
 
     def _advance_steps(self) -> Generator[float, None, None]:
         if self._pending is not None and self.sim is not None:
-            # The use case applied its actions to the mirror: send the changed speeds to BlueSky.
-            view = self.sim.view
-            for acid, spd, mach in zip(view.ids, view.selspd.tolist(), view.selspd_mach.tolist()):
-                if acid in self._pending and spd != self._pending[acid] and not mach:
-                    self.bs.stack.stack(f"SPD {acid} {spd / KTS:.6f}")
+            # The use case applied its actions to the mirror: send what they changed to BlueSky.
+            for line in intent_commands(self._pending, _intent_state(self.sim)):
+                self.bs.stack.stack(line)
             self._pending = None
         yield from super()._advance_steps()
 

@@ -47,11 +47,20 @@ from rlbridge.usecases.registry import usecase_class
 log = logging.getLogger("aamgym.evaluate")
 
 BASELINE_LABELS = {"unequipped": "Unequipped", "mvp_speed": "MVP speed-only (rule-based)",
-                   "daa": "DAA speed-only (DO-365/DAIDALUS)",
+                   "daa": "DAA speed-only (DO-365/DAIDALUS)", "mvp": "MVP heading/altitude (rule-based)",
                    "no_planning": "No planning (depart on schedule)", "fcfs": "FCFS strategic deconfliction"}
 CSV_COLUMNS = ("policy", "seed", "nmac_events", "lowc_events", "reward_per_aircraft", "aircraft", "aircraft_states",
                "sim_s", "wall_s", "flights_completed", "alert_rate_per_flight_hour", "airborne_holding_s",
                "mean_flight_time_s", "mean_delay_s", "min_separation_m")
+
+
+def baseline_label(name: str, env: EnvSpec) -> str:
+    """A baseline's label in reports; ``daa`` says which advisories it gives on the use case."""
+    if name == "daa":
+        kinds = getattr(usecase_class(env.usecase), "advisory_kinds", ("speed",))
+        if "speed" not in kinds:
+            return f"DAA {'/'.join(kinds)} (DO-365/DAIDALUS)"
+    return BASELINE_LABELS.get(name, name)
 
 
 # What "sampled actions" means for a value-based policy (DDQN has no action distribution): epsilon-greedy
@@ -228,7 +237,7 @@ def run_evaluation(cfg: DictConfig, out_dir: str | Path, baseline_cache: str | P
         weights = numpy_weights(ckpt["learner"]["model"])
     else:
         name = str(subject)
-        label = str(cfg.name or BASELINE_LABELS.get(name, name))
+        label = str(cfg.name or baseline_label(name, baseline_env(cfg)))
         env = evaluation_env(cfg, baseline_env(cfg))
         greedy, explore = True, {}
         actors = {name: {"kind": name}}
@@ -270,7 +279,7 @@ def play_and_report(cfg: DictConfig, out: Path, env: EnvSpec, name: str, label: 
     actors.setdefault("unequipped", {"kind": "unequipped"})
     for b in evaluation_baselines(cfg, env):
         actors.setdefault(b, {"kind": b})
-    labels = {name: label, **{b: BASELINE_LABELS.get(b, b) for b in actors if b != name}}
+    labels = {name: label, **{b: baseline_label(b, env) for b in actors if b != name}}
     seeds = list(range(int(cfg.seed), int(cfg.seed) + int(cfg.episodes)))
     log.info("evaluating %s (%s, iteration %s) on %s (%s backend): %d episodes each for %s", label, ckpt_path,
              ckpt["state"].get("best_iteration"), Path(scenario).name, env.backend, len(seeds), ", ".join(actors))

@@ -31,7 +31,7 @@ import numpy as np
 from aamsim.stack.parser import TimedCommand
 from rlbridge.usecases.corridor import CorridorSA
 from rlbridge.usecases.frozen import NO_POLICY, FrozenPolicy, SimHandle, frozen_policy
-from rlbridge.usecases.protocol import Feedback, Observations, UseCaseBase, make_params
+from rlbridge.usecases.protocol import Feedback, Observations, UseCaseBase, check_advisory_kinds, make_params
 from rlbridge.usecases.strategic import PLANNER, StrategicPlanning
 from rlbridge.usecases.tactical import PLANNER_BASELINES
 
@@ -93,6 +93,7 @@ class Hierarchical(UseCaseBase):
             self.standing_agents = ()
             self.info_fields = dict(self.corridor.info_fields)
             self.baselines = ("mvp_speed", "daa")
+            self.advisory_kinds = self.corridor.advisory_kinds  # the aircraft's speed actions
         self._rng = np.random.default_rng(0)
         self._handle: SimHandle | None = None
 
@@ -155,6 +156,13 @@ class Hierarchical(UseCaseBase):
     # ------------------------------------------------------- the learning level
     def observe(self, sim: Simulation, agents: list[str]) -> Observations:
         return self.level.observe(sim, agents)
+
+    def speed_action_targets(self, sim: Simulation, slots: np.ndarray) -> np.ndarray:
+        """The corridor level's speed targets (``train=tactical``; the planner selects no speeds)."""
+        if self.corridor is None:
+            check_advisory_kinds(self, ("speed",), "a speed-advisory policy")
+        assert self.corridor is not None
+        return self.corridor.speed_action_targets(sim, slots)
 
     def apply_actions(self, sim: Simulation, actions: dict[str, Any]) -> None:
         self.level.apply_actions(sim, actions)

@@ -37,6 +37,14 @@ if TYPE_CHECKING:
 
 # Per-agent info columns travel as arrays of these dtypes (docs/protocol.md).
 INFO_DTYPES = (np.bool_, np.int64, np.float64)
+# What a tactical use case's actions can change: the selected speed (CAS), heading (track) or altitude.
+ADVISORY_KINDS = ("speed", "heading", "altitude")
+# Units of each kind's action targets (UseCaseBase.action_targets).
+ADVISORY_UNITS = {"speed": "CAS m/s", "heading": "deg true", "altitude": "m"}
+
+
+class AdvisoryKindError(TypeError):
+    """A use case was asked for an advisory kind it does not declare, or a policy needs one it lacks."""
 
 
 @dataclass
@@ -121,6 +129,17 @@ class UseCaseBase:
     fixed_traffic: ClassVar[dict[str, Any]] = {}
     # Gymnasium id version: bumped when the environment's behaviour changes (aamgym/<env_name>-v<N>).
     env_version: ClassVar[int] = 1
+    # The advisory kinds its actions emit (ADVISORY_KINDS); each has a ``<kind>_action_targets`` method.
+    advisory_kinds: ClassVar[tuple[str, ...]] = ()
+
+    def action_targets(self, sim: Simulation, slots: np.ndarray, kind: str) -> np.ndarray:
+        """Per aircraft slot, the target each action sets for advisory ``kind`` (ADVISORY_UNITS): (n, n_actions).
+
+        A kind the use case does not declare in ``advisory_kinds`` is an error naming it.
+        """
+        check_advisory_kinds(self, (kind,), f"applying {kind} advisories")
+        targets: np.ndarray = getattr(self, f"{kind}_action_targets")(sim, slots)
+        return targets
 
     @property
     def decision_interval_s(self) -> float:
@@ -152,6 +171,23 @@ class SpeedActions(Protocol):
     def speed_action_targets(self, sim: Simulation, slots: np.ndarray) -> np.ndarray:
         """Per aircraft slot, the CAS [m/s] each action selects: ``(len(slots), n_actions)``."""
         ...
+
+
+def check_advisory_kinds(usecase: Any, needed: tuple[str, ...], who: str, any_of: bool = False) -> None:
+    """Refuse, naming the kinds, a policy or request that needs advisory kinds the use case does not emit.
+
+    ``needed``: every one of them (``any_of``: at least one of them).
+    """
+    unknown = [k for k in needed if k not in ADVISORY_KINDS]
+    if unknown:
+        raise AdvisoryKindError(f"unknown advisory kind(s) {', '.join(unknown)}; known: {', '.join(ADVISORY_KINDS)}")
+    have = tuple(getattr(usecase, "advisory_kinds", ()))
+    missing = [k for k in needed if k not in have]
+    if (any_of and len(missing) == len(needed)) or (not any_of and missing):
+        kinds = ", ".join(have) if have else "none"
+        want = (" or " if any_of else " and ").join(missing)
+        raise AdvisoryKindError(f"{who} needs {want} advisories; use case {getattr(usecase, 'name', usecase)} "
+                                f"does not declare them (its advisory kinds: {kinds})")
 
 
 def make_params(cls: Any, params: dict[str, Any] | None) -> Any:

@@ -21,6 +21,7 @@ BUILTIN_USECASES: dict[str, str] = {
     "reach_destination": "rlbridge.usecases.reach:ReachDestination",
     "strategic_planning": "rlbridge.usecases.strategic:StrategicPlanning",
     "hierarchical": "rlbridge.usecases.hierarchical:Hierarchical",
+    "heading_altitude_sa": "rlbridge.usecases.heading_altitude:HeadingAltitudeSA",
 }
 
 

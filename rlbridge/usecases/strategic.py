@@ -45,6 +45,17 @@ if TYPE_CHECKING:
     from aamsim import Simulation
 
 PLANNER = "planner"
+PLANNER_MODES = ("single", "vertiport")
+
+
+def request_planner(req: DepartureRequest) -> str:
+    """The planner of a request with one planner per vertiport: ``planner_<origin>`` (its ORIG), else ``planner``."""
+    for cmd in req.commands:
+        if cmd.command.name == "ORIG":
+            words = cmd.command.argtext.replace(",", " ").split()
+            if len(words) >= 2 and words[0].upper() == req.acid:
+                return f"{PLANNER}_{words[1].upper()}"
+    return PLANNER
 PROBE_LIMIT_S = 24 * 3600.0  # a flight still flying a day after the last request ends its intent there
 
 
@@ -62,6 +73,9 @@ class StrategicParams:
     n_planned: int = 16  # planned flights in the observation (closest in departure time)
     queue_window_s: float = 600.0  # vertiport queues count departures/arrivals within this
     tactical: str = "unequipped"  # tactical layer: a baseline name or a corridor training run / checkpoint
+    # "single": one planner decides every request; "vertiport": one planner per origin vertiport
+    # (planner_<ORIG>), each deciding its own requests (the AEC view, rlbridge.aec).
+    planners: str = "single"
     tactical_interval_s: float = 10.0
     obs_format: str = "dict"  # "dict" or "flat" (the Dict flattened in its key order)
     # Reward
@@ -84,6 +98,8 @@ class StrategicParams:
             raise ValueError("alt_noise_ft cannot be negative")
         if self.obs_format not in ("dict", "flat"):
             raise ValueError(f"obs_format must be 'dict' or 'flat', not {self.obs_format!r}")
+        if self.planners not in PLANNER_MODES:
+            raise ValueError(f"planners must be one of {', '.join(PLANNER_MODES)}, not {self.planners!r}")
         for name in ("slot_s", "separation_m", "intent_grid_s", "queue_window_s", "nmac_m", "lowc_m",
                      "scale_pos_m"):
             if not getattr(self, name) > 0:
@@ -107,6 +123,7 @@ class Outcome:
     unplaced: bool = False
     reason: str = ""
     intent_conflicts: int = 0
+    planner: str = PLANNER  # the planner agent that decided it
 
 
 @dataclass
@@ -133,6 +150,7 @@ class Episode:
     nmac_seen: int = 0
     lowc_seen: int = 0
     candidates: tuple[int, np.ndarray, np.ndarray] | None = None  # (request index, conflicts, closest)
+    last_decider: str = PLANNER  # the planner that decided last (gets the interval's NMAC and LoWC)
 
 
 class StrategicPlanning(UseCaseBase):
@@ -201,6 +219,19 @@ class StrategicPlanning(UseCaseBase):
         sim.hooks.created.add(self._on_created, name="strategic.layer")
         add_altitude_noise(sim, p.alt_noise_ft, p.layers_ft, "strategic.alt_noise")
         self.tactical.attach(sim, sim.seed)
+
+    def bind_scenario(self, commands: list[TimedCommand], is_command: Any) -> None:
+        """With a planner per vertiport: the standing agents are the planners of the scenario's requests."""
+        if self.params.planners == "vertiport":
+            names = dict.fromkeys(request_planner(r) for r in split_schedule(commands, is_command).requests)
+            self.standing_agents = tuple(names) or (PLANNER,)
+
+    def decider(self) -> str:
+        """The planner agent that decides the current request (``planner`` with a single planner)."""
+        req = self.current() if self.plan is not None else None
+        if self.params.planners == "single" or req is None:
+            return PLANNER if self.params.planners == "single" else (self.ep.last_decider if self.ep else PLANNER)
+        return request_planner(req)
 
     def scenario_commands(self, sim: Simulation, commands: list[TimedCommand]) -> list[TimedCommand]:
         """Hold back every request's block: the planner releases it when it decides."""
@@ -339,7 +370,8 @@ class StrategicPlanning(UseCaseBase):
         req = self.current()
         if req is None:
             return
-        a = actions.get(PLANNER)
+        decider = self.decider()
+        a = actions.get(decider)
         a = self.default_action() if a is None else int(a)
         if not 0 <= a < self.n_actions:
             raise ValueError(f"planner action {a} is not in 0..{self.n_actions - 1}")
@@ -352,6 +384,7 @@ class StrategicPlanning(UseCaseBase):
                 out = self._unplace(sim, req, f"slot {slot} departs after the horizon ({self.params.horizon_s:g} s)")
             else:
                 out = self._place(sim, req, slot, layer if self.params.layers_ft else -1, int(conf[slot, layer]))
+        out.planner = self.ep.last_decider = decider
         self.ep.last = out
         self.ep.next += 1
         self._skip_unplaceable(sim)
@@ -436,6 +469,10 @@ class StrategicPlanning(UseCaseBase):
     def observe(self, sim: Simulation, agents: list[str]) -> Observations:
         parts = self.observe_parts(sim)
         stacked = {k: np.repeat(v[None], len(agents), axis=0) for k, v in parts.items()}
+        if self.params.planners == "vertiport":  # only the deciding planner has a request (and valid actions)
+            idle = np.array([a != self.decider() for a in agents], dtype=bool)
+            for arr in stacked.values():
+                arr[idle] = 0
         if self.params.obs_format == "dict":
             return Observations(parts=stacked)
         flat = np.concatenate([stacked[k].reshape(len(agents), -1) for k in self.dict_space.spaces], axis=1)
@@ -454,9 +491,10 @@ class StrategicPlanning(UseCaseBase):
         info = {"delay_s": np.zeros(n), "unplaced": np.zeros(n, np.bool_), "intent_conflicts": np.zeros(n, np.int64),
                 "nmac": np.zeros(n, np.int64), "lowc": np.zeros(n, np.int64)}
         rewards = np.zeros(n)
-        if PLANNER not in agents or self.ep is None:
+        who = PLANNER if self.params.planners == "single" or self.ep is None else self.ep.last_decider
+        if who not in agents or self.ep is None:
             return Feedback(rewards, info)
-        k = agents.index(PLANNER)
+        k = agents.index(who)
         service = conflicts_of(sim)
         nmac, lowc = service.count("nmac") - self.ep.nmac_seen, service.count("lowc") - self.ep.lowc_seen
         self.ep.nmac_seen += nmac

@@ -20,12 +20,14 @@ from rlbridge.usecases.frozen import NO_POLICY, FrozenPolicy, SimHandle, frozen_
 if TYPE_CHECKING:
     from aamsim import Simulation
 
-# Baselines that are not speed advisories to aircraft (they plan departures).
+# Baselines that are not speed advisories to aircraft: they plan departures, or turn and change level.
 PLANNER_BASELINES = ("no_planning", "fcfs")
+MANOEUVRE_BASELINES = ("mvp",)
 
 
 def tactical_baselines() -> tuple[str, ...]:
-    return tuple(b for b in known_baselines() if b not in PLANNER_BASELINES)
+    """The baselines that give aircraft speed advisories (a tactical layer, the corridor use cases)."""
+    return tuple(b for b in known_baselines() if b not in PLANNER_BASELINES + MANOEUVRE_BASELINES)
 
 
 class TacticalLayer:
@@ -57,7 +59,7 @@ class TacticalLayer:
     def attach(self, sim: Simulation, seed: int | None) -> None:
         """Act on ``sim`` every interval from now on (a new episode)."""
         self._rng = np.random.default_rng(np.random.SeedSequence([0 if seed is None else int(seed), 0x7AC]))
-        self._handle = SimHandle(sim, seed)
+        self._handle = SimHandle(sim, seed, self.corridor)  # the corridor's speed actions
         self.decisions = 0
         if self.active:
             sim.hooks.pre_step.add(self.act, interval_s=self.interval_s, name="tactical.layer", priority=50)

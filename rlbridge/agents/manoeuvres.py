@@ -1,0 +1,80 @@
+"""What a heading / altitude advisory of a use case would do: its targets and a well-clear check of each action.
+
+The rule-based baselines that act on use cases with heading and altitude
+advisories (``daa``, ``mvp``) read each action's targets from the use case
+(``action_targets(sim, slots, "heading" | "altitude")``) and, for DAA, check
+every action's manoeuvre against the traffic: an instant turn to the action's
+track and a climb or descent at the use case's rate to its altitude, then level
+flight, intruders flying straight
+(:func:`aamsim.conflicts.axis_bands.manoeuvre_intervals`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from aamsim.conflicts.axis_bands import manoeuvre_intervals
+from aamsim.resolution.daa import DAAParams, isotropic_pairs
+
+MANOEUVRE_KINDS = ("heading", "altitude")
+
+
+@dataclass(frozen=True)
+class ActionTargets:
+    """Per aircraft (rows) and action (columns): the track [deg] and altitude [m] it sets."""
+
+    trk: np.ndarray
+    alt: np.ndarray
+    resume: int  # the action that gives no advisory (back on the route, at the own altitude)
+    rate_mps: float  # vertical speed of the level changes
+
+
+def action_targets(usecase: Any, sim: Any, slots: np.ndarray) -> ActionTargets:
+    """The targets of a heading / altitude use case's actions (a kind it lacks keeps the value of now)."""
+    kinds = tuple(getattr(usecase, "advisory_kinds", ()))
+    view = sim.view
+    n = int(usecase.action_space().n)
+    trk = usecase.action_targets(sim, slots, "heading") if "heading" in kinds else \
+        np.repeat(np.asarray(view.trk, dtype=np.float64)[slots, None], n, axis=1)
+    alt = usecase.action_targets(sim, slots, "altitude") if "altitude" in kinds else \
+        np.repeat(np.asarray(view.selalt, dtype=np.float64)[slots, None], n, axis=1)
+    resume = getattr(usecase, "resume_action", None)
+    if resume is None:
+        raise TypeError(f"use case {usecase.name} has heading/altitude actions but names no resume_action")
+    return ActionTargets(np.asarray(trk, dtype=np.float64), np.asarray(alt, dtype=np.float64), int(resume),
+                         float(getattr(usecase, "climb_rate_mps", 5.08)))
+
+
+def check_actions(sim: Any, slots: np.ndarray, targets: ActionTargets, params: DAAParams,
+                  recovery: bool = False, step_s: float = 1.0) -> tuple[np.ndarray, np.ndarray]:
+    """Per aircraft and action: when the manoeuvre first loses well clear and when it last is not well clear
+    [s from now, sampled every ``step_s``] against any intruder (``inf`` / ``-inf``: never); the recovery
+    volume (the NMAC distances) over ``recovery_lookahead_s`` when ``recovery``."""
+    slots = np.asarray(slots, dtype=np.int64)
+    na = targets.trk.shape[1]
+    first = np.full((slots.size, na), np.inf)
+    last = np.full((slots.size, na), -np.inf)
+    view = sim.view
+    if slots.size == 0 or view.n < 2:
+        return first, last
+    horizon = params.recovery_lookahead_s if recovery else params.lookahead_s
+    s, own, intr = isotropic_pairs(sim, slots, horizon, max(params.dmod_m, params.recovery_m))
+    n = len(s.ids)
+    if own.size == 0:
+        return first, last
+    row_of = np.full(n, -1, dtype=np.int64)
+    row_of[slots] = np.arange(slots.size)
+    row = row_of[own]
+    gs = np.repeat(np.hypot(s.u, s.v)[slots, None], na, axis=1)
+    dalt = targets.alt - np.asarray(view.alt, dtype=np.float64)[slots, None]
+    rate = np.full(targets.trk.shape, targets.rate_mps)
+    vol = (params.recovery_m, params.recovery_m, 0.0, params.recovery_zthr_m, 0.0) if recovery else \
+        (params.dmod_m, params.hmd_m, params.taumod_s, params.zthr_m, params.tcoa_s)
+    f, lst = manoeuvre_intervals(*s.frame, s.alt, s.u, s.v, s.w, own, intr, row, targets.trk, gs, dalt, rate, *vol,
+                                 horizon, step_s)
+    np.minimum.at(first, row, f)
+    np.maximum.at(last, row, lst)
+    return first, last
