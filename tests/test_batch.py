@@ -8,10 +8,12 @@ import math
 import os
 import secrets
 import shutil
+import signal
 import socket
 import statistics
 import subprocess
 import sys
+import time
 from pathlib import Path
 
 import pytest
@@ -222,6 +224,47 @@ def _free_port() -> int:
         return int(s.getsockname()[1])
 
 
+def _ray_node(cmd: list[str], env: dict[str, str], log: Path) -> subprocess.Popen:
+    with open(log, "wb") as fh:
+        return subprocess.Popen(cmd, env=env, stdout=fh, stderr=subprocess.STDOUT, start_new_session=True)
+
+
+def _wait_for_ray_nodes(port: int, count: int, env: dict[str, str], nodes: list[subprocess.Popen],
+                        timeout_s: float = 300.0) -> None:
+    """Wait until the cluster at ``port`` has ``count`` live nodes (a node that exits fails the test)."""
+    probe = ("import ray, sys; ray.init(address=sys.argv[1], logging_level='ERROR'); "
+             "print(sum(1 for n in ray.nodes() if n['Alive']))")
+    deadline = time.monotonic() + timeout_s
+    while True:
+        for node in nodes:
+            assert node.poll() is None, f"ray start exited with {node.returncode}: {node.args}"
+        out = subprocess.run([sys.executable, "-c", probe, f"127.0.0.1:{port}"], env=env, capture_output=True,
+                             text=True, timeout=180, check=False)
+        if out.returncode == 0 and out.stdout.strip().splitlines()[-1:] == [str(count)]:
+            return
+        assert time.monotonic() < deadline, f"the cluster never had {count} nodes: {out.stdout}{out.stderr}"
+        time.sleep(2.0)
+
+
+def _end_process_group(proc: subprocess.Popen) -> None:
+    """End ``ray start --block`` and the node's processes it started (one process group)."""
+    for sig, wait_s in ((signal.SIGTERM, 60), (signal.SIGKILL, 30)):
+        try:
+            os.killpg(proc.pid, sig)
+        except ProcessLookupError:
+            return
+        try:
+            proc.wait(timeout=wait_s)
+        except subprocess.TimeoutExpired:
+            continue
+        # The leader is gone; what it started may linger a moment in the group.
+        try:
+            os.killpg(proc.pid, signal.SIGKILL)
+        except ProcessLookupError:
+            pass
+        return
+
+
 @pytest.mark.slow
 def test_two_node_ray_cluster_matches_runs_one_by_one(tmp_path: Path) -> None:
     ray_bin = Path(sys.executable).with_name("ray")
@@ -235,21 +278,25 @@ def test_two_node_ray_cluster_matches_runs_one_by_one(tmp_path: Path) -> None:
     env = {**os.environ, "RAY_USAGE_STATS_ENABLED": "0", "RAY_AUTH_MODE": "token",
            "RAY_AUTH_TOKEN": secrets.token_hex(32)}
     ray_tmp = Path("/tmp") / f"aamsim-ray-{os.getpid()}"  # Ray's socket paths must stay short
-    common = ["--num-cpus=1", "--node-ip-address=127.0.0.1", "--disable-usage-stats"]
-    head = subprocess.run([str(ray_bin), "start", "--head", f"--port={port}", "--include-dashboard=false",
-                           f"--temp-dir={ray_tmp}", *common], check=False, env=env, capture_output=True, text=True,
-                          timeout=180)
-    assert head.returncode == 0, head.stdout + head.stderr
+    common = ["--num-cpus=1", "--node-ip-address=127.0.0.1", "--disable-usage-stats", "--block"]
+    # Each node is a `ray start --block` in a process group of its own, ended by signalling that group:
+    # `ray stop` would end every Ray process of the machine (a study running beside the tests, another
+    # test worker's cluster).
+    nodes: list[subprocess.Popen] = []
     try:
-        node = subprocess.run([str(ray_bin), "start", f"--address=127.0.0.1:{port}", *common], check=False,
-                              env=env, capture_output=True, text=True, timeout=180)
-        assert node.returncode == 0, node.stdout + node.stderr
+        nodes.append(_ray_node([str(ray_bin), "start", "--head", f"--port={port}", "--include-dashboard=false",
+                                f"--temp-dir={ray_tmp}", *common], env, tmp_path / "head.log"))
+        _wait_for_ray_nodes(port, 1, env, nodes)
+        nodes.append(_ray_node([str(ray_bin), "start", f"--address=127.0.0.1:{port}", *common], env,
+                               tmp_path / "node.log"))
+        _wait_for_ray_nodes(port, 2, env, nodes)
         proc = _aamsim("batch", "random.scn", "--seeds", "3", "--set", "until=300", "--set", "lowc=450",
                        "--set", "lowc=900", "--address", f"127.0.0.1:{port}", "--out", "out", cwd=tmp_path, env=env)
         assert proc.returncode == 0, proc.stderr
         assert "Ray: 2 node(s), 2 CPU(s)" in proc.stderr
     finally:
-        subprocess.run([str(ray_bin), "stop", "--force"], check=False, env=env, capture_output=True, timeout=120)
+        for node in reversed(nodes):
+            _end_process_group(node)
         shutil.rmtree(ray_tmp, ignore_errors=True)
     runs = _read_csv(tmp_path / "out" / "runs.csv")
     assert len(runs) == 6 and all(r["error"] == "" for r in runs)

@@ -5,7 +5,10 @@
 
 Shipping copies ``policy.json`` and ``policy.npz`` into ``rlbridge/pretrained/<name>/`` and records
 ``reference.json``: the greedy policy's figures on a few seeds of a scenario (NMAC and LoWC events,
-the use case's reward, flights completed), played in process. ``tests/test_pretrained.py`` plays the
+the use case's reward, flights completed), played in process over the first ``--time-limit``
+seconds of each episode (20 minutes by default: enough traffic to tell any change of the weights
+or of the code's behaviour, and short enough to replay in every test run; the full episodes are
+in the reference-scores table). ``tests/test_pretrained.py`` plays the
 same seeds again and must find the same figures: a shipped file that no longer matches the code
 that loads it fails the tests instead of publishing wrong numbers.
 """
@@ -15,22 +18,29 @@ from __future__ import annotations
 import argparse
 import json
 import shutil
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
 from rlbridge.pretrained import SHIPPED_DIR, available, load, policy_dir
 
 REFERENCE_SEEDS = (1000, 1001, 1002)  # held apart from training (episode seeds there are 31-bit hashes)
+REFERENCE_TIME_LIMIT_S = 1200.0  # each reference episode's first 20 minutes of simulated time
 
 
-def reference_figures(folder: str | Path, scenario: str, seeds: tuple[int, ...] = REFERENCE_SEEDS
-                      ) -> list[dict[str, Any]]:
-    """The greedy policy's episode figures on ``seeds`` of ``scenario``, played in process."""
+def reference_figures(folder: str | Path, scenario: str, seeds: tuple[int, ...] = REFERENCE_SEEDS,
+                      time_limit_s: float | None = REFERENCE_TIME_LIMIT_S) -> list[dict[str, Any]]:
+    """The greedy policy's episode figures on ``seeds`` of ``scenario``, played in process.
+
+    ``time_limit_s``: each episode ends there [s of sim time]; None: the episode as the policy was trained.
+    """
     from rlbridge.agents.rollout import RolloutWorker
     from rlbridge.experiment.export import policy_env
 
     policy = load(folder)
     env = policy_env(policy.exported, scenario)
+    if time_limit_s is not None:
+        env = replace(env, time_limit_s=float(time_limit_s))
     worker = RolloutWorker(env, {"policy": policy.exported.actor_spec})
     worker.set_weights(policy.exported.weights, "policy")
     out = []
@@ -43,7 +53,7 @@ def reference_figures(folder: str | Path, scenario: str, seeds: tuple[int, ...] 
 
 
 def ship(export_dir: Path, name: str, scenario: str, seeds: tuple[int, ...] = REFERENCE_SEEDS,
-         note: str = "") -> Path:
+         note: str = "", time_limit_s: float | None = REFERENCE_TIME_LIMIT_S) -> Path:
     """Copy an exported policy into the package and record its reference figures."""
     if not name.replace("_", "").isalnum():
         raise ValueError(f"policy name {name!r}: letters, digits and underscores only")
@@ -55,9 +65,10 @@ def ship(export_dir: Path, name: str, scenario: str, seeds: tuple[int, ...] = RE
         spec = json.loads((dest / "policy.json").read_text())
         spec["provenance"]["note"] = note
         (dest / "policy.json").write_text(json.dumps(spec, indent=2) + "\n")
-    figures = reference_figures(dest, scenario, seeds)
+    figures = reference_figures(dest, scenario, seeds, time_limit_s)
     (dest / "reference.json").write_text(json.dumps({"scenario": Path(scenario).stem, "actions": "greedy",
-                                                     "episodes": figures}, indent=2) + "\n")
+                                                     "time_limit_s": time_limit_s, "episodes": figures},
+                                                    indent=2) + "\n")
     return dest
 
 
@@ -71,6 +82,8 @@ def main(argv: list[str] | None = None) -> None:
     sp.add_argument("--scenario", default="nyc_eval_678", help="scenario of the reference figures")
     sp.add_argument("--seeds", type=int, nargs="+", default=list(REFERENCE_SEEDS))
     sp.add_argument("--note", default="", help="a line added to the provenance (e.g. what is interim about it)")
+    sp.add_argument("--time-limit", type=float, default=REFERENCE_TIME_LIMIT_S,
+                    help="seconds of simulated time of each reference episode (0: the whole episode)")
     args = ap.parse_args(argv)
     if args.command == "list":
         names = available()
@@ -84,5 +97,5 @@ def main(argv: list[str] | None = None) -> None:
                   f" best iteration {prov.get('best_iteration')}; {policy_dir(n)}"
                   + (f"; {prov['note']}" if prov.get("note") else ""))
         return
-    dest = ship(args.export_dir, args.name, args.scenario, tuple(args.seeds), args.note)
+    dest = ship(args.export_dir, args.name, args.scenario, tuple(args.seeds), args.note, args.time_limit or None)
     print(dest)
