@@ -198,10 +198,18 @@ def test_the_reference_scores_table_has_every_use_case_its_baselines_and_interva
     assert proc.returncode == 0, proc.stderr[-3000:]
     table = rows(tmp_path / "out" / "scores.csv")
     got = [(r["environment"], r["contender"]) for r in table]
+    from rlbridge.pretrained import available, load
+
+    def learned(usecase: str) -> list[tuple[str, str]]:  # the shipped policies' rows, as the package holds them
+        env_name = {"corridor_sa": "aamgym/CorridorSA-v1", "reach_destination": "aamgym/ReachDestination-v1"}[usecase]
+        return [(env_name, f"{load(n).exported.label} (pretrained `{n}`)") for n in available()
+                if load(n).usecase == usecase]
+
+    assert learned("corridor_sa") and learned("reach_destination")  # at least one learned contender each
     assert got == [("aamgym/CorridorSA-v1", "Unequipped"), ("aamgym/CorridorSA-v1", "MVP speed-only (rule-based)"),
-                   ("aamgym/CorridorSA-v1", "DAA speed-only (DO-365/DAIDALUS)"),
+                   ("aamgym/CorridorSA-v1", "DAA speed-only (DO-365/DAIDALUS)"), *learned("corridor_sa"),
                    ("aamgym/ReachDestination-v1", "Unequipped"),
-                   ("aamgym/ReachDestination-v1", "DAA speed-only (DO-365/DAIDALUS)")]
+                   ("aamgym/ReachDestination-v1", "DAA speed-only (DO-365/DAIDALUS)"), *learned("reach_destination")]
     assert all(r["episodes"] == "2" for r in table)
     assert " ± " in table[0]["NMAC / episode"] or table[0]["NMAC / episode"].count(".") == 1
     md = (tmp_path / "out" / "scores.md").read_text()

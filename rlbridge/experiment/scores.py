@@ -77,6 +77,7 @@ def _cell(values: list[float], digits: int) -> str:
 def run_scores(usecases: list[str], scenario: str, episodes: int, out: Path, work: Path, workers: int) -> Path:
     from rlbridge.experiment.evaluate import run_evaluation
     from rlbridge.experiment.study import _compose
+    from rlbridge.pretrained import load
     from rlbridge.usecases.registry import env_id
 
     rows: list[list[str]] = []
@@ -85,24 +86,25 @@ def run_scores(usecases: list[str], scenario: str, episodes: int, out: Path, wor
         reference, others, learned = usecase_contenders(uc)
         common = [f"scenario={scenario}", f"episodes={episodes}", f"seed={SEEDS_START}", f"workers={workers}",
                   f"usecase={uc}"]
-        evals: list[tuple[Path, str]] = []
+        evals: list[tuple[Path, str, str]] = []  # (evaluation folder, its policy key, the row's name suffix)
         base_dir = work / uc / "baselines"
         if not (base_dir / "evaluation.json").exists():
             log.info("%s: %s against %s", uc, reference, ", ".join(others) or "nothing else")
             run_evaluation(_compose("evaluate", common + [f"baseline={reference}", f"baselines=[{','.join(others)}]"]),
                            base_dir, baseline_cache=work / "cache")
-        evals += [(base_dir, p) for p in [reference, *others]]
+        evals += [(base_dir, p, "") for p in [reference, *others]]
         for name in learned:
             d = work / uc / f"pretrained_{name}"
             if not (d / "evaluation.json").exists():
                 log.info("%s: pretrained %s", uc, name)
                 run_evaluation(_compose("evaluate", common + [f"policy=pretrained:{name}", "baselines=[]"]), d,
                                baseline_cache=work / "cache")
-            evals.append((d, name))
-        for d, policy in evals:
+            # The evaluation names a policy by its algorithm (its episodes folder too), the row by what ships.
+            evals.append((d, load(name).name, f" (pretrained `{name}`)"))
+        for d, policy, suffix in evals:
             ev = json.loads((d / "evaluation.json").read_text())
             figures = _episode_figures(d, policy)
-            label = ev["policies"][policy]["label"] + (" (pretrained)" if policy in learned else "")
+            label = ev["policies"][policy]["label"] + suffix
             rows.append([env_id(uc), label, str(len(figures))]
                         + [_cell([f[k] for f in figures if f.get(k) is not None], dg) for k, _, dg in COLUMNS])
     out.mkdir(parents=True, exist_ok=True)
