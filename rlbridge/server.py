@@ -326,6 +326,9 @@ class SimulationServer:
                 session.last_seen = time.monotonic()
                 session.requests += 1
             answer = reply(msg_id, **handler(session, identity, message))
+            session = self.sessions.get(identity)
+            if session is not None:  # silence counts from the answer: a reset that took long is not idleness
+                session.last_seen = time.monotonic()
             if op in ("reset", "step") and self.options.on_traffic is not None:
                 self._show(identity)
             return answer

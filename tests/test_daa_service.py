@@ -149,7 +149,8 @@ def test_aamgym_evaluate_unknown_baseline_lists_the_known_ones(tmp_path):
     proc = run_cli(["-m", "rlbridge.experiment", "evaluate", "episodes=1", "hydra.run.dir=eval"], tmp_path,
                    timeout=120)
     assert proc.returncode != 0
-    assert "give one of run=<training run>" in proc.stderr and "policy=pretrained:<name>" in proc.stderr
+    # The configuration check before Hydra starts names the three ways to say what is evaluated.
+    assert "run=RUN_DIR" in proc.stderr and "policy=pretrained:NAME" in proc.stderr and "baseline=NAME" in proc.stderr
 
 
 def test_daa_policy_acts_on_any_use_case_with_speed_actions():
