@@ -235,3 +235,24 @@ def test_serve_view_shows_the_session_that_stepped(tmp_path):
     finally:
         proc.send_signal(signal.SIGINT)
         assert proc.wait(20) == 0
+
+
+def test_a_deeply_nested_message_gets_the_same_answer_on_any_stack():
+    # Found by the viewer fuzzer: 500 nested arrays parsed in the fuzzer's process (an array, not an
+    # object) but hit the recursion limit deeper in the server's stack ("not JSON").
+    import sys
+
+    deep = "[" * 500 + "]" * 500
+    with pytest.raises(ControlError, match="nested deeper than 32 levels") as shallow:
+        parse_control(deep, "replay", False)
+
+    def nested(k: int) -> str:
+        if k:
+            return nested(k - 1)
+        with pytest.raises(ControlError) as exc:
+            parse_control(deep, "replay", False)
+        return str(exc.value)
+
+    assert nested(sys.getrecursionlimit() - 200) == str(shallow.value)
+    # Brackets inside strings are text, not nesting.
+    assert parse_control('{"op": "pause", "note": "' + "[" * 100 + '"}', "replay", False)["op"] == "pause"

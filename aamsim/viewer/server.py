@@ -217,12 +217,44 @@ class AccessPolicy:
 
 
 # ---------------------------------------------------------------- control messages
+MAX_CONTROL_NESTING = 32  # arrays and objects inside one another in a control message
+
+
+def _nesting_depth(text: str | bytes) -> int:
+    """The deepest nesting of JSON arrays and objects in ``text``, brackets inside strings not counted."""
+    if isinstance(text, bytes):
+        text = text.decode("utf-8", errors="replace")
+    depth = deepest = 0
+    in_string = escaped = False
+    for ch in text:
+        if in_string:
+            if escaped:
+                escaped = False
+            elif ch == "\\":
+                escaped = True
+            elif ch == '"':
+                in_string = False
+        elif ch == '"':
+            in_string = True
+        elif ch in "[{":
+            depth += 1
+            deepest = max(deepest, depth)
+        elif ch in "]}":
+            depth -= 1
+    return deepest
+
+
 def parse_control(text: str | bytes, mode: str, allow_commands: bool, token_ok: bool = True) -> dict[str, Any]:
     """Check one control message; raises :class:`ControlError` naming what is wrong.
 
     ``allow_commands``: the server takes stack commands at all; ``token_ok``: this connection
     presented the run's command token.
     """
+    if _nesting_depth(text) > MAX_CONTROL_NESTING:
+        # Decided before parsing: how deep json.loads gets depends on the stack it runs on, and the
+        # answer to a message must not.
+        raise ControlError(f"nested deeper than {MAX_CONTROL_NESTING} levels: a control message is a JSON object "
+                           "with an \"op\" field")
     try:
         msg = json.loads(text)
     except (ValueError, RecursionError):  # JSONDecodeError, bad UTF-8, an integer past Python's digit limit
