@@ -23,6 +23,7 @@ from pathlib import Path
 from typing import Any
 
 import gymnasium as gym
+import numpy as np
 
 from aamsim.worlds import WorldSet
 from rlbridge.core import EpisodeCore, StepResult
@@ -126,3 +127,26 @@ def _per_world(scenario: str | Path | Sequence[str | Path], n: int) -> list[str 
         raise ValueError(f"{len(scenarios)} scenarios for {n} sub-environments: give one scenario, or one per "
                          "sub-environment")
     return scenarios
+
+
+def reset_request(n: int, seed: Any, options: dict[str, Any] | None) -> tuple[list[int | None], np.ndarray]:
+    """A vector reset's seed per sub-environment and the mask of those to reset.
+
+    ``seed``: None (each draws from its own generator), an int (sub-environment ``i`` gets
+    ``seed + i``, as Gymnasium's vector environments) or one per sub-environment;
+    ``options["reset_mask"]``: booleans, one per sub-environment, at least one True.
+    """
+    if seed is None:
+        seeds: list[int | None] = [None] * n
+    elif isinstance(seed, (int, np.integer)):
+        seeds = [int(seed) + i for i in range(n)]
+    else:
+        seeds = list(seed)
+        if len(seeds) != n:
+            raise ValueError(f"{len(seeds)} seeds for {n} sub-environments")
+    mask = np.ones(n, dtype=np.bool_)
+    if options is not None and "reset_mask" in options:
+        mask = np.asarray(options["reset_mask"], dtype=np.bool_)
+        if mask.shape != (n,) or not mask.any():
+            raise ValueError(f"options['reset_mask'] must be {n} booleans, at least one True")
+    return seeds, mask

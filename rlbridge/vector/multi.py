@@ -22,7 +22,7 @@ import gymnasium as gym
 import numpy as np
 
 from rlbridge.core import StepResult
-from rlbridge.vector.engine import VectorEngine
+from rlbridge.vector.engine import VectorEngine, reset_request
 
 SEED_BOUND = 2**31 - 1
 
@@ -69,19 +69,7 @@ class AamParallelVectorEnv:
         ``i`` gets ``seed + i``, as Gymnasium's vector environments) or one per sub-environment.
         """
         n = self.num_envs
-        if seed is None:
-            seeds: list[int | None] = [None] * n
-        elif isinstance(seed, (int, np.integer)):
-            seeds = [int(seed) + i for i in range(n)]
-        else:
-            seeds = list(seed)
-            if len(seeds) != n:
-                raise ValueError(f"{len(seeds)} seeds for {n} sub-environments")
-        mask = np.ones(n, dtype=np.bool_)
-        if options is not None and "reset_mask" in options:
-            mask = np.asarray(options["reset_mask"], dtype=np.bool_)
-            if mask.shape != (n,) or not mask.any():
-                raise ValueError(f"options['reset_mask'] must be {n} booleans, at least one True")
+        seeds, mask = reset_request(n, seed, options)
         episode_seeds: dict[int, int] = {}
         for w in np.flatnonzero(mask).tolist():
             given = seeds[w]

@@ -31,7 +31,7 @@ from gymnasium.vector.utils import batch_space
 
 from rlbridge.core import EpisodeCore, StepResult
 from rlbridge.envs import TrafficPolicy
-from rlbridge.vector.engine import Steps, VectorEngine
+from rlbridge.vector.engine import Steps, VectorEngine, reset_request
 
 SEED_BOUND = 2**31 - 1  # episode seeds drawn when reset gets none (as AamParallelEnv)
 
@@ -159,19 +159,7 @@ class AamVectorEnv(VectorEnv):
     def reset(self, *, seed: int | list[int | None] | None = None,
               options: dict[str, Any] | None = None) -> tuple[Any, dict[str, Any]]:
         n = self.num_envs
-        if seed is None:
-            seeds: list[int | None] = [None] * n
-        elif isinstance(seed, (int, np.integer)):
-            seeds = [int(seed) + i for i in range(n)]
-        else:
-            seeds = list(seed)
-            if len(seeds) != n:
-                raise ValueError(f"{len(seeds)} seeds for {n} sub-environments")
-        mask = np.ones(n, dtype=np.bool_)
-        if options is not None and "reset_mask" in options:
-            mask = np.asarray(options["reset_mask"], dtype=np.bool_)
-            if mask.shape != (n,) or not mask.any():
-                raise ValueError(f"options['reset_mask'] must be {n} booleans, at least one True")
+        seeds, mask = reset_request(n, seed, options)
         worlds = np.flatnonzero(mask).tolist()
         out = self.engine.run({w: self._reset_steps(self.episodes[w], seeds[w]) for w in worlds})
         infos: dict[str, Any] = {}
