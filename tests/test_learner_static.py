@@ -323,3 +323,56 @@ def test_optimiser_state_loads_across_adam_implementations():
     c.load_state_dict(copy.deepcopy(a.state_dict()))
     assert all(g["fused"] for g in c.optimizer.param_groups)
     assert all(s["step"].dtype == torch.float32 for s in c.optimizer.state.values())
+
+
+# ------------------------------------------------------------------------- on a GPU (skipped elsewhere)
+needs_cuda = pytest.mark.skipif(not torch.cuda.is_available(), reason="the captured step runs on a GPU only")
+
+
+@needs_cuda
+@pytest.mark.parametrize("shared", [False, True])
+def test_captured_ppo_update_on_cuda_matches_the_eager_update_on_cuda(shared):
+    """The CUDA graph replays the eager path's arithmetic: same losses, same weights after three updates
+    (to float rounding: the captured step runs fused Adam, the eager one the default kernel)."""
+    from rlbridge.agents import make_learner
+
+    d = dims()
+    batches = [ppo_batch(d, 7, seed=1), ppo_batch(d, 5, seed=2)]
+    eager = make_learner("d2mava", {**PPO_SMALL, "shared": shared}, d, "cuda", seed=4, static=False)
+    static = make_learner("d2mava", {**PPO_SMALL, "shared": shared}, d, "cuda", seed=4, static=True)
+    for _ in range(3):
+        out_e, out_s = eager.update(batches), static.update(batches)
+        for k in ("policy_loss", "value_loss", "entropy", "approx_kl", "clip_fraction"):
+            assert out_s[k] == pytest.approx(out_e[k], rel=1e-4, abs=1e-6), k
+        assert out_s["gradient_steps"] == out_e["gradient_steps"]
+    assert static.static.step is not None and static.static.step.graph is not None  # it was captured
+    for a, b in zip(eager.model.parameters(), static.model.parameters()):
+        torch.testing.assert_close(b, a, rtol=1e-4, atol=1e-5)
+
+
+@needs_cuda
+def test_captured_ddqn_step_on_cuda_matches_the_eager_step_on_cuda():
+    from rlbridge.agents import make_learner
+
+    d = dims()
+    cfg = {"batch_size": 16, "lr": 1e-3, "learning_starts": 0}
+    eager = make_learner("dqn", cfg, d, "cuda", seed=2, static=False)
+    static = make_learner("dqn", cfg, d, "cuda", seed=2, static=True)
+    rng = np.random.default_rng(0)
+    for step in range(5):
+        sample = {"obs": {"flat": rng.normal(size=(16, d["flat_dim"])).astype(np.float32)},
+                  "next_obs": {"flat": rng.normal(size=(16, d["flat_dim"])).astype(np.float32)},
+                  "actions": rng.integers(0, d["n_actions"], 16), "rewards": rng.normal(size=16).astype(np.float32),
+                  "terminated": rng.random(16) < 0.2}
+        loss = eager.gradient_step(sample)
+        for k in ("obs", "next_obs"):
+            static._batch[k]["flat"].copy_(torch.from_numpy(sample[k]["flat"]))
+        for k in ("actions", "rewards", "terminated"):
+            static._batch[k].copy_(torch.from_numpy(sample[k]))
+        static._step.prepare()  # records the graph once; its warm-up steps are undone, their losses not
+        static._loss_sum.zero_()  # counted (as the update does)
+        static._step()
+        assert float(static._loss_sum) == pytest.approx(float(loss), rel=1e-4, abs=1e-6), step
+        for a, b in zip(eager.q.parameters(), static.q.parameters()):
+            torch.testing.assert_close(b, a, rtol=1e-4, atol=1e-5)
+    assert static._step.graph is not None
