@@ -39,13 +39,21 @@ def test_plan_states_the_study_and_its_time_from_the_throughput():
 
 
 def test_machine_estimate_is_the_slower_of_rollouts_and_learner():
-    from rlbridge.experiment.machine import ROLLOUT_PER_CORE, machine_estimate
+    from rlbridge.experiment.machine import CUDA_LEARNER_RATES, ROLLOUT_PER_CORE, machine_estimate
 
     kinds = {"d2mava_a": "d2mava", "ddqn": "dqn"}
     cpu_rates = {"d2mava_a": 5000.0, "ddqn": 20000.0}
-    gpu = machine_estimate(kinds, "cuda", 15, cpu_rates, cores=16)  # a GPU learner keeps up (not measured)
-    assert gpu.rates == {"d2mava_a": 15 * ROLLOUT_PER_CORE["d2mava"], "ddqn": 15 * ROLLOUT_PER_CORE["dqn"]}
-    assert set(gpu.bound.values()) == {"rollouts"}
+    gpu = machine_estimate(kinds, "cuda", 15, cpu_rates, cores=16)
+    # D2MAV-A: 15 workers play 124,500 states/s, the H200 learner updates 73,794: the learner bounds it;
+    # DDQN (RLlib ratio): 220,500 against 989,238: the rollouts do.
+    assert CUDA_LEARNER_RATES["d2mava_a"] == 73794.0 < 15 * ROLLOUT_PER_CORE["d2mava"]
+    assert gpu.rates == {"d2mava_a": 73794.0, "ddqn": 15 * ROLLOUT_PER_CORE["dqn"]}
+    assert gpu.bound == {"d2mava_a": "learner, measured alone on an H200", "ddqn": "rollouts"}
+    few = machine_estimate(kinds, "cuda", 2, cpu_rates, cores=3)  # 2 workers: the rollouts bound both
+    assert few.rates == {"d2mava_a": 2 * 8300.0, "ddqn": 2 * 14700.0}
+    unmeasured = machine_estimate({"new_algo": "d2mava"}, "cuda", 4, {}, cores=5)
+    assert unmeasured.rates == {"new_algo": 4 * 8300.0}
+    assert unmeasured.bound == {"new_algo": "rollouts (GPU learner not measured: assumed to keep up)"}
     cpu = machine_estimate(kinds, "cpu", 1, cpu_rates, cores=2)  # one worker: the rollouts bound DDQN
     assert cpu.rates == {"d2mava_a": 5000.0, "ddqn": ROLLOUT_PER_CORE["dqn"]}
     assert cpu.bound == {"d2mava_a": "measured on 2 cores", "ddqn": "rollouts"}

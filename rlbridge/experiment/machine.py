@@ -9,8 +9,9 @@ k, so a run goes at the pace of the slower of the two:
 * the learner: on a CPU, the whole-run rates measured on the 2-core development machine
   (``study.DEFAULT_RATES``, where the learner had one core): a lower bound for a machine with more
   cores, since the learners scale less than linearly with threads (issue 27 measured 16 cores at
-  4-5 times 2 cores) and no larger CPU was measured; on CUDA not measured here (no GPU was
-  available), so the estimate assumes the GPU learner keeps up and the rollouts bound the run.
+  4-5 times 2 cores) and no larger CPU was measured; on CUDA the learner alone as
+  ``bench/bench_learner.py`` measured it on an NVIDIA H200 (:data:`CUDA_LEARNER_RATES`; a
+  contender not measured there is assumed to keep up with its rollouts, and the bound says so).
 
 ``aamgym study --plan`` prints this estimate for the machine beside the one from the rates
 measured on the 2-core development machine.
@@ -25,6 +26,12 @@ from dataclasses import dataclass
 # machine (docs/algorithms.md, "Learning throughput": cProfile of one nyc_train_100 episode pair).
 ROLLOUT_PER_CORE = {"d2mava": 8300.0, "dqn": 14700.0}
 
+# Aircraft-states per second of the learner alone on CUDA (the static path, CUDA graphs), per
+# contender: ``python bench/bench_learner.py --devices cpu cuda --threads 16`` on one NVIDIA H200,
+# 2026-11-27 (docs/algorithms.md, "The learner alone"; docs/results/bench/bench_learner_h200.json).
+CUDA_LEARNER_RATES = {"d2mava_a": 73794.0, "d2mava_a_shared": 107100.0, "ddqn": 989238.0,
+                      "ddqn_per_transition": 15182.0}
+
 @dataclass(frozen=True)
 class MachineEstimate:
     """Aircraft-states per second of each contender's run on one machine, and what bounds it."""
@@ -33,7 +40,7 @@ class MachineEstimate:
     device: str
     workers: int
     rates: dict[str, float]  # contender -> aircraft-states/s
-    bound: dict[str, str]  # contender -> "rollouts" or "measured on 2 cores" (a CPU learner's run)
+    bound: dict[str, str]  # contender -> what bounds it: "rollouts", or the learner's measurement
 
 
 def machine_estimate(kinds: dict[str, str], device: str, workers: int, cpu_rates: dict[str, float],
@@ -44,7 +51,15 @@ def machine_estimate(kinds: dict[str, str], device: str, workers: int, cpu_rates
     rates, bound = {}, {}
     for name, kind in kinds.items():
         rollouts = ROLLOUT_PER_CORE[kind] * max(workers, 1)
-        learner = float("inf") if device.startswith("cuda") else float(cpu_rates[name])
+        if device.startswith("cuda"):
+            learner = CUDA_LEARNER_RATES.get(name, float("inf"))
+            learner_bound = "learner, measured alone on an H200"
+        else:
+            learner, learner_bound = float(cpu_rates[name]), "measured on 2 cores"
         rates[name] = min(rollouts, learner)
-        bound[name] = "rollouts" if rollouts <= learner else "measured on 2 cores"
+        if rollouts <= learner:
+            bound[name] = "rollouts" if learner < float("inf") or not device.startswith("cuda") else \
+                "rollouts (GPU learner not measured: assumed to keep up)"
+        else:
+            bound[name] = learner_bound
     return MachineEstimate(cores, device, workers, rates, bound)

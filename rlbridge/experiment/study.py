@@ -300,7 +300,7 @@ def machine_line(plan: StudyPlan, device: str, workers: int, rates: dict[str, fl
     m = machine_estimate(kinds, device, workers, rates)
     hours = {a: plan.budget / m.rates[a] / 3600.0 for a in plan.contenders}
     total = sum(hours[a] for _, a, _ in plan.runs())
-    gpu = " (the GPU learner's rate is not measured: assumed to keep up)" if device.startswith("cuda") else \
+    gpu = " (a GPU learner: its rate alone as measured on an H200)" if device.startswith("cuda") else \
         " (a CPU learner: at least the rates above)"
     return (f"this machine: {m.cores} CPUs, learner on {device}, {m.workers} worker(s){gpu}: "
             + ", ".join(f"{a} {hours[a]:.2f} h per run ({m.rates[a]:,.0f} aircraft-states/s: {m.bound[a]})"
