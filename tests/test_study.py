@@ -59,6 +59,20 @@ def test_machine_estimate_is_the_slower_of_rollouts_and_learner():
     assert cpu.bound == {"d2mava_a": "measured on 2 cores", "ddqn": "rollouts"}
 
 
+def test_workers_auto_is_a_study_plan_the_report_and_evaluations_understand(monkeypatch):
+    """`reproduce_paper.sh --workers auto` (the GPU machine's command): the departures under every table
+    name it, and evaluations take every core but the driver's (was: TypeError comparing 'auto' with 1)."""
+    from rlbridge.experiment.study import departures, eval_overrides, evaluation_workers
+
+    monkeypatch.setattr(os, "cpu_count", lambda: 16)
+    plan = StudyPlan(workers="auto")
+    assert evaluation_workers(plan) == 15 and evaluation_workers(StudyPlan(workers=3)) == 3
+    text = " ".join(departures(plan))
+    assert "workers=auto (the cores the learner leaves" in text
+    assert "1 rollout worker(s), one episode per iteration" in " ".join(departures(StudyPlan(workers=0)))
+    assert "workers=15" in eval_overrides(plan, Path("r"), "nyc_eval_678", "greedy", "x")
+
+
 @pytest.mark.skipif(__import__("torch").cuda.is_available(), reason="checks the error of a machine without CUDA")
 def test_study_with_device_cuda_without_cuda_fails_before_anything_starts(tmp_path):
     env = dict(os.environ, PYTHONPATH=str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", ""))

@@ -111,7 +111,7 @@ class BlueSkyEpisode(EpisodeCore):
 
         _BLUESKY["owner"] = weakref.ref(self)
         self.bs = _bluesky()
-        self._pending: dict[str, float] | None = None
+        self._pending: dict[str, tuple[Any, ...]] | None = None
         self._alt_offsets: dict[str, float] = {}  # callsign -> altitude offset given at creation [m]
 
     # ------------------------------------------------------------- simulation

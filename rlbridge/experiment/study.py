@@ -115,12 +115,17 @@ def train_overrides(plan: StudyPlan, usecase: str, algo: str, seed: int) -> list
     return over + list(plan.overrides)
 
 
+def evaluation_workers(plan: StudyPlan) -> int:
+    """The rollout workers of the study's evaluations: ``--workers``; ``auto`` leaves the driver one core
+    (an evaluation has no learner)."""
+    return int(plan.workers) if str(plan.workers) != "auto" else max(1, (os.cpu_count() or 2) - 1)
+
+
 def start_ray(plan: StudyPlan) -> None:
     """One Ray for the whole study's evaluations (each pool then finds it running instead of starting its own)."""
-    if plan.workers <= 0:
+    workers = evaluation_workers(plan)
+    if workers <= 0:
         return
-    import os
-
     import ray
 
     if not ray.is_initialized():
@@ -128,7 +133,7 @@ def start_ray(plan: StudyPlan) -> None:
 
         paths = [_code_root()] + [p for p in os.environ.get("PYTHONPATH", "").split(os.pathsep) if p]
         os.environ.setdefault("RAY_worker_niceness", "0")
-        ray.init(num_cpus=max(os.cpu_count() or 1, plan.workers), include_dashboard=False, log_to_driver=True,
+        ray.init(num_cpus=max(os.cpu_count() or 1, workers), include_dashboard=False, log_to_driver=True,
                  runtime_env={"env_vars": {"PYTHONPATH": os.pathsep.join(dict.fromkeys(paths))}})
 
 
@@ -144,9 +149,7 @@ def eval_overrides(plan: StudyPlan, run: Path, scenario: str, actions: str, labe
     # Baselines once per seed set (with the greedy evaluation); unequipped always (the ratios' reference).
     baselines = plan.baselines if greedy else []
     name = label if greedy else sampled_label(label, algo)
-    # Evaluations have no learner: workers=auto leaves the driver one core.
-    workers = plan.workers if str(plan.workers) != "auto" else max(1, (os.cpu_count() or 2) - 1)
-    return [f"run={run}", f"scenario={scenario}", f"episodes={plan.episodes}", f"workers={workers}",
+    return [f"run={run}", f"scenario={scenario}", f"episodes={plan.episodes}", f"workers={evaluation_workers(plan)}",
             f"greedy={str(greedy).lower()}", f"baselines=[{','.join(baselines)}]", f"name='{name}'"]
 
 
@@ -238,11 +241,17 @@ def export_run(work: Path, run: Path, dest: Path) -> None:
 
 def departures(plan: StudyPlan) -> list[str]:
     """What this study does differently from the paper (named under every table that shows its results)."""
+    if str(plan.workers) == "auto":
+        workers = "workers=auto (the cores the learner leaves: 15 on a 16-core machine with a GPU)"
+        per_update = "that many"
+    else:
+        workers = f"{max(int(plan.workers), 1)} rollout worker(s)"
+        per_update = str(max(int(plan.workers), 1))
     out = [(f"training budget: {plan.budget:,} aircraft-states per run, the same for every contender (the paper: "
            "100 h on 40 workers; 342 M aircraft-states for D2MAV-A No Shared Layers)"),
-           (f"{max(plan.workers, 1)} rollout worker(s), one episode per iteration (the paper: 40 workers, one "
-           f"episode each per iteration), so each update learns from {max(plan.workers, 1)} episode(s) and the "
-           f"best weights are chosen by the {plan.best_window}-iteration rolling mean over that many episodes"),
+           (f"{workers}, one episode per iteration (the paper: 40 workers, one episode each per iteration), so "
+           f"each update learns from {per_update} episode(s) and the best weights are chosen by the "
+           f"{plan.best_window}-iteration rolling mean over that many episodes"),
            ("altitude noise drawn per episode seed (uniform ±100 ft about the lanes, the paper's distribution), in "
            "training and evaluation (the paper: the scenario's single draw)"),
            ("DDQN is updated as RLlib's DQN updated the paper's run (one gradient step of 512 per 160 environment "

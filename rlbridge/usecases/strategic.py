@@ -159,7 +159,7 @@ class StrategicPlanning(UseCaseBase):
     name = "strategic_planning"
     env_name = "StrategicPlanning"
     params_class = StrategicParams
-    standing_agents = (PLANNER,)
+    standing_agents: tuple[str, ...] = (PLANNER,)
     aircraft_agents = False
     policy_params: ClassVar[tuple[str, ...]] = ("tactical",)  # frozen policies: baseline names or run paths
     plans_departures: ClassVar[bool] = True  # holds the scenario's departures back (not on BlueSky's reader)
