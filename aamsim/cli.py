@@ -12,7 +12,7 @@ import click
 
 from aamsim.errors import CommandError
 from aamsim.extras import MissingExtra, require
-from aamsim.limits import DEFAULT_MAX_AIRCRAFT
+from aamsim.limits import DEFAULT_LOCAL_MAX_AIRCRAFT, DEFAULT_MAX_AIRCRAFT
 from aamsim.units import UnitParseError, parse_time
 
 
@@ -146,6 +146,9 @@ def main() -> None:
 @click.option("--threads", type=int, default=None,
               help="Numba threads stepping the traffic, at most the CPU cores (same results; helps from a "
                    "thousand aircraft on idle cores). Default: AAMSIM_THREADS, else 1.")
+@click.option("--max-aircraft", type=click.IntRange(min=1), default=DEFAULT_LOCAL_MAX_AIRCRAFT, show_default=True,
+              help="Most aircraft flying at once; a CRE past it, or an MCRE that does not fit whole, is a "
+                   "reported error and the run goes on.")
 @click.option("--overlay", "overlays", multiple=True, metavar="FILE|opensky:LAT0,LON0,LAT1,LON1",
               help="Real traffic as non-cooperative intruders: a recording (OpenSky, traffic library; "
                    "docs/real-traffic.md) or live OpenSky state vectors in a box (paced to real time). Repeatable.")
@@ -168,8 +171,8 @@ def main() -> None:
                    "command at time 0 before the scenario, e.g. --set \"stack=RESO DAA\" (repeatable).")
 def run(scenario: str, until: str | None, out_dir: Path | None, dt: float, seed: int | None, strict: bool,
         quiet: bool, log_period: float, plugins: tuple[str, ...], delete_on_arrival: bool, metrics: str,
-        nmac: str, lowc: str, threads: int | None, overlays: tuple[str, ...], overlay_offset: str,
-        overlay_area: str, show_view: bool, host: str, port: int, allow_hosts: tuple[str, ...],
+        nmac: str, lowc: str, threads: int | None, max_aircraft: int, overlays: tuple[str, ...],
+        overlay_offset: str, overlay_area: str, show_view: bool, host: str, port: int, allow_hosts: tuple[str, ...],
         open_browser: bool, pace: float | None, allow_commands: bool, sets: tuple[str, ...]) -> None:
     """Simulate SCENARIO headless, as fast as possible, and write a run directory.
 
@@ -218,7 +221,8 @@ def run(scenario: str, until: str | None, out_dir: Path | None, dt: float, seed:
         raise click.BadParameter(f'"{overlay_area}": expected 4 numbers LAT0,LON0,LAT1,LON1',
                                  param_hint="--overlay-area")
     cfg = RunConfig(scenario, out_dir, until_s, dt, seed, strict, log_period, plugins, delete_on_arrival, groups,
-                    volumes, threads, overlays=overlays, overlay_offset=overlay_offset, overlay_area=area)
+                    volumes, threads, overlays=overlays, overlay_offset=overlay_offset, overlay_area=area,
+                    max_aircraft=max_aircraft)
     if sets:
         cfg = _with_settings(cfg, sets)
 

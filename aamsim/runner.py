@@ -23,6 +23,7 @@ from typing import Any
 
 import aamsim
 from aamsim.errors import ScenarioSyntaxError
+from aamsim.limits import DEFAULT_LOCAL_MAX_AIRCRAFT
 from aamsim.output.flights import write_flights
 from aamsim.output.recorder import TrajectoryRecorder
 from aamsim.output.summary_file import ProvisionalSummary, write_json_atomic
@@ -66,6 +67,7 @@ class RunConfig:
     overlays: tuple[str, ...] = ()
     overlay_offset: str = ""  # REPLAY's offset for the recordings: [-][[HH:]MM:]SS or @UTC-TIME
     overlay_area: tuple[float, ...] = ()  # LAT0, LON0, LAT1, LON1: only the recordings' reports in it
+    max_aircraft: int | None = DEFAULT_LOCAL_MAX_AIRCRAFT  # aircraft at once; one more is a reported error
 
 
 @dataclass
@@ -89,7 +91,7 @@ def default_out_dir(scenario: Path) -> Path:
 
 def build_simulation(cfg: RunConfig, path: Path, text: str) -> Simulation:
     """A simulation with the run's settings, plugins and services attached."""
-    sim = Simulation(seed=cfg.seed, dt=cfg.dt_s, threads=cfg.threads)
+    sim = Simulation(seed=cfg.seed, dt=cfg.dt_s, threads=cfg.threads, max_aircraft=cfg.max_aircraft)
     sim.settings.delete_on_arrival = cfg.delete_on_arrival
     sim.files.name = cfg.name or path.stem
     sim.files.path = path

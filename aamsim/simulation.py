@@ -29,7 +29,7 @@ from aamsim.clock import Clock, TimeStepError
 from aamsim.errors import CommandError, SourceRef
 from aamsim.geo import qdrdist
 from aamsim.hooks import Hooks
-from aamsim.limits import SimulationLimits
+from aamsim.limits import DEFAULT_LOCAL_MAX_AIRCRAFT, SimulationLimits
 from aamsim.messages import Reporter
 from aamsim.navdb import NavDatabase
 from aamsim.scenario_files import ScenarioFiles
@@ -71,6 +71,10 @@ class Simulation(SimulationAPI):
     (:class:`~aamsim.stack.executor.CommandExecutor`, whose handlers receive this
     object as a :class:`~aamsim.stack.context.CommandContext`), the traffic, and
     the services. What stays here is the stepping loop that ties them together.
+
+    ``max_aircraft`` bounds the aircraft flying at once (default
+    :data:`~aamsim.limits.DEFAULT_LOCAL_MAX_AIRCRAFT`, None: no bound): a creation past it is a
+    reported error and the run goes on (:mod:`aamsim.limits`).
     """
 
     STATE_INIT, STATE_OP, STATE_HOLD = "INIT", "OP", "HOLD"
@@ -84,6 +88,7 @@ class Simulation(SimulationAPI):
         register_builtins: bool = True,
         threads: int | None = None,
         traffic: Traffic | None = None,
+        max_aircraft: int | None = DEFAULT_LOCAL_MAX_AIRCRAFT,
     ):
         try:
             self.clock = Clock(dt)  # the one check every entry point shares (aamsim.clock)
@@ -106,7 +111,12 @@ class Simulation(SimulationAPI):
         self.reporter = Reporter()
         self.executor = CommandExecutor(self, self.commands, self.scheduler.queue, self.report)
         self.files = ScenarioFiles()
-        self.limits = SimulationLimits()  # a server's limits on its client's session (none here)
+        if max_aircraft is not None and (isinstance(max_aircraft, bool) or not isinstance(max_aircraft, int)
+                                         or max_aircraft < 1):
+            raise ValueError(f"max_aircraft must be a whole number of at least 1 (or None: no bound), not "
+                             f"{max_aircraft!r}")
+        # The local bound on aircraft at once; a server replaces these with its client's session limits.
+        self.limits = SimulationLimits(max_aircraft=max_aircraft)
         self.conditions = Conditions()
         self.navdb = NavDatabase(use_bluesky_data=use_bluesky_navdata)
         self.performance = performance or PerformanceTable()
@@ -275,10 +285,10 @@ class Simulation(SimulationAPI):
             raise CommandError(f"aircraft {acid} already exists")
         if not acid or any(c in acid for c in " ,;#>'\""):
             raise CommandError(f'"{acid}" is not a valid callsign')
-        limit = self.limits.max_aircraft
-        if limit is not None and self.traffic.n >= limit:
-            raise CommandError(self.limits.refusal(f"{acid}: this simulation flies at most {limit:,} aircraft at "
-                                                   "once"))
+        if self.limits.room(self.traffic.n) == 0:
+            raise CommandError(self.limits.refusal(
+                f"{acid}: this simulation flies at most {self.limits.max_aircraft:,} aircraft at once, and "
+                f"{self.traffic.n:,} fly at t = {self.simt:.2f} s: not created"))
         if len(acid) > MAX_CALLSIGN_CHARS:
             raise CommandError(f'"{acid[:20]}...": a callsign has at most {MAX_CALLSIGN_CHARS} characters, '
                                f"not {len(acid):,}")

@@ -80,11 +80,15 @@ def test_a_session_flies_at_most_max_aircraft(root: Path) -> None:
         assert len(refused) == 60 - (40 - before) and "--max-aircraft" in refused[0]
 
 
-def test_mcre_stops_at_the_limit_too() -> None:
+def test_an_mcre_past_the_limit_is_refused_whole() -> None:
     sim = Simulation(use_bluesky_navdata=False)
-    sim.limits = SimulationLimits(max_aircraft=25)
+    sim.limits = SimulationLimits(max_aircraft=25, why="a limit of this server")
     sim.stack("MCRE 100")
-    assert sim.traffic.n == 25 and "at most 25 aircraft" in sim.reporter.errors()[-1].text
+    assert sim.traffic.n == 0  # none created: it used to create 25 of the 100 and stop
+    assert sim.reporter.errors()[-1].text.endswith("at most 25 aircraft at once, and 0 fly at t = 0.00 s: 25 more fit; "
+                                                   "none created; a limit of this server")
+    sim.stack("MCRE 25")
+    assert sim.traffic.n == 25
 
 
 def test_a_conflict_check_stops_at_the_pair_bound_with_one_error(monkeypatch: pytest.MonkeyPatch) -> None:

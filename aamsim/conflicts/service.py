@@ -26,6 +26,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from aamsim.compiled_errors import original_errors
 from aamsim.conflicts.events import EventLog, SeparationEvent
 from aamsim.conflicts.fused import detect_all, new_pair_count, volume_pass
 from aamsim.conflicts.grid import NO_PAIR_LIMIT, candidate_pairs, snapshot_arrays, swept_boxes
@@ -140,6 +141,7 @@ class ConflictService:
     state: ConflictState | None = None
     conflict_pairs_total: int = 0  # new conflict pairs (i<j) over the run
     checks_cut: int = 0  # checks whose pair search stopped at MAX_PAIRS_PER_CHECK
+    checks_skipped: int = 0  # checks that ran out of memory (reported once)
     min_separation_m: float = math.inf
     _closest_ids: tuple[str, ...] = ()
     _closest_arr: np.ndarray = field(default_factory=lambda: np.empty(0))
@@ -188,17 +190,39 @@ class ConflictService:
         return np.maximum(np.minimum(now - self._last_check_s, now - created), 0.0)
 
     def check(self, sim: Simulation) -> None:
-        """Run all detections on the current state (the post-step hook)."""
+        """Run all detections on the current state (the post-step hook).
+
+        An exception that interrupts one of its compiled passes (Ctrl-C, an alarm, a MemoryError) is raised as
+        itself, not as Numba's opaque ``SystemError`` (:mod:`aamsim.compiled_errors`); a MemoryError in the
+        detection pass, whose memory grows with the pairs it finds, skips the check with an error instead.
+        """
+        with original_errors():
+            self._check(sim)
+
+    def _check(self, sim: Simulation) -> None:
         t = sim.traffic
         st = sim.settings
         n = t.n
         cd_on = st.cd_method != "OFF"
         radii, cylinder, half_heights = self._volume_arrays()
         matrix, rows = kinematic_matrix(t, _KINEMATIC_FIELDS)
-        (ci, cj, tcpa, dcpa, tin, li, lj, inconf, tcpamax, _eq, ei, ej, e_in, e_out, e_dmin, e_tmin, e_pos, count,
-         closest, dnow, cut) = detect_all(matrix, n, rows, R_EARTH, self._lookback(sim, n), cd_on, st.zoner_m,
-                                          st.zonedh_m, st.dtlook_s, radii, cylinder, half_heights,
-                                          self.closest_range_m, self._conflicts_hint, MAX_PAIRS_PER_CHECK)
+        try:
+            # An interruption (Ctrl-C, an alarm) or a MemoryError while the compiled pass hands its arrays
+            # back arrives as its own exception, not as Numba's opaque SystemError (aamsim.compiled_errors).
+            with original_errors():
+                (ci, cj, tcpa, dcpa, tin, li, lj, inconf, tcpamax, _eq, ei, ej, e_in, e_out, e_dmin, e_tmin, e_pos,
+                 count, closest, dnow, cut) = detect_all(
+                    matrix, n, rows, R_EARTH, self._lookback(sim, n), cd_on, st.zoner_m, st.zonedh_m, st.dtlook_s,
+                    radii, cylinder, half_heights, self.closest_range_m, self._conflicts_hint, MAX_PAIRS_PER_CHECK)
+        except MemoryError:
+            # The next check that fits looks back to the last one that ran (_lookback), so the events of
+            # the skipped interval are still found then.
+            self.checks_skipped += 1
+            if self.checks_skipped == 1:
+                sim.report("error", f"conflict detection: out of memory at t = {sim.simt:.2f} s ({n:,} aircraft); "
+                                    "this check was skipped, as is each later one that runs out of memory (the "
+                                    "next check that runs covers the time since the last one)")
+            return
         self._conflicts_hint = len(ci) + len(ci) // 4
         if cut:
             self.checks_cut += 1

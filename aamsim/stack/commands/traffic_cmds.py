@@ -62,9 +62,16 @@ def mcre(
     Positions are uniform in the MCRE area (default +-1 deg around 0,0, as
     BlueSky headless), headings uniform, altitude 2000-39000 ft and speed
     250-450 kts unless given. Callsigns are two random letters and a number.
+    More aircraft than the simulation's bound leaves room for (``aamsim run --max-aircraft``) is
+    refused whole: none is created, and the error says how many would fit.
     """
     if count <= 0 or count > 100_000:
         raise CommandError(f"MCRE needs 1..100000 aircraft, not {count}")
+    room = sim.limits.room(sim.view.n)
+    if room is not None and count > room:
+        raise CommandError(sim.limits.refusal(
+            f"MCRE {count:,}: this simulation flies at most {sim.limits.max_aircraft:,} aircraft at once, and "
+            f"{sim.view.n:,} fly at t = {sim.simt:.2f} s: {room:,} more fit; none created"))
     rng = sim.rng
     lat0, lon0, lat1, lon1 = sim.settings.mcre_area
     actype = actype or "B744"
