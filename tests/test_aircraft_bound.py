@@ -18,7 +18,6 @@ from hypothesis import strategies as st
 from aamsim import Simulation
 from aamsim.limits import DEFAULT_LOCAL_MAX_AIRCRAFT
 from tests.bridge_util import run_cli
-from tests.fuzz.scenario import Harness
 
 FUZZ_LINE = "00:00:00.76>MCRE 100000,"
 
@@ -107,16 +106,6 @@ def test_no_sequence_of_creations_passes_the_bound_and_every_refusal_is_reported
             refused += 1  # one that does not creates none, with one error
         assert sim.traffic.n == flying <= bound
         assert len(sim.reporter.errors()) == refused
-
-
-@pytest.mark.slow  # the harness compiles (or loads) every kernel first: minutes on a cold Numba cache
-def test_the_fuzz_line_no_longer_fails_under_the_fuzz_harness(tmp_path: Path) -> None:
-    """Under the harness's 20 s alarm the line was slow again alone, or a SystemError crash."""
-    harness = Harness(tmp_path)
-    harness.run(FUZZ_LINE)
-    assert harness.failures == [] and harness.unconfirmed_slow == [] and harness.heavy_lines == 0
-    assert harness._sim is not None and harness._sim.traffic.n == 2  # the harness's two setup aircraft
-    assert "MCRE 100,000: this simulation flies at most 20,000" in _errors(harness._sim)[-1]
 
 
 def test_aamsim_run_reports_an_mcre_over_the_bound_with_its_line_and_goes_on(tmp_path: Path) -> None:

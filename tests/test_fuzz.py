@@ -148,3 +148,14 @@ def test_the_viewer_websocket_answers_every_message_and_connection_as_its_policy
     assert result.cases == 150 and result.messages > 80 and result.connections > 10
     assert result.error_replies > 20 and result.refused_connections > 0
     assert [(f.kind, f.detail, f.line) for f in result.failures] == []
+
+
+def test_the_fuzz_line_no_longer_fails_under_the_fuzz_harness(tmp_path: Path) -> None:
+    """The scenario fuzzer's crash (tests/test_aircraft_bound.py): under the harness's 20 s alarm
+    ``MCRE 100000`` was slow again alone, or a SystemError crash; now the 20,000-aircraft bound refuses it.
+    In this file: the harness's warm-up of every kernel is paid once per test process."""
+    harness = Harness(tmp_path)
+    harness.run("00:00:00.76>MCRE 100000,")
+    assert harness.failures == [] and harness.unconfirmed_slow == [] and harness.heavy_lines == 0
+    assert harness._sim is not None and harness._sim.traffic.n == 2  # the harness's two setup aircraft
+    assert "MCRE 100,000: this simulation flies at most 20,000" in [m.text for m in harness._sim.reporter.errors()][-1]
