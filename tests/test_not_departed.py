@@ -162,3 +162,12 @@ def test_a_frozen_planner_under_learning_aircraft_counts_its_held_flights_too():
     op = _operational(core)
     assert (op["flights_completed"], op["flights_unfinished"], op["flights_not_departed"]) == (0, 1, 1)
     assert op["mean_delay_s"] == pytest.approx(0.0)  # both were due at 60 s
+
+
+def test_a_contender_whose_every_episode_gave_the_same_figures_is_told_apart():
+    from rlbridge.experiment.scores import same_every_episode
+
+    a = {"safety.nmac_events": 227.0, "operational.mean_delay_s": 267.57}
+    assert same_every_episode([a, dict(a), dict(a)])
+    assert not same_every_episode([a, {**a, "safety.nmac_events": 226.0}])
+    assert not same_every_episode([a])  # one episode: nothing to compare

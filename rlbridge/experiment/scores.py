@@ -115,6 +115,7 @@ def run_scores(usecases: list[str], scenario: str, episodes: int, out: Path, wor
     from rlbridge.usecases.registry import env_id
 
     rows: list[list[str]] = []
+    identical: set[int] = set()  # rows whose every episode gave the same figures (marked in scores.md)
     t0 = time.perf_counter()
     for uc in usecases:
         reference, others, learned = usecase_contenders(uc)
@@ -140,7 +141,7 @@ def run_scores(usecases: list[str], scenario: str, episodes: int, out: Path, wor
             figures = _episode_figures(d, policy)
             label = ev["policies"][policy]["label"] + suffix
             if same_every_episode(figures):
-                label += IDENTICAL_MARK
+                identical.add(len(rows))
             rows.append([env_id(uc), label, str(len(figures))]
                         + [_cell([f[k] for f in figures if f.get(k) is not None], dg) for k, _, dg in COLUMNS])
     out.mkdir(parents=True, exist_ok=True)
@@ -160,15 +161,17 @@ def run_scores(usecases: list[str], scenario: str, episodes: int, out: Path, wor
              "departure planner: rejected, or released after the end); the three add up to the flights "
              "scheduled to depart before the end. Unfinished and not departed flights count in the mean delay, "
              "to the end of the episode (a lower bound of what they would have been), and unfinished ones in the "
-             "airborne holding. The reward is per scheduled flight. A change of an environment's behaviour bumps "
+             "airborne holding. The delay is against the scheduled arrival (the RTA, at the filed cruise speed): "
+             "negative when flights fly faster than filed. The reward is per scheduled flight. A change of an environment's behaviour bumps "
              "its version; compare rows of the same version only.")
     made = (f"Made by `{command}` ({time.strftime('%Y-%m-%d')}); add your policy's row with "
             f"`aamgym evaluate policy=<exported policy> scenario={stem} episodes={episodes} seed={SEEDS_START}`.")
     lines = ["# Reference scores", "", intro, "", made, "",
              "| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
-    lines += ["| " + " | ".join(r) + " |" for r in rows]
-    if any(r[1].endswith(IDENTICAL_MARK) for r in rows):
-        lines += ["", (f"{IDENTICAL_MARK.strip()} Every episode of this contender gave the same figures: nothing the "
+    lines += ["| " + " | ".join(r[:2] + [r[2] + (IDENTICAL_MARK if k in identical else "")] + r[3:]) + " |"
+              for k, r in enumerate(rows)]
+    if identical:
+        lines += ["", (f"{IDENTICAL_MARK.strip()} Every episode of this row gave the same figures: nothing the "
                        "seed draws changed what it did (docs/usecases.md, \"Episode variation\"), so its interval "
                        "does not say how its figures vary with the traffic.")]
     wall = f"{(time.perf_counter() - t0) / 60:.1f}"
