@@ -233,6 +233,8 @@ def test_the_reference_scores_table_has_every_use_case_its_baselines_and_interva
                    ("aamgym/ReachDestination-v1", "Unequipped"),
                    ("aamgym/ReachDestination-v1", "DAA speed-only (DO-365/DAIDALUS)"), *learned("reach_destination")]
     assert all(r["episodes"] == "2" for r in table)
+    # Every scheduled flight in a column: no planner here, so none is left on the ground.
+    assert all(r["flights not departed"] == "0.0 ± 0.0" for r in table)
     assert " ± " in table[0]["NMAC / episode"] or table[0]["NMAC / episode"].count(".") == 1
     md = (tmp_path / "out" / "scores.md").read_text()
     assert "aamgym scores --usecases corridor_sa reach_destination" in md and str(tmp_path) not in md

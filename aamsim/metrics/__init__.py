@@ -1,7 +1,7 @@
 """Standardised AAM metrics: safety (NMAC, LoWC, separation) and operational groups."""
 
 from aamsim.metrics.compare import Comparison, ComparisonError, compare_runs, expand_runs, load_run
-from aamsim.metrics.registry import MetricContext, MetricRegistry
+from aamsim.metrics.registry import MetricContext, MetricRegistry, NotDeparted
 from aamsim.metrics.service import MetricsService, metrics_of, record_advisory, write_conflicts_csv
 
 __all__ = [
@@ -10,6 +10,7 @@ __all__ = [
     "MetricContext",
     "MetricRegistry",
     "MetricsService",
+    "NotDeparted",
     "compare_runs",
     "expand_runs",
     "load_run",

@@ -27,6 +27,20 @@ MetricValue = float | int | None
 MetricFn = Callable[["MetricContext"], MetricValue]
 
 
+@dataclass(frozen=True)
+class NotDeparted:
+    """A scheduled flight that never took off: held on the ground (by a departure planner) until the run ended.
+
+    It has no flight record (its aircraft was never created); the metrics count it beside the flights
+    (``flights_not_departed``) and in the delay, to the end of the run, when it was due to depart before
+    the run ended.
+    """
+
+    key: str  # the request's name: its callsign, "<callsign>#k" for its k-th flight
+    scheduled_departure_s: float  # filed departure [s of sim time]
+    scheduled_arrival_s: float = math.nan  # filed arrival (RTA at the destination) [s of sim time]; NaN: none
+
+
 @dataclass
 class MetricContext:
     """What a metric function may read: the flights, the separation events, the run."""
@@ -39,6 +53,7 @@ class MetricContext:
     min_separation_m: float = math.inf
     conflict_pairs: int = 0
     real_traffic: frozenset[str] = frozenset()  # callsigns of replayed real aircraft (aamsim.realtraffic)
+    not_departed: list[NotDeparted] = field(default_factory=list)  # scheduled flights never created
     # Per volume, its events and their counts by encounter and by pair kind: a dense run has tens of
     # thousands of events and a dozen metrics reading them.
     _by_volume: dict[str, list[SeparationEvent]] = field(default_factory=dict, init=False, repr=False,

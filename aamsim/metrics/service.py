@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import csv
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from math import isfinite, isnan
 from pathlib import Path
@@ -10,7 +11,7 @@ from typing import TYPE_CHECKING, Any
 
 from aamsim.conflicts.events import classify_encounter, track_speed
 from aamsim.conflicts.service import conflicts_of
-from aamsim.metrics.registry import MetricContext, MetricRegistry, pair_kind
+from aamsim.metrics.registry import MetricContext, MetricRegistry, NotDeparted, pair_kind
 from aamsim.metrics.standard import register_standard_metrics
 
 if TYPE_CHECKING:
@@ -33,6 +34,9 @@ def _standard_registry() -> MetricRegistry:
 class MetricsService:
     groups: tuple[str, ...] = DEFAULT_GROUPS
     registry: MetricRegistry = field(default_factory=_standard_registry)
+    # Who holds scheduled departures back (a departure planner) tells which flights it kept on the ground:
+    # they have no flight record, yet every scheduled flight must be counted (issue 28). None: nobody does.
+    held_departures: Callable[[], Sequence[NotDeparted]] | None = None
 
     def context(self, sim: Simulation, events: list[SeparationEvent] | None = None) -> MetricContext:
         """The run's AAM flights and the events with at least one AAM aircraft in them (two replayed
@@ -53,7 +57,15 @@ class MetricsService:
             hold_speed_mps=sim.settings.hold_speed_mps,
             min_separation_m=service.min_separation_m,
             conflict_pairs=service.conflict_pairs_total,
+            not_departed=self.not_departed(sim),
         )
+
+    def not_departed(self, sim: Simulation) -> list[NotDeparted]:
+        """The held flights that were due to depart before now: a flight filed to depart after the end of the
+        run is not late (an unplanned run does not create it either)."""
+        if self.held_departures is None:
+            return []
+        return [h for h in self.held_departures() if h.scheduled_departure_s < sim.simt]
 
     def compute(self, sim: Simulation, groups: tuple[str, ...] | None = None,
                 events: list[SeparationEvent] | None = None) -> dict[str, dict[str, Any]]:

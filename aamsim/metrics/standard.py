@@ -34,6 +34,14 @@ def _flight_end_s(flight: FlightRecord, ctx: MetricContext) -> float:
     return ctx.duration_s if math.isnan(flight.deleted_s) else flight.deleted_s
 
 
+def _mean_delay_s(ctx: MetricContext) -> float | None:
+    """End of each flight's record minus its scheduled arrival, over every scheduled flight that has one:
+    flown (arrived or not, :func:`_flight_end_s`) and never departed (the end of the run)."""
+    flown = [_flight_end_s(f, ctx) - f.scheduled_arrival_s for f in ctx.flights if not math.isnan(f.scheduled_arrival_s)]
+    held = [ctx.duration_s - h.scheduled_arrival_s for h in ctx.not_departed if not math.isnan(h.scheduled_arrival_s)]
+    return _mean(flown + held)
+
+
 def _events(volume: str, per: str = "") -> MetricFn:
     def metric(ctx: MetricContext) -> MetricValue:
         count = len(ctx.events_of(volume))
@@ -81,14 +89,18 @@ def register_standard_metrics(reg: MetricRegistry) -> None:
     reg.add("operational", "holding_flight_share", lambda c: _per_flight(c.count(lambda f: f.slow_s > 0), c))
     reg.add("operational", "holding_speed_threshold_mps", lambda c: c.hold_speed_mps)
     reg.add("operational", "flights_unfinished", lambda c: c.count(lambda f: not f.arrived))
+    # Scheduled flights a departure planner kept on the ground to the end (rejected, or not yet released):
+    # no aircraft, so no flight record, yet the table must account for every scheduled flight:
+    # completed + unfinished + not departed = scheduled.
+    reg.add("operational", "flights_not_departed", lambda c: len(c.not_departed))
+    reg.add("operational", "flights_scheduled", lambda c: len(c.flights) + len(c.not_departed))
     # Unfinished flights count, censored at the end of their record (deletion, else the end of the run):
     # counting arrived flights only made a policy that parks aircraft look fast (issue 28). For an
-    # unfinished flight the figure is a lower bound of what it would have been.
+    # unfinished flight the figure is a lower bound of what it would have been. A flight that never
+    # departed is late to the end of the run too (it has no flight time: it never flew).
     reg.add("operational", "mean_flight_time_s",
             lambda c: _mean([_flight_end_s(f, c) - f.created_s for f in c.flights]))
-    reg.add("operational", "mean_delay_s",
-            lambda c: _mean([_flight_end_s(f, c) - f.scheduled_arrival_s for f in c.flights
-                             if not math.isnan(f.scheduled_arrival_s)]))
+    reg.add("operational", "mean_delay_s", _mean_delay_s)
     reg.add("operational", "mean_flight_time_completed_s",
             lambda c: _mean([f.deleted_s - f.created_s for f in c.flights if f.arrived]))
     reg.add("operational", "mean_delay_completed_s",

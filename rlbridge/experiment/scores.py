@@ -29,11 +29,12 @@ log = logging.getLogger("aamgym.scores")
 SEEDS_START = 2000  # fixed held-out evaluation seeds: SEEDS_START .. SEEDS_START + episodes - 1
 # (figure key in summary.json, column title, digits): safety first, then what it cost.
 COLUMNS = (
-    ("reward_per_aircraft", "reward / aircraft", 3),
+    ("reward_per_aircraft", "reward / flight", 3),  # per scheduled flight (episode_row)
     ("safety.nmac_events", "NMAC / episode", 2),
     ("safety.lowc_events", "LoWC / episode", 2),
     ("operational.flights_completed", "flights completed", 1),
     ("operational.flights_unfinished", "flights unfinished", 1),
+    ("operational.flights_not_departed", "flights not departed", 1),
     ("operational.airborne_holding_s", "airborne holding [s]", 0),
     ("operational.mean_delay_s", "mean delay [s]", 1),
     ("operational.alert_rate_per_flight_hour", "advisories / flight hour", 1),
@@ -52,17 +53,50 @@ def usecase_contenders(usecase: str) -> tuple[str, list[str], list[str]]:
     return reference, others, learned
 
 
+PLANNER_BLOCKS = ("strategic_planning", "hierarchical")  # summary blocks of use cases that hold departures back
+
+
+IDENTICAL_MARK = " †"
+
+
+def same_every_episode(figures: list[dict[str, float]]) -> bool:
+    """Whether two or more episodes gave the very same figures (every seed played the same episode)."""
+    return len(figures) > 1 and all(f == figures[0] for f in figures[1:])
+
+
+def episode_row(summary: dict[str, Any], where: str) -> dict[str, float]:
+    """One episode's figures for the table, every scheduled flight accounted for.
+
+    Completed + unfinished + not departed must be the scheduled flights (a planner's requests): an
+    episode where they are not is an error naming ``where`` (recompute it). An episode of a use case
+    that holds no departure back, recorded before ``flights_not_departed`` existed, has none. The
+    reward is per scheduled flight (a planner that keeps every flight on the ground created none).
+    """
+    op = dict(summary.get("operational") or {})
+    requests = next((summary[b].get("requests") for b in PLANNER_BLOCKS if isinstance(summary.get(b), dict)), None)
+    if "flights_not_departed" not in op and requests is None:
+        op["flights_not_departed"] = 0
+        op["flights_scheduled"] = op.get("flights")
+    done, left, held = (op.get(k) for k in ("flights_completed", "flights_unfinished", "flights_not_departed"))
+    scheduled = op.get("flights_scheduled")
+    counted = sum((done, left, held)) if done is not None and left is not None and held is not None else None
+    if counted is None or counted != scheduled or (requests is not None and counted > requests):
+        raise ValueError(f"{where}: {done} completed + {left} unfinished + {held} not departed flights do not "
+                         f"account for the {scheduled if requests is None else requests} "
+                         f"{'scheduled flights' if requests is None else 'requests'} (an episode recorded before "
+                         "flights_not_departed existed: delete its evaluation folder to recompute it)")
+    row = {"reward_per_aircraft": summary.get("reward_total", 0.0) / max(scheduled or summary.get("flights_created", 1),
+                                                                         1)}
+    for group, values in (("safety", summary.get("safety") or {}), ("operational", op)):
+        for k, v in values.items():
+            if isinstance(v, (int, float)) and not isinstance(v, bool):
+                row[f"{group}.{k}"] = float(v)
+    return row
+
+
 def _episode_figures(eval_dir: Path, policy: str) -> list[dict[str, float]]:
-    out = []
-    for f in sorted((eval_dir / "episodes" / policy).glob("seed-*/summary.json")):
-        s = json.loads(f.read_text())
-        row = {"reward_per_aircraft": s.get("reward_total", 0.0) / max(s.get("flights_created", 1), 1)}
-        for group in ("safety", "operational"):
-            for k, v in (s.get(group) or {}).items():
-                if isinstance(v, (int, float)) and not isinstance(v, bool):
-                    row[f"{group}.{k}"] = float(v)
-        out.append(row)
-    return out
+    return [episode_row(json.loads(f.read_text()), str(f))
+            for f in sorted((eval_dir / "episodes" / policy).glob("seed-*/summary.json"))]
 
 
 def _cell(values: list[float], digits: int) -> str:
@@ -81,6 +115,7 @@ def run_scores(usecases: list[str], scenario: str, episodes: int, out: Path, wor
     from rlbridge.usecases.registry import env_id
 
     rows: list[list[str]] = []
+    identical: set[int] = set()  # rows whose every episode gave the same figures (marked in scores.md)
     t0 = time.perf_counter()
     for uc in usecases:
         reference, others, learned = usecase_contenders(uc)
@@ -105,6 +140,8 @@ def run_scores(usecases: list[str], scenario: str, episodes: int, out: Path, wor
             ev = json.loads((d / "evaluation.json").read_text())
             figures = _episode_figures(d, policy)
             label = ev["policies"][policy]["label"] + suffix
+            if same_every_episode(figures):
+                identical.add(len(rows))
             rows.append([env_id(uc), label, str(len(figures))]
                         + [_cell([f[k] for f in figures if f.get(k) is not None], dg) for k, _, dg in COLUMNS])
     out.mkdir(parents=True, exist_ok=True)
@@ -118,14 +155,25 @@ def run_scores(usecases: list[str], scenario: str, episodes: int, out: Path, wor
     intro = (f"Held-out traffic `{stem}`, seeds {SEEDS_START} .. {SEEDS_START + episodes - 1} (the same for every "
              "contender), each use case with its configuration in `rlbridge/conf/usecase` and the episode variation "
              "of its `-v1` environment (docs/usecases.md, \"Episode variation\"). Each cell: mean ± half-width of "
-             "the 95 % interval over the episodes (Student's t). Safety figures sit beside what they cost: "
-             "unfinished flights count in the delay (to the end of the episode) and the holding. A change of an "
-             "environment's behaviour bumps its version; compare rows of the same version only.")
+             "the 95 % interval over the episodes (Student's t). Safety figures sit beside what they cost. Every "
+             "scheduled flight is counted: completed (arrived), unfinished (took off, not arrived: still flying at "
+             "the end of the episode, or deleted elsewhere) or not departed (kept on the ground to the end by a "
+             "departure planner: rejected, or released after the end); the three add up to the flights "
+             "scheduled to depart before the end. Unfinished and not departed flights count in the mean delay, "
+             "to the end of the episode (a lower bound of what they would have been), and unfinished ones in the "
+             "airborne holding. The delay is against the scheduled arrival (the RTA, at the filed cruise speed): "
+             "negative when flights fly faster than filed. The reward is per scheduled flight. A change of an environment's behaviour bumps "
+             "its version; compare rows of the same version only.")
     made = (f"Made by `{command}` ({time.strftime('%Y-%m-%d')}); add your policy's row with "
             f"`aamgym evaluate policy=<exported policy> scenario={stem} episodes={episodes} seed={SEEDS_START}`.")
     lines = ["# Reference scores", "", intro, "", made, "",
              "| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
-    lines += ["| " + " | ".join(r) + " |" for r in rows]
+    lines += ["| " + " | ".join(r[:2] + [r[2] + (IDENTICAL_MARK if k in identical else "")] + r[3:]) + " |"
+              for k, r in enumerate(rows)]
+    if identical:
+        lines += ["", (f"{IDENTICAL_MARK.strip()} Every episode of this row gave the same figures: nothing the "
+                       "seed draws changed what it did (docs/usecases.md, \"Episode variation\"), so its interval "
+                       "does not say how its figures vary with the traffic.")]
     wall = f"{(time.perf_counter() - t0) / 60:.1f}"
     note = f"Wall time of this table's evaluations on the machine that made it: {wall} min (cached episodes not counted)."
     lines += ["", note]

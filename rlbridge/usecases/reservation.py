@@ -44,6 +44,7 @@ class Intent:
     origin: str
     destination: str
     filed_alt_m: float = math.nan  # altitude the scenario creates it at [m]
+    scheduled_arrival_s: float = math.nan  # its filed arrival (the RTA at its destination) [s of sim time]
 
     @property
     def duration_s(self) -> float:
@@ -73,7 +74,7 @@ def probe_intents(sim: Simulation, schedule: Schedule, sample_s: float, limit_s:
         by_acid.setdefault(r.acid, []).append(r)
         probe.queue.extend(list(r.commands))
     live: dict[str, tuple[str, list[tuple[float, float, float, float]]]] = {}  # acid -> (key, samples)
-    done: dict[str, tuple[list[tuple[float, float, float, float]], str, str]] = {}
+    done: dict[str, tuple[list[tuple[float, float, float, float]], str, str, float]] = {}
     filed: dict[str, float] = {}
 
     def sample(s: Simulation, acid: str, samples: list[tuple[float, float, float, float]]) -> None:
@@ -98,7 +99,7 @@ def probe_intents(sim: Simulation, schedule: Schedule, sample_s: float, limit_s:
             key, samples = live.pop(acid)
             sample(s, acid, samples)
             rec = s.view.flight(slot)
-            done[key] = (samples, rec.origin, rec.destination)
+            done[key] = (samples, rec.origin, rec.destination, rec.scheduled_arrival_s)
 
     def every(s: Simulation) -> None:
         for acid, (_, samples) in live.items():
@@ -112,13 +113,14 @@ def probe_intents(sim: Simulation, schedule: Schedule, sample_s: float, limit_s:
     for acid, (key, samples) in list(live.items()):  # still flying at the limit: the intent ends there
         sample(probe, acid, samples)
         rec = probe.view.flight(probe.view.slot(acid))
-        done[key] = (samples, rec.origin, rec.destination)
+        done[key] = (samples, rec.origin, rec.destination, rec.scheduled_arrival_s)
     out: dict[str, Intent] = {}
-    for key, (samples, orig, dest) in done.items():
+    for key, (samples, orig, dest, arrival_s) in done.items():
         arr = np.array(samples)
         keep = np.concatenate([[True], np.diff(arr[:, 0]) > 1e-9])  # creation/deletion on a sample instant
         arr = arr[keep]
-        out[key] = Intent(arr[:, 0] - arr[0, 0], arr[:, 1], arr[:, 2], float(arr[0, 3]), orig, dest, filed[key])
+        out[key] = Intent(arr[:, 0] - arr[0, 0], arr[:, 1], arr[:, 2], float(arr[0, 3]), orig, dest, filed[key],
+                          arrival_s)
     return out
 
 

@@ -33,6 +33,7 @@ import gymnasium as gym
 import numpy as np
 
 from aamsim.conflicts import SeparationVolume, conflicts_of
+from aamsim.metrics import NotDeparted, metrics_of
 from aamsim.stack.parser import TimedCommand
 from aamsim.units import FT
 from rlbridge.usecases.protocol import Feedback, Observations, UseCaseBase, make_params
@@ -145,7 +146,9 @@ class Episode:
     table: IntentTable
     next: int = 0
     outcomes: list[Outcome] = field(default_factory=list)
-    layer_dz: dict[str, list[float]] = field(default_factory=dict)  # callsign -> offsets for its next creations
+    # callsign -> (request key, altitude offset [m]) of each placed flight still to take off, in order
+    pending: dict[str, list[tuple[str, float]]] = field(default_factory=dict)
+    departed: set[str] = field(default_factory=set)  # request keys whose aircraft was created
     last: Outcome | None = None  # the decision whose feedback is due
     nmac_seen: int = 0
     lowc_seen: int = 0
@@ -239,7 +242,11 @@ class StrategicPlanning(UseCaseBase):
         if key not in self._plans:
             self._plans[key] = self._make_plan(sim, commands)
         self.plan = self._plans[key]
-        self.ep = Episode(IntentTable(self.plan.frame, self.params.intent_grid_s, self.params.separation_m))
+        self.ep = ep = Episode(IntentTable(self.plan.frame, self.params.intent_grid_s, self.params.separation_m))
+        plan = self.plan
+        # The flights held on the ground count in the episode's metrics (completed + unfinished + not
+        # departed = scheduled; their delay runs to the end of the episode).
+        metrics_of(sim).held_departures = lambda: not_departed(plan, ep)
         self._skip_unplaceable(sim)
         return list(self.plan.schedule.other)
 
@@ -271,9 +278,10 @@ class StrategicPlanning(UseCaseBase):
     def _on_created(self, sim: Simulation, slot: int) -> None:
         """A planned flight takes off on its planned layer (its filed noise about it kept)."""
         assert self.ep is not None
-        pending = self.ep.layer_dz.get(sim.view.ids[slot])
+        pending = self.ep.pending.get(sim.view.ids[slot])
         if pending:
-            dz = pending.pop(0)
+            key, dz = pending.pop(0)
+            self.ep.departed.add(key)
             if dz:
                 sim.offset_altitude(slot, dz)
 
@@ -396,7 +404,7 @@ class StrategicPlanning(UseCaseBase):
         dz = float(self._layer_offsets(req)[max(layer, 0)])
         flown = self.plan.layer_intents[max(layer, 0)][req.key]
         self.ep.table.reserve(req.key, flown, req.request_s + delay, intent.alt_m + dz)
-        self.ep.layer_dz.setdefault(req.acid, []).append(dz)
+        self.ep.pending.setdefault(req.acid, []).append((req.key, dz))
         # A decision can come a step after its request (the engine advances by at least one step):
         # commands already due run at once.
         for cmd in req.shifted(delay):
@@ -519,6 +527,18 @@ class StrategicPlanning(UseCaseBase):
 
     def to_dict(self) -> dict[str, Any]:
         return asdict(self.params)
+
+
+def not_departed(plan: PlanData, ep: Episode) -> list[NotDeparted]:
+    """The scheduled flights that have not taken off: unplaced (rejected, beyond the horizon, never flew in
+    the probe), placed but not created yet (a slot after the end), and not decided yet. Each with its filed
+    departure and arrival (the RTA at its destination, as the probe flew it)."""
+    decided = {o.key for o in ep.outcomes}
+    held = [o.key for o in ep.outcomes if o.key not in ep.departed]
+    held += [r.key for r in plan.schedule.requests if r.key not in decided]
+    filed = {r.key: r.request_s for r in plan.schedule.requests}
+    return [NotDeparted(k, filed[k], plan.intents[k].scheduled_arrival_s if k in plan.intents else math.nan)
+            for k in held]
 
 
 def planning_metrics(outcomes: list[Outcome], requests: int, sim: Simulation, tactical_decisions: int) -> dict[str, Any]:
