@@ -2,8 +2,10 @@
 
 from __future__ import annotations
 
+import csv
 import json
 import math
+import os
 import subprocess
 import sys
 from pathlib import Path
@@ -15,13 +17,18 @@ from gymnasium.utils.env_checker import check_env
 from pettingzoo.test import parallel_api_test
 
 import rlbridge
+from aamsim.geo import qdrdist
 from aamsim.units import FT, R_EARTH
 from rlbridge.agents import make_actor
 from rlbridge.core import EpisodeCore
 from rlbridge.usecases.protocol import AdvisoryKindError
 
 HERE = Path(__file__).parent
+ROOT = HERE.parent
 TINY = str(HERE / "data" / "tiny_conflict.scn")
+NEAR = str(HERE / "data" / "near_destination.scn")
+WINDOW = str(HERE / "data" / "nyc_eval_window.scn")
+TEND, TEND2 = (40.75, -73.96443), (40.85, -73.96443)
 UC = "heading_altitude_sa"
 
 
@@ -153,3 +160,106 @@ def test_heading_and_altitude_advisories_fly_on_bluesky(tmp_path):
     for r in rows[3:]:  # resumed: on its route (LNAV) and back to its own altitude
         assert r["bs_lnav"] and r["bs_selalt"] == pytest.approx(r["own_alt"])
     assert rows[-1]["bs_alt"] < rows[3]["bs_alt"]
+
+
+# ------------------------------------------------------------------ back to the route and the destination
+def near_episode() -> EpisodeCore:
+    core = EpisodeCore(NEAR, UC, {"alt_noise_ft": 0.0}, time_limit_s=600.0)
+    core.reset(0)
+    return core
+
+
+def fly(core: EpisodeCore, plan: dict[float, dict[str, int]], until_s: float = math.inf) -> None:
+    """Step the episode (decisions every 10 s), giving the actions ``plan`` lists at their decision times."""
+    result = None
+    while core.sim.simt < until_s - 1e-6 and (result is None or not result.done):
+        result = core.step(plan.get(round(core.sim.simt, 3), {}))
+
+
+def completed(core: EpisodeCore) -> set[str]:
+    return {f.acid for f in core.sim.flight_log if f.arrived}
+
+
+def test_turned_away_near_its_destination_and_resumed_it_arrives():
+    """Turned 40 deg right 1.2 km before TEND and resumed 10 s later, 0.73 km from it: TEND lies inside its turn
+    circle (720 m), where LNAV would pass it, switch off and fly on for good (nyc_eval_678 under daa: 65 flights).
+    It flies straight on until it can turn onto TEND, then arrives."""
+    core = near_episode()
+    uc = core.usecase
+    fly(core, {60.0: {"TA1": 13}}, until_s=70.0)
+    sim = core.sim
+    i = sim.view.slot("TA1")
+    trk = float(sim.view.trk[i])
+    assert trk == pytest.approx(130.0, abs=0.5)  # the bearing to TEND (90) + 40
+    assert qdrdist(sim.view.lat[i], sim.view.lon[i], *TEND)[1] == pytest.approx(734.0, abs=10.0)
+    # The resume actions fly on along the track it has (what the daa baseline checks for conflicts).
+    targets = uc.action_targets(sim, np.array([i]), "heading")[0]
+    assert targets[uc.resume_action] == pytest.approx(trk)
+    fly(core, {70.0: {"TA1": uc.resume_action}}, until_s=80.0)
+    i = sim.view.slot("TA1")
+    assert not sim.view.lnav[i] and float(sim.view.trk[i]) == pytest.approx(trk, abs=0.1)  # straight on
+    fly(core, {})
+    assert "TA1" in completed(core)
+    arrival = next(f for f in sim.flight_log if f.acid == "TA1").deleted_s
+    assert arrival < 200.0
+
+
+def test_a_route_that_ends_short_of_the_destination_is_flown_again():
+    """The autopilot itself may direct a turned aircraft to its destination from inside its turn circle (after
+    passing a waypoint of its route: EVL1129 under mvp, nyc_eval_678 seed 2003). It passes the destination
+    without arriving and LNAV switches off at the end of the route; at the next decision the use case sends it
+    back."""
+    core = near_episode()
+    uc = core.usecase
+    fly(core, {10.0: {"TA1": 13}, 20.0: {"TA1": uc.resume_action}}, until_s=60.0)  # turned once, far from TEND
+    sim = core.sim
+    i = sim.view.slot("TA1")
+    assert sim.view.lnav[i]
+    sim.select_heading(i, 130.0)
+    sim.run_until(70.0)
+    sim.resume_route(i)  # direct to TEND, 0.7 km away inside the turn circle
+    missed = False
+    while "TA1" in sim.view and sim.simt < 600.0:
+        fly(core, {}, until_s=sim.simt + 10.0)
+        i = sim.view.find("TA1")
+        if i is not None and not sim.view.lnav[i]:
+            missed |= qdrdist(sim.view.lat[i], sim.view.lon[i], *TEND)[1] > 0.05 * 1852.0
+    assert missed  # its route ended short of TEND ...
+    assert "TA1" in completed(core)  # ... and it arrived all the same
+
+
+def test_an_aircraft_that_reached_its_destination_is_left_to_fly_on():
+    """TB2's scenario does not remove it at TEND2: once a turned aircraft has passed within arrival_m of its
+    destination, the end of its route is the scenario's, and it flies on like every other aircraft."""
+    core = near_episode()
+    uc = core.usecase
+    fly(core, {10.0: {"TB2": 13}, 20.0: {"TB2": uc.resume_action}}, until_s=200.0)
+    sim = core.sim
+    i = sim.view.slot("TB2")
+    assert not sim.view.lnav[i]  # its route ended at TEND2
+    d0 = qdrdist(sim.view.lat[i], sim.view.lon[i], *TEND2)[1]
+    fly(core, {}, until_s=400.0)
+    i = sim.view.slot("TB2")
+    assert not sim.view.lnav[i]
+    assert qdrdist(sim.view.lat[i], sim.view.lon[i], *TEND2)[1] > d0 + 5000.0  # straight on, not sent back
+
+
+def test_daa_and_mvp_baselines_bring_every_flight_home_from_the_cli(tmp_path):
+    """15 flights of nyc_eval_678 (tests/data/nyc_eval_window.scn), evaluated as a user would: before, daa left 2
+    of them and mvp 1 flying on past their destinations at the time limit (and, over the whole day, thousands of
+    NMAC between such aircraft). Every flight arrives, with NMAC and LoWC about the unequipped aircraft's."""
+    env = dict(os.environ, PYTHONPATH=str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", ""))
+    proc = subprocess.run([sys.executable, "-m", "rlbridge.experiment", "evaluate", "baseline=daa", f"usecase={UC}",
+                           f"scenario={WINDOW}", "episodes=1", "seed=2003", "workers=0", "env.time_limit_s=1800",
+                           "hydra.run.dir=eval"], cwd=tmp_path, env=env, capture_output=True, text=True, timeout=600,
+                          check=False)
+    assert proc.returncode == 0, proc.stdout[-3000:] + proc.stderr[-3000:]
+    with open(tmp_path / "eval" / "episodes.csv", newline="") as fh:
+        rows = {r["policy"]: r for r in csv.DictReader(fh)}
+    assert set(rows) == {"daa", "mvp", "unequipped"}
+    for r in rows.values():
+        assert int(r["flights_completed"]) == int(r["aircraft"]) == 15, r
+    for name in ("daa", "mvp"):
+        assert int(rows[name]["nmac_events"]) <= int(rows["unequipped"]["nmac_events"]) + 1
+        assert int(rows[name]["lowc_events"]) <= int(rows["unequipped"]["lowc_events"]) + 2
+        assert float(rows[name]["alert_rate_per_flight_hour"]) > 0  # they did turn aircraft

@@ -6,7 +6,11 @@ it observes its deviation from its route and its own altitude and its closest
 intruders, and picks one advisory, a pair (heading offset, altitude offset):
 
 * heading: fly ``heading_offsets_deg[h]`` off the bearing to the active waypoint
-  (LNAV off); offset 0 resumes the route (LNAV on, to the nearest waypoint);
+  (LNAV off); offset 0 resumes the route (LNAV on, to the nearest waypoint). An
+  aircraft that cannot turn onto its destination from where it is (inside its
+  turn circle, :mod:`rlbridge.usecases.rejoin`) flies straight on instead and
+  resumes at the first decision it can: flown at once, LNAV would pass the
+  destination, switch off and leave the aircraft flying on for good;
 * altitude: fly ``altitude_offsets_ft[z]`` off the aircraft's own altitude (the one
   the scenario selects; at ``climb_rate_fpm``, never below ``alt_floor_ft``); offset
   0 returns to it.
@@ -44,6 +48,7 @@ from aamsim.metrics import record_advisory
 from aamsim.units import FPM, FT, R_EARTH
 from rlbridge.observe import nearest_neighbours
 from rlbridge.usecases.protocol import Feedback, Observations, UseCaseBase, make_params
+from rlbridge.usecases.rejoin import RouteKeeper, east_north_m
 from rlbridge.usecases.variation import NYC_LANES_FT, PAPER_ALT_NOISE_FT, add_altitude_noise
 
 if TYPE_CHECKING:
@@ -70,6 +75,9 @@ class HeadingAltitudeParams:
     altitude_offsets_ft: tuple[float, ...] = (-500.0, 0.0, 500.0)  # 500 ft: above the NMAC distance (150 m)
     climb_rate_fpm: float = 1000.0
     alt_floor_ft: float = 300.0
+    # An aircraft turned off its route is back at its destination this close to it (uam2scn removes a flight
+    # within 0.05 NM); until then the use case sends it back whenever its route ends (rlbridge.usecases.rejoin).
+    arrival_m: float = 92.6
     decision_interval_s: float = 10.0
     n_intruders: int = 10
     intruder_range_m: float = 5000.0
@@ -97,7 +105,8 @@ class HeadingAltitudeParams:
             raise ValueError("heading_offsets_deg must lie strictly between -180 and 180")
         if self.obs_format not in ("flat", "dict"):
             raise ValueError(f"obs_format must be 'flat' or 'dict', not {self.obs_format!r}")
-        for name in ("nmac_m", "lowc_m", "d_max_m", "decision_interval_s", "intruder_range_m", "climb_rate_fpm"):
+        for name in ("nmac_m", "lowc_m", "d_max_m", "decision_interval_s", "intruder_range_m", "climb_rate_fpm",
+                     "arrival_m"):
             if not getattr(self, name) > 0:
                 raise ValueError(f"{name} must be positive")
         if self.n_intruders < 1:
@@ -114,6 +123,7 @@ class _Episode:
     off_route: set[str]
     off_level: set[str]
     last_action: dict[str, int]
+    keeper: RouteKeeper  # brings the aircraft turned off their route back to it and to their destination
     heading_advisories: int = 0
     altitude_advisories: int = 0
     decisions: int = 0
@@ -151,7 +161,7 @@ class HeadingAltitudeSA(UseCaseBase):
                 "intruders": gym.spaces.Box(-big, big, shape=(p.n_intruders, INTRUDER_DIM), dtype=np.float32),
                 "mask": gym.spaces.Box(0.0, 1.0, shape=(p.n_intruders,), dtype=np.float32)})
         self._act_space: gym.spaces.Discrete = gym.spaces.Discrete(self.n_actions)
-        self.ep = _Episode({}, {}, {}, set(), set(), {})
+        self.ep = _Episode({}, {}, {}, set(), set(), {}, RouteKeeper(p.arrival_m))
 
     @property
     def decision_interval_s(self) -> float:
@@ -172,9 +182,10 @@ class HeadingAltitudeSA(UseCaseBase):
     def attach(self, sim: Simulation) -> None:
         p = self.params
         conflicts_of(sim).volumes = (SeparationVolume("nmac", p.nmac_m), SeparationVolume("lowc", p.lowc_m))
-        self.ep = _Episode({}, {}, {}, set(), set(), {})
+        self.ep = _Episode({}, {}, {}, set(), set(), {}, RouteKeeper(p.arrival_m))
         add_altitude_noise(sim, p.alt_noise_ft, p.alt_noise_lanes_ft, "heading_altitude.alt_noise")
         sim.hooks.created.add(self._on_created, name="heading_altitude.created")
+        self.ep.keeper.attach(sim)
 
     def _on_created(self, sim: Simulation, slot: int) -> None:
         view = sim.view
@@ -182,6 +193,7 @@ class HeadingAltitudeSA(UseCaseBase):
         self.ep.leg_start[acid] = (float(view.lat[slot]), float(view.lon[slot]))
         self.ep.off_route.discard(acid)
         self.ep.off_level.discard(acid)
+        self.ep.keeper.forget(acid)
         self.ep.last_action.pop(acid, None)
 
     # -------------------------------------------------------------- geometry
@@ -203,15 +215,15 @@ class HeadingAltitudeSA(UseCaseBase):
             b = wps[route.iactwp]
             a = (wps[route.iactwp - 1].lat, wps[route.iactwp - 1].lon) if route.iactwp > 0 else \
                 self.ep.leg_start.get(acid, (lat, lon))
-            ax, ay = _east_north(lat, lon, a[0], a[1])
-            bx, by = _east_north(lat, lon, b.lat, b.lon)
+            ax, ay = east_north_m(lat, lon, a[0], a[1])
+            bx, by = east_north_m(lat, lon, b.lat, b.lon)
             bearing[k] = math.degrees(math.atan2(bx, by)) % 360.0
             leg = math.hypot(bx - ax, by - ay)
             xtrack[k] = ((by - ay) * -ax - (bx - ax) * -ay) / leg if leg > 1.0 else 0.0
             end = wps[-1]
             rec = view.flight(i)
             dlat, dlon = (rec.dest_lat, rec.dest_lon) if not math.isnan(rec.dest_lat) else (end.lat, end.lon)
-            ddest[k] = math.hypot(*_east_north(lat, lon, dlat, dlon))
+            ddest[k] = math.hypot(*east_north_m(lat, lon, dlat, dlon))
         return bearing, xtrack, ddest, own
 
     # ------------------------------------------------------------ observation
@@ -224,7 +236,9 @@ class HeadingAltitudeSA(UseCaseBase):
         trk = np.radians(np.asarray(view.trk, dtype=np.float64))
         own = np.zeros((len(slots), OWN_DIM), dtype=np.float32)
         rel = np.radians(bearing) - trk[slots]
-        advised = np.array([a in self.ep.off_route or a in self.ep.off_level for a in agents], dtype=np.float32)
+        ep = self.ep
+        advised = np.array([a in ep.off_route or a in ep.off_level or a in ep.keeper.rejoining for a in agents],
+                           dtype=np.float32)
         own[:, 0] = xtrack / p.scale_xtrack_m
         own[:, 1], own[:, 2] = np.sin(rel), np.cos(rel)
         own[:, 3] = ddest / p.scale_dist_m
@@ -262,10 +276,16 @@ class HeadingAltitudeSA(UseCaseBase):
 
     # ----------------------------------------------------------------- action
     def heading_action_targets(self, sim: Simulation, slots: np.ndarray) -> np.ndarray:
-        """Track [deg] each action flies per aircraft (the resume actions: the bearing to the active waypoint)."""
+        """Track [deg] each action flies per aircraft (the resume actions: the bearing to the active waypoint,
+        or the track it has for an aircraft off its route that cannot turn onto its destination yet)."""
         bearing, _, _, _ = self._route_geometry(sim, slots)
         off = np.array([self.offsets(a)[0] for a in range(self.n_actions)])
-        return (bearing[:, None] + off[None, :]) % 360.0
+        out = (bearing[:, None] + off[None, :]) % 360.0
+        view, keeper = sim.view, self.ep.keeper
+        for k, i in enumerate(np.asarray(slots, dtype=np.int64).tolist()):
+            if view.ids[i] in keeper.steered and not view.lnav[i] and not keeper.can_rejoin(sim, i):
+                out[k, off == 0.0] = float(view.trk[i])  # it flies straight on until it can (RouteKeeper)
+        return out
 
     def altitude_action_targets(self, sim: Simulation, slots: np.ndarray) -> np.ndarray:
         """Altitude [m] each action flies to per aircraft (its own altitude plus the offset, above the floor)."""
@@ -285,25 +305,26 @@ class HeadingAltitudeSA(UseCaseBase):
             if not 0 <= a < self.n_actions:
                 raise ValueError(f"action {action!r} for {acid} is not in 0..{self.n_actions - 1}")
             todo.append((acid, i, a))
+        ep, rate = self.ep, self.params.climb_rate_fpm * FPM
         if not todo:
+            ep.keeper.keep(sim, ep.off_route)
             return
         slots = np.array([i for _, i, _ in todo], dtype=np.int64)
         trk = self.heading_action_targets(sim, slots)
         alt = self.altitude_action_targets(sim, slots)
-        ep, rate = self.ep, self.params.climb_rate_fpm * FPM
+        resumed: set[str] = set()
         for k, (acid, i, a) in enumerate(todo):
             dh, dz = self.offsets(a)
             if dh != 0.0:
                 if acid not in ep.off_route:
                     ep.own_trk[acid] = float(view.trk[i])
                     ep.off_route.add(acid)
+                ep.keeper.steer(acid)
                 sim.select_heading(i, float(trk[k, a]))
             elif acid in ep.off_route:  # back on the route (or the track it had)
                 ep.off_route.discard(acid)
-                if len(view.route(i)):
-                    sim.resume_route(i)
-                else:
-                    sim.select_heading(i, ep.own_trk.get(acid, float(view.trk[i])))
+                ep.keeper.resume(sim, i, acid, ep.own_trk.get(acid, float(view.trk[i])))
+                resumed.add(acid)
             if dz != 0.0 or acid in ep.off_level:
                 target = float(alt[k, a])
                 if abs(float(view.selalt[i]) - target) > 0.01:
@@ -320,6 +341,7 @@ class HeadingAltitudeSA(UseCaseBase):
                 ep.heading_advisories += dh != 0.0
                 ep.altitude_advisories += dz != 0.0
             ep.last_action[acid] = a
+        ep.keeper.keep(sim, ep.off_route | resumed)
 
     # ----------------------------------------------------------------- reward
     def feedback(self, sim: Simulation, agents: list[str], actions: dict[str, Any], since_s: float) -> Feedback:
@@ -358,9 +380,3 @@ class HeadingAltitudeSA(UseCaseBase):
                 "mean_abs_xtrack_m": ep.sum_xtrack / n, "max_abs_xtrack_m": ep.max_xtrack,
                 "mean_abs_dalt_m": ep.sum_dalt / n}
 
-
-def _east_north(lat0: float, lon0: float, lat1: float, lon1: float) -> tuple[float, float]:
-    """East and north offset [m] of point 1 from point 0 (flat earth, local)."""
-    dlon = (lon1 - lon0 + 180.0) % 360.0 - 180.0
-    return (R_EARTH * math.radians(dlon) * math.cos(math.radians(0.5 * (lat0 + lat1))),
-            R_EARTH * math.radians(lat1 - lat0))
