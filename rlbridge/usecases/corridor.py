@@ -127,7 +127,7 @@ class CorridorSA(UseCaseBase):
     name = "corridor_sa"
     env_name = "CorridorSA"
     params_class = CorridorParams
-    advisory_kinds: ClassVar[tuple[str, ...]] = ("speed",)  # its actions select speeds
+    advisory_kinds: tuple[str, ...] = ("speed",)  # its actions select speeds
     fixed_traffic: ClassVar[dict[str, Any]] = {"alt_noise_ft": 0.0}
     # Per agent: was it in an NMAC / LoWC event at some time during the interval.
     info_fields = {"nmac": np.bool_, "lowc": np.bool_}  # noqa: RUF012

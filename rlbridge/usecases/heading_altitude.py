@@ -138,7 +138,7 @@ class HeadingAltitudeSA(UseCaseBase):
     name = "heading_altitude_sa"
     env_name = "HeadingAltitudeSA"
     params_class = HeadingAltitudeParams
-    advisory_kinds: ClassVar[tuple[str, ...]] = ("heading", "altitude")
+    advisory_kinds: tuple[str, ...] = ("heading", "altitude")
     baselines: ClassVar[tuple[str, ...]] = ("daa", "mvp")
     fixed_traffic: ClassVar[dict[str, Any]] = {"alt_noise_ft": 0.0}
     info_fields = {"nmac": np.bool_, "lowc": np.bool_, "xtrack_m": np.float64, "dalt_m": np.float64}  # noqa: RUF012

@@ -130,7 +130,7 @@ class UseCaseBase:
     # Gymnasium id version: bumped when the environment's behaviour changes (aamgym/<env_name>-v<N>).
     env_version: ClassVar[int] = 1
     # The advisory kinds its actions emit (ADVISORY_KINDS); each has a ``<kind>_action_targets`` method.
-    advisory_kinds: ClassVar[tuple[str, ...]] = ()
+    advisory_kinds: tuple[str, ...] = ()
 
     def action_targets(self, sim: Simulation, slots: np.ndarray, kind: str) -> np.ndarray:
         """Per aircraft slot, the target each action sets for advisory ``kind`` (ADVISORY_UNITS): (n, n_actions).

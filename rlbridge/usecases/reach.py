@@ -65,7 +65,7 @@ class ReachDestination(UseCaseBase):
     name = "reach_destination"
     env_name = "ReachDestination"
     params_class = ReachParams
-    advisory_kinds: ClassVar[tuple[str, ...]] = ("speed",)  # its actions select speeds
+    advisory_kinds: tuple[str, ...] = ("speed",)  # its actions select speeds
     fixed_traffic: ClassVar[dict[str, Any]] = {"cruise_speed_kts": ()}
     # The rule-based baselines that fit: DAA steers with speed_action_targets (these speeds); the
     # speed-only MVP baseline's actions are corridor_sa's decelerate/hold/accelerate, not speeds.
