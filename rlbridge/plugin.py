@@ -14,6 +14,7 @@ from collections.abc import Callable
 from typing import TYPE_CHECKING, Any
 
 from aamsim.stack.registry import command
+from rlbridge.heap import use_one_arena
 from rlbridge.protocol import DEFAULT_MAX_MESSAGE_BYTES, PROTOCOL_VERSION
 from rlbridge.server import DEFAULT_BIND, ServerOptions, SimulationServer
 
@@ -42,11 +43,17 @@ def serve(bind: str = DEFAULT_BIND, plugins: tuple[str, ...] = (),
     """Run the simulation server until SIGINT/SIGTERM (or an enabled shutdown request); returns 0.
 
     ``options`` are :class:`~rlbridge.server.ServerOptions` fields;
-    ``on_ready(endpoint)`` is called once the socket is bound.
+    ``on_ready(endpoint)`` is called once the socket is bound. Called in the
+    main thread, the server owns the process: it handles the stop signals, and
+    all its threads allocate from one heap, whose freed memory it gives back
+    (:func:`rlbridge.heap.use_one_arena`, before ZeroMQ starts its I/O thread).
     """
+    owns_process = threading.current_thread() is threading.main_thread()
+    if owns_process:
+        use_one_arena()
     server = SimulationServer(ServerOptions(bind=bind, plugins=tuple(plugins), **options))
     previous: dict[int, Any] = {}
-    if threading.current_thread() is threading.main_thread():
+    if owns_process:
         for signum in (signal.SIGINT, signal.SIGTERM):
             previous[signum] = signal.signal(signum, lambda num, frame: _stop(server, num))
     try:

@@ -13,8 +13,6 @@ reply when the request is bad; nothing a client sends stops the server
 
 from __future__ import annotations
 
-import ctypes
-import ctypes.util
 import logging
 import math
 import time
@@ -30,6 +28,7 @@ from aamsim.clock import DT_MAX_S, DT_MIN_S
 from aamsim.errors import CommandError
 from aamsim.limits import DEFAULT_MAX_AIRCRAFT, SimulationLimits
 from rlbridge.core import EpisodeCore, ScenarioError
+from rlbridge.heap import release_memory
 from rlbridge.protocol import (
     DEFAULT_MAX_MESSAGE_BYTES,
     PROTOCOL_VERSION,
@@ -112,27 +111,7 @@ class RequestError(Exception):
         self.code = code
 
 
-def _find_malloc_trim() -> Any:
-    try:
-        libc = ctypes.CDLL(ctypes.util.find_library("c") or "libc.so.6")
-        return libc.malloc_trim
-    except (OSError, AttributeError):  # not glibc: nothing to do
-        return None
-
-
-_MALLOC_TRIM = _find_malloc_trim()
 RELEASE_AFTER_BYTES = 256 * 1024  # a request at least this large is followed by release_memory()
-
-
-def release_memory() -> None:
-    """Give the heap's free memory back to the operating system.
-
-    glibc keeps freed memory for reuse, so the server's resident size only grew
-    after large or malformed messages (195.6 -> 283.7 MB over 21,000 of them) and
-    after sessions were freed. Called after large requests and freed sessions.
-    """
-    if _MALLOC_TRIM is not None:
-        _MALLOC_TRIM(0)
 
 
 class ServerStopping(BaseException):
@@ -263,7 +242,10 @@ class SimulationServer:
                 frames = self._socket.recv_multipart(zmq.NOBLOCK, copy=False)
             except zmq.Again:
                 return
-            self.handle(frames)
+            release = self.handle(frames)
+            del frames  # the last reference to the message's buffers: free them before release_memory()
+            if release:
+                release_memory()
 
     def close(self) -> None:
         for session in self.sessions.values():
@@ -287,8 +269,14 @@ class SimulationServer:
             log.info("session %s idle for more than %.1f s: freed", identity.hex(), limit)
 
     # -------------------------------------------------------------- requests
-    def handle(self, frames: list[Any]) -> None:
-        """Answer one message ``[identity, (empty delimiter,) header, buffers...]``."""
+    def handle(self, frames: list[Any]) -> bool:
+        """Answer one message ``[identity, (empty delimiter,) header, buffers...]``.
+
+        Returns whether the caller should call :func:`~rlbridge.heap.release_memory`
+        once it has dropped ``frames`` (a large message, or a session freed): called
+        here, it would run while the caller still holds the message, whose buffers
+        (15 MB) were then freed after it and stayed resident.
+        """
         identity = bytes(frames[0])
         body = frames[1:]
         envelope: list[Any] = [identity]
@@ -303,10 +291,9 @@ class SimulationServer:
         finally:
             self.busy = False
         self._socket.send_multipart(envelope + answer, copy=False)
-        if self._freed or sum(len(f) for f in body) >= RELEASE_AFTER_BYTES:
-            del body, frames, answer
-            self._freed = False
-            release_memory()
+        release = self._freed or sum(len(f) for f in body) >= RELEASE_AFTER_BYTES
+        self._freed = False
+        return release
 
     def _answer(self, identity: bytes, body: list[Any]) -> list[Any]:
         msg_id = None
