@@ -199,6 +199,19 @@ def test_static_ppo_update_smaller_than_a_minibatch_is_eager():
 
 
 # ---------------------------------------------------------------------------------- DDQN
+def ddqn_sample_into(static, rng: np.random.Generator, d: dict[str, int]) -> dict:
+    """A random DDQN minibatch of 16, copied into ``static``'s fixed buffers; returned for the eager step."""
+    sample = {"obs": {"flat": rng.normal(size=(16, d["flat_dim"])).astype(np.float32)},
+              "next_obs": {"flat": rng.normal(size=(16, d["flat_dim"])).astype(np.float32)},
+              "actions": rng.integers(0, d["n_actions"], 16), "rewards": rng.normal(size=16).astype(np.float32),
+              "terminated": rng.random(16) < 0.2}
+    for k in ("obs", "next_obs"):
+        static._batch[k]["flat"].copy_(torch.from_numpy(sample[k]["flat"]))
+    for k in ("actions", "rewards", "terminated"):
+        static._batch[k].copy_(torch.from_numpy(sample[k]))
+    return sample
+
+
 def test_static_ddqn_step_matches_the_eager_step_for_step():
     from rlbridge.agents import make_learner
 
@@ -208,15 +221,7 @@ def test_static_ddqn_step_matches_the_eager_step_for_step():
     static = make_learner("dqn", cfg, d, seed=2, static=True)
     rng = np.random.default_rng(0)
     for step in range(5):
-        sample = {"obs": {"flat": rng.normal(size=(16, d["flat_dim"])).astype(np.float32)},
-                  "next_obs": {"flat": rng.normal(size=(16, d["flat_dim"])).astype(np.float32)},
-                  "actions": rng.integers(0, d["n_actions"], 16), "rewards": rng.normal(size=16).astype(np.float32),
-                  "terminated": rng.random(16) < 0.2}
-        loss = eager.gradient_step(sample)
-        for k in ("obs", "next_obs"):
-            static._batch[k]["flat"].copy_(torch.from_numpy(sample[k]["flat"]))
-        for k in ("actions", "rewards", "terminated"):
-            static._batch[k].copy_(torch.from_numpy(sample[k]))
+        loss = eager.gradient_step(ddqn_sample_into(static, rng, d))
         static._loss_sum.zero_()
         static._step()
         assert float(static._loss_sum) == float(loss), step
@@ -360,15 +365,7 @@ def test_captured_ddqn_step_on_cuda_matches_the_eager_step_on_cuda():
     static = make_learner("dqn", cfg, d, "cuda", seed=2, static=True)
     rng = np.random.default_rng(0)
     for step in range(5):
-        sample = {"obs": {"flat": rng.normal(size=(16, d["flat_dim"])).astype(np.float32)},
-                  "next_obs": {"flat": rng.normal(size=(16, d["flat_dim"])).astype(np.float32)},
-                  "actions": rng.integers(0, d["n_actions"], 16), "rewards": rng.normal(size=16).astype(np.float32),
-                  "terminated": rng.random(16) < 0.2}
-        loss = eager.gradient_step(sample)
-        for k in ("obs", "next_obs"):
-            static._batch[k]["flat"].copy_(torch.from_numpy(sample[k]["flat"]))
-        for k in ("actions", "rewards", "terminated"):
-            static._batch[k].copy_(torch.from_numpy(sample[k]))
+        loss = eager.gradient_step(ddqn_sample_into(static, rng, d))
         static._step.prepare()  # records the graph once; its warm-up steps are undone, their losses not
         static._loss_sum.zero_()  # counted (as the update does)
         static._step()
