@@ -26,7 +26,7 @@ import gymnasium as gym
 import numpy as np
 
 from aamsim.conflicts import SeparationVolume, conflicts_of, pairs_within
-from aamsim.metrics import record_advisory
+from aamsim.metrics import record_advisories
 from aamsim.units import KTS
 from rlbridge.observe import corridor_features, nearest_neighbours
 from rlbridge.usecases.protocol import Feedback, Observations, UseCaseBase, make_params, start_overlay
@@ -187,28 +187,39 @@ class CorridorSA(UseCaseBase):
         wlat = np.empty((n, nw))
         wlon = np.empty((n, nw))
         view = sim.view
-        lat, lon, lnav = view.lat, view.lon, view.lnav
-        for s in range(n) if slots is None else slots.tolist():
-            route = t.routes[s]
-            wps = route.waypoints
-            if wps:
-                rec = t.flights[s]
-                if rec.destination and not math.isnan(rec.dest_lat):
-                    dest_lat[s], dest_lon[s] = rec.dest_lat, rec.dest_lon
-                else:
-                    dest_lat[s], dest_lon[s] = wps[-1].lat, wps[-1].lon
-                start = route.iactwp if lnav[s] and route.iactwp >= 0 else len(wps)
-                for j in range(nw):
-                    k = start + j
-                    if k < len(wps):
-                        wlat[s, j], wlon[s, j] = wps[k].lat, wps[k].lon
+        lat, lon = view.lat, view.lon
+        which = list(range(n)) if slots is None else slots.tolist()
+        if which:
+            # Each aircraft's row as Python floats (destination, then waypoint latitudes, then longitudes),
+            # written into the arrays in one go: an element write per value cost more than the routes.
+            lat_l, lon_l, lnav_l = lat.tolist(), lon.tolist(), view.lnav.tolist()
+            routes, flights = t.routes, t.flights
+            rows = []
+            for s in which:
+                route = routes[s]
+                wps = route.waypoints
+                if wps:
+                    rec = flights[s]
+                    if rec.destination and not math.isnan(rec.dest_lat):
+                        dla, dlo = rec.dest_lat, rec.dest_lon
                     else:
-                        wlat[s, j], wlon[s, j] = dest_lat[s], dest_lon[s]
-            else:
-                # No route: the aircraft's own position (zero offsets, zero distance).
-                dest_lat[s], dest_lon[s] = lat[s], lon[s]
-                wlat[s, :] = lat[s]
-                wlon[s, :] = lon[s]
+                        last = wps[-1]
+                        dla, dlo = last.lat, last.lon
+                    start = route.iactwp if lnav_l[s] and route.iactwp >= 0 else len(wps)
+                    ahead = wps[start:start + nw]
+                    pad = nw - len(ahead)
+                    rows.append([dla, dlo, *[w.lat for w in ahead], *([dla] * pad),
+                                 *[w.lon for w in ahead], *([dlo] * pad)])
+                else:
+                    # No route: the aircraft's own position (zero offsets, zero distance).
+                    la, lo = lat_l[s], lon_l[s]
+                    rows.append([la, lo, *([la] * nw), *([lo] * nw)])
+            table = np.array(rows, dtype=np.float64).reshape(len(which), 2 + 2 * nw)
+            idx = np.array(which, dtype=np.int64)
+            dest_lat[idx] = table[:, 0]
+            dest_lon[idx] = table[:, 1]
+            wlat[idx] = table[:, 2:2 + nw]
+            wlon[idx] = table[:, 2 + nw:]
         dlat = np.radians(dest_lat - lat)
         dlon = np.radians((dest_lon - lon + 180.0) % 360.0 - 180.0)
         ddest = 6371000.0 * np.hypot(dlat, dlon * np.cos(np.radians(0.5 * (dest_lat + lat))))
@@ -287,12 +298,14 @@ class CorridorSA(UseCaseBase):
         """Per-agent reward from the closest-intruder distance and the advisory given."""
         p = self.params
         d = np.array(closest_m, dtype=float)
-        if p.reward_interval_nmac:
+        if p.reward_interval_nmac and interval_nmac_min_m:  # most intervals have no NMAC at all
             for k, a in enumerate(agents):
                 if a in interval_nmac_min_m:
                     d[k] = min(d[k], interval_nmac_min_m[a])
         r_sh = np.where(d < p.nmac_m, -p.nmac_penalty, np.where(d < p.d_max_m, -p.alpha + p.delta * d, 0.0))
-        r_a = np.array([0.0 if actions.get(a, HOLD) == HOLD else -p.psi for a in agents])
+        psi = -p.psi
+        get = actions.get
+        r_a = np.array([0.0 if get(a, HOLD) == HOLD else psi for a in agents], dtype=np.float64)
         r_hover = -p.hover_cost * self.hovering(sim, agents) if p.hover_cost > 0 else 0.0
         return r_sh + r_a + r_hover - p.omega
 
@@ -316,22 +329,24 @@ class CorridorSA(UseCaseBase):
 
         All actions are checked before any is applied.
         """
-        t = sim.traffic
+        find = sim.traffic.find
         p = self.params
         slots: list[int] = []
         codes: list[int] = []
-        advised: list[tuple[str, int]] = []
+        advised: list[int] = []  # slots advised other than hold (hold advisories are not alerts)
+        names: list[str] = []
         for acid, action in actions.items():
-            i = t.find(acid)
+            i = find(acid)
             if i is None:
                 continue
             a = int(action)
-            if a not in (DECELERATE, HOLD, ACCELERATE):
-                raise ValueError(f"action {action!r} for {acid} is not 0, 1 or 2")
+            if a != HOLD:
+                if a != DECELERATE and a != ACCELERATE:
+                    raise ValueError(f"action {action!r} for {acid} is not 0, 1 or 2")
+                advised.append(i)
+                names.append(ACTION_NAMES[a])
             slots.append(i)
             codes.append(a)
-            if a != HOLD:
-                advised.append((acid, a))
         if not slots:
             return
         idx = np.array(slots, dtype=np.int64)
@@ -339,5 +354,4 @@ class CorridorSA(UseCaseBase):
         target = np.where(code == DECELERATE, p.speed_low_kts * KTS,
                           np.where(code == ACCELERATE, p.speed_high_kts * KTS, sim.view.cas[idx]))
         sim.select_speed(idx, target)
-        for acid, a in advised:  # hold advisories are not alerts
-            record_advisory(sim, acid, ACTION_NAMES[a])
+        record_advisories(sim, advised, names)
