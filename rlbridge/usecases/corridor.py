@@ -187,39 +187,28 @@ class CorridorSA(UseCaseBase):
         wlat = np.empty((n, nw))
         wlon = np.empty((n, nw))
         view = sim.view
-        lat, lon = view.lat, view.lon
-        which = list(range(n)) if slots is None else slots.tolist()
-        if which:
-            # Each aircraft's row as Python floats (destination, then waypoint latitudes, then longitudes),
-            # written into the arrays in one go: an element write per value cost more than the routes.
-            lat_l, lon_l, lnav_l = lat.tolist(), lon.tolist(), view.lnav.tolist()
-            routes, flights = t.routes, t.flights
-            rows = []
-            for s in which:
-                route = routes[s]
-                wps = route.waypoints
-                if wps:
-                    rec = flights[s]
-                    if rec.destination and not math.isnan(rec.dest_lat):
-                        dla, dlo = rec.dest_lat, rec.dest_lon
-                    else:
-                        last = wps[-1]
-                        dla, dlo = last.lat, last.lon
-                    start = route.iactwp if lnav_l[s] and route.iactwp >= 0 else len(wps)
-                    ahead = wps[start:start + nw]
-                    pad = nw - len(ahead)
-                    rows.append([dla, dlo, *[w.lat for w in ahead], *([dla] * pad),
-                                 *[w.lon for w in ahead], *([dlo] * pad)])
+        lat, lon, lnav = view.lat, view.lon, view.lnav
+        for s in range(n) if slots is None else slots.tolist():
+            route = t.routes[s]
+            wps = route.waypoints
+            if wps:
+                rec = t.flights[s]
+                if rec.destination and not math.isnan(rec.dest_lat):
+                    dest_lat[s], dest_lon[s] = rec.dest_lat, rec.dest_lon
                 else:
-                    # No route: the aircraft's own position (zero offsets, zero distance).
-                    la, lo = lat_l[s], lon_l[s]
-                    rows.append([la, lo, *([la] * nw), *([lo] * nw)])
-            table = np.array(rows, dtype=np.float64).reshape(len(which), 2 + 2 * nw)
-            idx = np.array(which, dtype=np.int64)
-            dest_lat[idx] = table[:, 0]
-            dest_lon[idx] = table[:, 1]
-            wlat[idx] = table[:, 2:2 + nw]
-            wlon[idx] = table[:, 2 + nw:]
+                    dest_lat[s], dest_lon[s] = wps[-1].lat, wps[-1].lon
+                start = route.iactwp if lnav[s] and route.iactwp >= 0 else len(wps)
+                for j in range(nw):
+                    k = start + j
+                    if k < len(wps):
+                        wlat[s, j], wlon[s, j] = wps[k].lat, wps[k].lon
+                    else:
+                        wlat[s, j], wlon[s, j] = dest_lat[s], dest_lon[s]
+            else:
+                # No route: the aircraft's own position (zero offsets, zero distance).
+                dest_lat[s], dest_lon[s] = lat[s], lon[s]
+                wlat[s, :] = lat[s]
+                wlon[s, :] = lon[s]
         dlat = np.radians(dest_lat - lat)
         dlon = np.radians((dest_lon - lon + 180.0) % 360.0 - 180.0)
         ddest = 6371000.0 * np.hypot(dlat, dlon * np.cos(np.radians(0.5 * (dest_lat + lat))))
