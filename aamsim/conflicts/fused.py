@@ -17,7 +17,7 @@ import numpy as np
 from numba import njit
 
 from aamsim.conflicts.grid import NO_PAIR_LIMIT, Strips, build_strips, candidate_pairs, snapshot_arrays, swept_boxes
-from aamsim.conflicts.pairs import encounter_pair, relative_state, statebased_pair
+from aamsim.conflicts.pairs import encounter_pair, relative_state, slant_distances, statebased_pair
 from aamsim.units import R_EARTH
 
 
@@ -298,6 +298,27 @@ def detect_all(
 
 
 _HASH_MULTIPLIER = np.int64(-7046029254386353131)  # 2**64 / golden ratio, as a signed 64-bit integer
+
+
+@njit(cache=True)
+def pairs_now(F: np.ndarray, n: int, rows: np.ndarray, r_earth: float, radius: float,
+              limit: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Pairs (slots ``pi < pj``) of the first ``n`` aircraft within ``radius`` [m] horizontally or closer
+    (a superset: the pair search's boxes), and their 3-D distances [m] now.
+
+    One compiled call for what :func:`aamsim.conflicts.service.pairs_within` did in four (snapshot,
+    boxes, search, distances; the same functions, so the same pairs in the same order): an observation
+    asks it once per decision and world, where the calls' fixed costs were most of the answer.
+    ``rows``: the rows of lat, lon, alt, ground speed east and north, and vertical speed in ``F``.
+    """
+    lat, lon, alt, u, v, _w, x, y, err, _latr, _lonr, _ch, _sh = snapshot_arrays(F, n, rows, r_earth)
+    if n < 2:
+        empty = np.empty(0, dtype=np.int64)
+        return empty, empty, np.empty(0)
+    zeros = np.zeros(n)
+    xmin, xmax, ymin, ymax, cell = swept_boxes(x, y, u, v, zeros, zeros, radius, err)
+    pi, pj = candidate_pairs(xmin, xmax, ymin, ymax, cell, limit)
+    return pi, pj, slant_distances(lat, lon, alt, pi, pj)
 
 
 @njit(cache=True)

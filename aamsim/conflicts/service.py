@@ -28,7 +28,7 @@ import numpy as np
 
 from aamsim.compiled_errors import original_errors
 from aamsim.conflicts.events import EventLog, SeparationEvent
-from aamsim.conflicts.fused import detect_all, new_pair_count, volume_pass
+from aamsim.conflicts.fused import detect_all, new_pair_count, pairs_now, volume_pass
 from aamsim.conflicts.grid import NO_PAIR_LIMIT, candidate_pairs, snapshot_arrays, swept_boxes
 from aamsim.conflicts.pairs import nearest_per_aircraft, slant_distances
 from aamsim.conflicts.zone_advice import zone_advice
@@ -398,14 +398,14 @@ def pairs_within(sim: Simulation, radius_m: float) -> tuple[np.ndarray, np.ndarr
     The pair search is a superset: filter on the distances for an exact radius. It stops at
     :data:`MAX_PAIRS_PER_CHECK` pairs, with an error the first time (aircraft piled on one spot).
     """
-    s = traffic_snapshot(sim)
-    zeros = np.zeros(len(s.ids))
-    pi, pj = search_pairs(s, zeros, zeros, radius_m, MAX_PAIRS_PER_CHECK)
+    t = sim.traffic
+    matrix, rows = kinematic_matrix(t, _KINEMATIC_FIELDS)
+    pi, pj, d = pairs_now(matrix, t.n, rows, R_EARTH, radius_m, MAX_PAIRS_PER_CHECK)
     if len(pi) >= MAX_PAIRS_PER_CHECK:
         sim.note_once("pairs_within:cut", f"over {MAX_PAIRS_PER_CHECK:,} aircraft pairs within {radius_m:g} m at "
                                           f"t = {sim.simt:.2f} s; searches for near aircraft stop there, so some "
                                           "near aircraft are left out (traffic created on one spot?)")
-    return pi, pj, slant_distances(s.lat, s.lon, s.alt, pi, pj)
+    return pi, pj, d
 
 
 def conflicts_of(sim: Simulation) -> ConflictService:

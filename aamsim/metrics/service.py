@@ -83,9 +83,20 @@ def record_advisory(sim: Simulation, acid: str, action: str) -> None:
         return
     i = sim.traffic.find(acid)
     if i is not None:
-        flight = sim.traffic.flights[i]
+        record_advisories(sim, (i,), (action,))
+
+
+def record_advisories(sim: Simulation, slots: Sequence[int], actions: Sequence[str]) -> None:
+    """:func:`record_advisory` for the aircraft in ``slots`` (one action each), by slot: a use case that
+    advises many aircraft per decision has their slots already."""
+    flights = sim.traffic.flights
+    at = f" at {sim.simt:.0f} s"
+    for i, action in zip(slots, actions):
+        if action.lower() == "hold":
+            continue
+        flight = flights[i]
         flight.advisories += 1
-        flight.last_advisory = f"{action} at {sim.simt:.0f} s"
+        flight.last_advisory = action + at
 
 
 def real_traffic_callsigns(sim: Simulation) -> frozenset[str]:

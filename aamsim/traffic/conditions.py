@@ -72,11 +72,8 @@ class Conditions:
         Cached while neither the conditions nor the aircraft slots change; the
         kernel updates ``lastdif`` in place and :meth:`update_after` keeps it.
         """
-        # Slots move only when aircraft come or go (the traffic's layout version changes then).
-        layout = self._cache_layout
-        if self._cache is not None and layout[0] is traffic and layout[1] == traffic.layout_version \
-                and self._cache_n == len(self.items):
-            arrays = self._cache
+        arrays = self.cached(traffic)
+        if arrays is not None:
             arrays[6][:] = False
             return arrays
         self._sync()
@@ -99,6 +96,16 @@ class Conditions:
         self._cache_layout = (traffic, traffic.layout_version)
         self._cache_n = n
         return self._cache
+
+    def cached(self, traffic: Traffic) -> tuple[np.ndarray, ...] | None:
+        """The kernel arrays :meth:`arrays` would return now without rebuilding them (fired flags as the
+        kernel left them), or None when they must be rebuilt."""
+        # Slots move only when aircraft come or go (the traffic's layout version changes then).
+        layout = self._cache_layout
+        if self._cache is not None and layout[0] is traffic and layout[1] == traffic.layout_version \
+                and self._cache_n == len(self.items):
+            return self._cache
+        return None
 
     def adopt_arrays(self, views: tuple[np.ndarray, ...]) -> tuple[np.ndarray, ...]:
         """Use ``views`` (kind, target, lastdif, lat, lon, fired: parts of a pool's joint arrays, with the

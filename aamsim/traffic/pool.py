@@ -137,10 +137,39 @@ class _JointConditions:
     def __init__(self) -> None:
         self._key: tuple[tuple[object, int], ...] = ()
         self._arrays: tuple[np.ndarray, ...] = _no_conditions()
+        # The last call's parts and what each got: a call with the same parts, none of them rebuilt,
+        # clears the fired flags of all in one write (a world set calls this for every kernel call).
+        self._last_parts: list[tuple[Conditions, Traffic | None, int] | None] = []
+        self._last_own: list[tuple[np.ndarray, ...] | None] = []
 
     def arrays(self, parts: list[tuple[Conditions, Traffic | None, int] | None]
                ) -> tuple[tuple[np.ndarray, ...], list[tuple[np.ndarray, ...] | None]]:
         """The joint arrays (slots into the pool) and each part's own arrays (None for a part without)."""
+        if self._unchanged(parts):
+            self._arrays[6][:] = False  # each part's fired flags are views of these
+            return self._arrays, list(self._last_own)
+        joint, own = self._rebuild(parts)
+        self._last_parts, self._last_own = list(parts), list(own)
+        return joint, own
+
+    def _unchanged(self, parts: list[tuple[Conditions, Traffic | None, int] | None]) -> bool:
+        """Whether ``parts`` are the last call's, each part's cached arrays still the ones it got then."""
+        last = self._last_parts
+        if len(parts) != len(last):
+            return False
+        for part, before, got in zip(parts, last, self._last_own):
+            if part is None or before is None:
+                if part is not before:
+                    return False
+                continue
+            cond, traffic, offset = part
+            if cond is not before[0] or traffic is not before[1] or offset != before[2] or got is None \
+                    or traffic is None or cond.cached(traffic) is not got:
+                return False
+        return True
+
+    def _rebuild(self, parts: list[tuple[Conditions, Traffic | None, int] | None]
+                 ) -> tuple[tuple[np.ndarray, ...], list[tuple[np.ndarray, ...] | None]]:
         own: list[tuple[np.ndarray, ...] | None] = []
         used = []
         for part in parts:

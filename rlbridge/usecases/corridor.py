@@ -26,7 +26,7 @@ import gymnasium as gym
 import numpy as np
 
 from aamsim.conflicts import SeparationVolume, conflicts_of, pairs_within
-from aamsim.metrics import record_advisory
+from aamsim.metrics import record_advisories
 from aamsim.units import KTS
 from rlbridge.observe import corridor_features, nearest_neighbours
 from rlbridge.usecases.protocol import Feedback, Observations, UseCaseBase, make_params, start_overlay
@@ -287,12 +287,14 @@ class CorridorSA(UseCaseBase):
         """Per-agent reward from the closest-intruder distance and the advisory given."""
         p = self.params
         d = np.array(closest_m, dtype=float)
-        if p.reward_interval_nmac:
+        if p.reward_interval_nmac and interval_nmac_min_m:  # most intervals have no NMAC at all
             for k, a in enumerate(agents):
                 if a in interval_nmac_min_m:
                     d[k] = min(d[k], interval_nmac_min_m[a])
         r_sh = np.where(d < p.nmac_m, -p.nmac_penalty, np.where(d < p.d_max_m, -p.alpha + p.delta * d, 0.0))
-        r_a = np.array([0.0 if actions.get(a, HOLD) == HOLD else -p.psi for a in agents])
+        psi = -p.psi
+        get = actions.get
+        r_a = np.array([0.0 if get(a, HOLD) == HOLD else psi for a in agents], dtype=np.float64)
         r_hover = -p.hover_cost * self.hovering(sim, agents) if p.hover_cost > 0 else 0.0
         return r_sh + r_a + r_hover - p.omega
 
@@ -316,22 +318,24 @@ class CorridorSA(UseCaseBase):
 
         All actions are checked before any is applied.
         """
-        t = sim.traffic
+        find = sim.traffic.find
         p = self.params
         slots: list[int] = []
         codes: list[int] = []
-        advised: list[tuple[str, int]] = []
+        advised: list[int] = []  # slots advised other than hold (hold advisories are not alerts)
+        names: list[str] = []
         for acid, action in actions.items():
-            i = t.find(acid)
+            i = find(acid)
             if i is None:
                 continue
             a = int(action)
-            if a not in (DECELERATE, HOLD, ACCELERATE):
-                raise ValueError(f"action {action!r} for {acid} is not 0, 1 or 2")
+            if a != HOLD:
+                if a != DECELERATE and a != ACCELERATE:
+                    raise ValueError(f"action {action!r} for {acid} is not 0, 1 or 2")
+                advised.append(i)
+                names.append(ACTION_NAMES[a])
             slots.append(i)
             codes.append(a)
-            if a != HOLD:
-                advised.append((acid, a))
         if not slots:
             return
         idx = np.array(slots, dtype=np.int64)
@@ -339,5 +343,4 @@ class CorridorSA(UseCaseBase):
         target = np.where(code == DECELERATE, p.speed_low_kts * KTS,
                           np.where(code == ACCELERATE, p.speed_high_kts * KTS, sim.view.cas[idx]))
         sim.select_speed(idx, target)
-        for acid, a in advised:  # hold advisories are not alerts
-            record_advisory(sim, acid, ACTION_NAMES[a])
+        record_advisories(sim, advised, names)

@@ -93,8 +93,9 @@ class AamParallelVectorEnv:
 
     def _take(self, w: int, result: StepResult) -> None:
         self.last_results[w] = result
-        known = set(self.possible_agents[w])
-        self.possible_agents[w] += [a for a in result.discovered if a not in known]
+        if result.discovered:  # rare (MCRE, PCALL, SCHEDULE): no set of every agent per step
+            known = set(self.possible_agents[w])
+            self.possible_agents[w] += [a for a in result.discovered if a not in known]
         self.agents[w] = list(result.alive)
 
     # ------------------------------------------------------- PettingZoo style
