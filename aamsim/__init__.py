@@ -1,11 +1,6 @@
 """aamsim: a BlueSky-compatible, headless, fast-time air-traffic simulator for AAM research."""
 
-from aamsim.numba_cache import configure as _configure_numba_cache
-from aamsim.numba_cache import defer_scipy_import as _defer_scipy_import
-
-_configure_numba_cache()  # before any compiled function is defined (see aamsim/numba_cache.py)
-_defer_scipy_import()
-
+# Nothing runs at import: Numba's cache directory is chosen at the first compilation (aamsim/numba_cache.py).
 from aamsim.api import SimulationAPI, Target
 from aamsim.simulation import Simulation
 from aamsim.traffic.view import TrafficView

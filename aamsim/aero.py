@@ -13,7 +13,9 @@ from collections.abc import Callable
 from typing import Any, Protocol, cast, overload
 
 import numpy as np
-from numba import njit, vectorize
+from numba import vectorize
+
+from aamsim.numba_cache import njit, prepare
 
 P0 = 101325.0  # Pa, sea-level pressure
 RHO0 = 1.225  # kg/m^3, sea-level density
@@ -120,6 +122,7 @@ def _conversion(name: str, scalar: Callable[[float, float], float], element: Cal
         if np.ndim(speed) == 0 and np.ndim(h) == 0:
             return scalar(float(speed), float(h))
         if not ufunc:
+            prepare()  # the cache directory keyed by the sources, before Numba picks one for the ufunc
             ufunc.append(vectorize(["float64(float64, float64)"], cache=True)(element))
         return ufunc[0](speed, h)
 

@@ -28,7 +28,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
+from aamsim.numba_cache import njit
 
 from aamsim.conflicts.pairs import relative_state
 from aamsim.conflicts.wellclear import horizontal_interval, vertical_interval, violation_interval

@@ -36,7 +36,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
+from aamsim.numba_cache import njit
 
 from aamsim.geo import WGS84_A, WGS84_B, qdrdist_scalar
 from aamsim.traffic.fields import (

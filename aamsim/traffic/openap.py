@@ -33,7 +33,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
+from aamsim.numba_cache import njit
 
 from aamsim import aero
 from aamsim.traffic import fields as f
