@@ -110,7 +110,7 @@ class SourceKeyedDispatcher(CPUDispatcher):  # type: ignore[misc]
     """
 
     def compile(self, sig: Any) -> Any:
-        if isinstance(self._cache, NullCache):
+        if isinstance(getattr(self, "_cache", None), NullCache):  # (Numba sets it in __init__)
             prepare()
             self.enable_caching()
         return super().compile(sig)

@@ -105,7 +105,7 @@ def test_a_second_process_loads_the_compiled_code_from_the_cache(tmp_path):
     runs = [subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env,
                            check=True).stdout.split() for _ in range(2)]
     assert runs == [["0", "1"], ["1", "0"]]
-    assert list((tmp_path / "xdg" / "aamsim" / "numba").iterdir())[0].name == source_digest(package_roots())
+    assert [p.name for p in (tmp_path / "xdg" / "aamsim" / "numba").iterdir()] == [source_digest(package_roots())]
 
 
 def test_checkouts_sharing_the_cache_keep_each_others_directories(tmp_path, monkeypatch) -> None:

@@ -14,10 +14,10 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from aamsim.numba_cache import njit
 
 from aamsim.conflicts.grid import NO_PAIR_LIMIT, Strips, build_strips, candidate_pairs, snapshot_arrays, swept_boxes
 from aamsim.conflicts.pairs import encounter_pair, relative_state, slant_distances, statebased_pair
+from aamsim.numba_cache import njit
 from aamsim.units import R_EARTH
 
 

@@ -21,6 +21,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
+
 from aamsim.numba_cache import njit
 
 # build_strips' result: box bounds in strip/x order (x0, x1, y0, y1), the aircraft of each

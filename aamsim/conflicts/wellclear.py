@@ -27,9 +27,9 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from aamsim.numba_cache import njit
 
 from aamsim.conflicts.pairs import relative_state
+from aamsim.numba_cache import njit
 
 # A relative speed below this [m/s] is no relative motion (the state then never changes).
 _STILL = 1e-9

@@ -48,10 +48,9 @@ from typing import Any, TypeVar
 import numpy as np
 from numba import prange
 
-from aamsim.numba_cache import njit
-
 from aamsim.aero import GAMMA, LAPSE, P0, R_AIR, RHO0, T0, T_STRAT
 from aamsim.geo import qdrdist_scalar
+from aamsim.numba_cache import njit
 from aamsim.traffic.fields import (
     AIRBORNE_S,
     ALT,
