@@ -12,6 +12,7 @@ closest-intruder distances.
 from __future__ import annotations
 
 import math
+from typing import NamedTuple
 
 import numpy as np
 
@@ -19,6 +20,37 @@ from aamsim.conflicts.grid import NO_PAIR_LIMIT, Strips, build_strips, candidate
 from aamsim.conflicts.pairs import encounter_pair, relative_state, slant_distances, statebased_pair
 from aamsim.numba_cache import njit
 from aamsim.units import R_EARTH
+
+
+class Detection(NamedTuple):
+    """What one conflict check (:func:`detect_all`) finds; slots are rows of the traffic matrix.
+
+    Conflicts (STATEBASED, BlueSky's names) are the pairs ``conflict_i < conflict_j``; losses of separation
+    the pairs ``los_i, los_j``. Events are the pairs inside a separation volume during the last interval,
+    grouped by volume (``inside_count[q]`` of volume q, in the order of the volumes).
+    """
+
+    conflict_i: np.ndarray  # int64, slot of the first aircraft of each conflict
+    conflict_j: np.ndarray  # int64, slot of the second
+    tcpa: np.ndarray  # s, time to the closest point of approach
+    dcpa: np.ndarray  # m, horizontal distance at it
+    tinconf: np.ndarray  # s, time to the loss of separation
+    los_i: np.ndarray  # int64, pairs in loss of separation now
+    los_j: np.ndarray  # int64
+    inconf: np.ndarray  # bool, per aircraft: in a conflict
+    tcpamax: np.ndarray  # s, per aircraft: the largest tcpa of its conflicts (0 when none)
+    event_volume: np.ndarray  # int64, per inside pair: its volume's index
+    event_i: np.ndarray  # int64, slots of the inside pair
+    event_j: np.ndarray  # int64
+    event_t_in: np.ndarray  # s, entry time in the interval
+    event_t_out: np.ndarray  # s, exit time
+    event_dmin: np.ndarray  # m, smallest distance inside
+    event_t_min: np.ndarray  # s, time of that distance
+    event_state: np.ndarray  # (pairs, 12): lat, lon, alt of i, of j, east/north/up velocity of i, of j at t_min
+    inside_count: np.ndarray  # int64, per volume: its inside pairs
+    closest: np.ndarray  # m, per aircraft: the closest intruder within the closest range (inf beyond)
+    min_distance: float  # m, the smallest pair distance (now, or inside a volume during the interval)
+    cut: bool  # True when a pair search stopped at max_pairs
 
 
 @njit(cache=True)
@@ -256,7 +288,7 @@ def detect_all(
     closest_range: float,
     cap_hint: int = 0,
     max_pairs: int = NO_PAIR_LIMIT,
-) -> tuple:
+) -> Detection:
     """One conflict check on the first ``n`` aircraft of the traffic matrix ``F``.
 
     Args:
@@ -270,12 +302,8 @@ def detect_all(
             found this many; the last value returned says whether one did.
 
     Returns:
-        Conflicts (i, j, tcpa, dcpa, tinconf), LoS pairs (i, j), per-aircraft
-        in-conflict flag and largest tcpa; inside pairs of every volume
-        (volume, i, j, t_in, t_out, dmin, t_min, the state of i and j at t_min:
-        lat, lon, alt of i, then of j, then east, north, up velocities of i, then of j); per-volume
-        inside counts; per-aircraft closest distance; the smallest pair distance (now, or inside a
-        volume during the interval); True when a pair search stopped at ``max_pairs``.
+        The conflicts, losses of separation, inside pairs of every volume, closest-intruder distances
+        and whether a pair search stopped at ``max_pairs``: a :class:`Detection`.
     """
     lat, lon, alt, u, v, w, x, y, err, latr, lonr, ch, sh = snapshot_arrays(F, n, rows, r_earth)
     zeros = np.zeros(n)
@@ -293,8 +321,11 @@ def detect_all(
         pi, pj = empty, empty
     volumes = volume_pass(lat, lon, latr, lonr, ch, sh, alt, u, v, w, lookback, pi, pj, radii, cylinder,
                            half_heights, closest_range, r_earth)
-    cut = pi.shape[0] >= max_pairs or conflicts[0].shape[0] >= max_pairs or conflicts[5].shape[0] >= max_pairs
-    return conflicts + volumes + (cut,)
+    ci, cj, tcpa, dcpa, tin, li, lj, inconf, tcpamax = conflicts
+    eq, ei, ej, e_in, e_out, e_dmin, e_tmin, e_pos, count, closest, dnow = volumes
+    cut = pi.shape[0] >= max_pairs or ci.shape[0] >= max_pairs or li.shape[0] >= max_pairs
+    return Detection(ci, cj, tcpa, dcpa, tin, li, lj, inconf, tcpamax, eq, ei, ej, e_in, e_out, e_dmin, e_tmin,
+                     e_pos, count, closest, dnow, cut)
 
 
 _HASH_MULTIPLIER = np.int64(-7046029254386353131)  # 2**64 / golden ratio, as a signed 64-bit integer
