@@ -271,7 +271,6 @@ def volume_pass(lat: np.ndarray, lon: np.ndarray, latr: np.ndarray, lonr: np.nda
     return eq, ei, ej, etin, etout, edmin, etmin, epos, count, closest, dnow
 
 
-@njit(cache=True)
 def detect_all(
     F: np.ndarray,
     n: int,
@@ -299,12 +298,38 @@ def detect_all(
         closest_range: closest-intruder distances beyond this [m] are inf.
         cap_hint: expected number of conflicts (sizes the output; any number is correct).
         max_pairs: each pair search (conflicts, LoS, pairs near enough for a volume) stops once it has
-            found this many; the last value returned says whether one did.
+            found this many; :attr:`Detection.cut` says whether one did.
 
     Returns:
         The conflicts, losses of separation, inside pairs of every volume, closest-intruder distances
         and whether a pair search stopped at ``max_pairs``: a :class:`Detection`.
     """
+    # The compiled pass returns a plain tuple and the record is made here, in Python: Numba boxes a
+    # named tuple by calling its class, Python code that a pending signal (Ctrl-C, an alarm) then
+    # interrupts inside the boxing, which crashed the process (tests/test_compiled_errors.py).
+    return Detection._make(_detect_all(F, n, rows, r_earth, lookback, cd_on, rpz, hpz, tlook, radii, cylinder,
+                                       half_heights, closest_range, cap_hint, max_pairs))
+
+
+@njit(cache=True)
+def _detect_all(
+    F: np.ndarray,
+    n: int,
+    rows: np.ndarray,
+    r_earth: float,
+    lookback: np.ndarray,
+    cd_on: bool,
+    rpz: float,
+    hpz: float,
+    tlook: float,
+    radii: np.ndarray,
+    cylinder: np.ndarray,
+    half_heights: np.ndarray,
+    closest_range: float,
+    cap_hint: int = 0,
+    max_pairs: int = NO_PAIR_LIMIT,
+) -> tuple:
+    """:func:`detect_all`, compiled: the fields of a :class:`Detection` as a tuple, in its order."""
     lat, lon, alt, u, v, w, x, y, err, latr, lonr, ch, sh = snapshot_arrays(F, n, rows, r_earth)
     zeros = np.zeros(n)
     empty = np.empty(0, dtype=np.int64)
@@ -321,11 +346,8 @@ def detect_all(
         pi, pj = empty, empty
     volumes = volume_pass(lat, lon, latr, lonr, ch, sh, alt, u, v, w, lookback, pi, pj, radii, cylinder,
                            half_heights, closest_range, r_earth)
-    ci, cj, tcpa, dcpa, tin, li, lj, inconf, tcpamax = conflicts
-    eq, ei, ej, e_in, e_out, e_dmin, e_tmin, e_pos, count, closest, dnow = volumes
-    cut = pi.shape[0] >= max_pairs or ci.shape[0] >= max_pairs or li.shape[0] >= max_pairs
-    return Detection(ci, cj, tcpa, dcpa, tin, li, lj, inconf, tcpamax, eq, ei, ej, e_in, e_out, e_dmin, e_tmin,
-                     e_pos, count, closest, dnow, cut)
+    cut = pi.shape[0] >= max_pairs or conflicts[0].shape[0] >= max_pairs or conflicts[5].shape[0] >= max_pairs
+    return conflicts + volumes + (cut,)
 
 
 _HASH_MULTIPLIER = np.int64(-7046029254386353131)  # 2**64 / golden ratio, as a signed 64-bit integer
