@@ -78,12 +78,6 @@ def mach2tas_scalar(mach: float, h: float) -> float:
     return mach * speed_of_sound(h)
 
 
-@njit(cache=True, inline="always")
-def tas2mach_scalar(tas: float, h: float) -> float:
-    """True airspeed [m/s] to Mach number at altitude h [m]."""
-    return tas / speed_of_sound(h)
-
-
 @njit(cache=True)
 def spd2tas_scalar(spd: float, is_mach: bool, h: float) -> float:
     """A commanded speed (CAS m/s, or Mach when ``is_mach``) to TAS [m/s]."""

@@ -127,24 +127,6 @@ def in_violation(sx: float, sy: float, sz: float, vx: float, vy: float, vz: floa
 
 
 @njit(cache=True)
-def pair_violations(dx: np.ndarray, dy: np.ndarray, dz: np.ndarray, du: np.ndarray, dv: np.ndarray,
-                    dw: np.ndarray, dmod: float, hmd: float, taumod: float, zthr: float, tcoa: float,
-                    lookahead: float) -> tuple[np.ndarray, np.ndarray]:
-    """Per pair (relative states in arrays), the violation interval within ``[0, lookahead]``.
-
-    Returns ``t_in`` (time to loss of well clear; 0 when not well clear now) and ``t_out``;
-    ``t_in > t_out`` where the pair stays well clear over the look-ahead.
-    """
-    m = dx.shape[0]
-    t_in = np.empty(m)
-    t_out = np.empty(m)
-    for k in range(m):
-        t_in[k], t_out[k] = violation_interval(dx[k], dy[k], dz[k], du[k], dv[k], dw[k], dmod, hmd, taumod,
-                                               zthr, tcoa, 0.0, lookahead)
-    return t_in, t_out
-
-
-@njit(cache=True)
 def pair_alerts(latr: np.ndarray, lonr: np.ndarray, ch: np.ndarray, sh: np.ndarray, alt: np.ndarray, u: np.ndarray,
                 v: np.ndarray, w: np.ndarray, pi: np.ndarray, pj: np.ndarray, volumes: np.ndarray,
                 alerting_s: np.ndarray, lookahead: float) -> tuple[np.ndarray, np.ndarray]:
