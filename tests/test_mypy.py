@@ -14,6 +14,7 @@ ROOT = Path(__file__).resolve().parents[1]
 CHECKED = ("aamsim", "uamtoolkit_import", "rlbridge")
 
 
+@pytest.mark.slow
 @pytest.mark.skipif(importlib.util.find_spec("mypy") is None, reason="mypy is not installed (pip install mypy)")
 def test_mypy_passes_over_the_packages(tmp_path):
     # Its own cache directory: a shared .mypy_cache written by another checkout or mypy version can give
