@@ -27,7 +27,7 @@ import numpy as np
 
 from aamsim.conflicts import SeparationVolume, conflicts_of, pairs_within
 from aamsim.metrics import record_advisories
-from aamsim.units import KTS
+from aamsim.units import KTS, R_EARTH
 from rlbridge.observe import corridor_features, nearest_neighbours
 from rlbridge.usecases.protocol import Feedback, Observations, UseCaseBase, make_params, start_overlay
 from rlbridge.usecases.variation import NYC_LANES_FT, PAPER_ALT_NOISE_FT, add_altitude_noise
@@ -211,7 +211,7 @@ class CorridorSA(UseCaseBase):
                 wlon[s, :] = lon[s]
         dlat = np.radians(dest_lat - lat)
         dlon = np.radians((dest_lon - lon + 180.0) % 360.0 - 180.0)
-        ddest = 6371000.0 * np.hypot(dlat, dlon * np.cos(np.radians(0.5 * (dest_lat + lat))))
+        ddest = R_EARTH * np.hypot(dlat, dlon * np.cos(np.radians(0.5 * (dest_lat + lat))))
         return ddest, wlat, wlon, dest_lat, dest_lon
 
     def _pairs(self, sim: Simulation) -> tuple[int, np.ndarray, np.ndarray, np.ndarray]:

@@ -22,13 +22,12 @@ import numpy as np
 
 from aamsim.metrics import record_advisory
 from aamsim.units import KTS
+from aamsim.units import R_EARTH as R_EARTH_M
 from rlbridge.usecases.protocol import Feedback, Observations, UseCaseBase, make_params, start_overlay
 from rlbridge.usecases.variation import PAPER_CRUISE_KTS, check_range, draw_cruise_speed
 
 if TYPE_CHECKING:
     from aamsim import Simulation
-
-R_EARTH_M = 6371000.0
 
 
 @dataclass(frozen=True)
