@@ -88,6 +88,7 @@ class _WrongInfo(UseCaseBase):
     """A use case whose feedback does not match its declared info columns."""
 
     name = "wrong_info"
+    spec = ReachDestination.spec
     info_fields = {"flag": np.bool_}  # noqa: RUF012
 
     def __init__(self) -> None:
