@@ -181,4 +181,4 @@ def test_reach_destination_counts_speed_changes_as_advisories_and_names_its_base
     assert changing > steady
     from rlbridge.usecases.reach import ReachDestination
 
-    assert ReachDestination.baselines == ("daa",)
+    assert ReachDestination.spec.baselines == ("daa",)

@@ -48,8 +48,8 @@ from aamsim.metrics import record_advisory
 from aamsim.units import FPM, FT, R_EARTH
 from rlbridge.observe import nearest_neighbours
 from rlbridge.usecases.protocol import Feedback, Observations, UseCaseBase, make_params
-from rlbridge.usecases.spec import UseCaseSpec
 from rlbridge.usecases.rejoin import RouteKeeper, east_north_m
+from rlbridge.usecases.spec import UseCaseSpec
 from rlbridge.usecases.variation import NYC_LANES_FT, PAPER_ALT_NOISE_FT, add_altitude_noise
 
 if TYPE_CHECKING:
