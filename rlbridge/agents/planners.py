@@ -12,12 +12,13 @@
 
 from __future__ import annotations
 
-from typing import Any, ClassVar
+from typing import Any, ClassVar, cast
 
 import numpy as np
 
 from rlbridge.agents.rollout import ActOutput
 from rlbridge.core import EpisodeCore, StepResult
+from rlbridge.usecases.protocol import DepartureSlots
 from rlbridge.usecases.spec import Needs, check_fits
 
 PLANNER = "planner"
@@ -49,11 +50,8 @@ def fcfs_action(conflicts: np.ndarray, action_mask: np.ndarray, filed_layer: int
 
 def _planner(core: EpisodeCore, needs: Needs, who: str) -> Any:
     uc = core.usecase
-    check_fits(needs, uc, who)
-    planner = getattr(uc, "planning", uc)  # the hierarchical use case wraps the planner
-    if not hasattr(planner, "candidate_table"):
-        raise TypeError(f"the planner baselines need a planning use case, not {uc.name}")
-    return planner
+    check_fits(needs, uc, who)  # it emits departure slots, so it has departure_planner
+    return cast(DepartureSlots, uc).departure_planner()
 
 
 class _PlannerBaseline:

@@ -100,6 +100,10 @@ class Hierarchical(UseCaseBase):
         self._rng = np.random.default_rng(0)
         self._handle: SimHandle | None = None
 
+    def departure_planner(self) -> StrategicPlanning:
+        """The planner that decides departure slots (what the planner baselines steer): its planning level."""
+        return self.planning
+
     @property
     def level(self) -> Any:
         """The use case of the level that learns."""

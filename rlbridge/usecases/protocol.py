@@ -180,6 +180,14 @@ class SpeedActions(Protocol):
         ...
 
 
+class DepartureSlots(Protocol):
+    """A use case whose actions choose departure slots (``departure_slot``; what the planner baselines steer)."""
+
+    def departure_planner(self) -> Any:
+        """The planner deciding the requests (candidate slots, conflicts, the current request)."""
+        ...
+
+
 def check_advisory_kinds(usecase: Any, needed: tuple[str, ...], who: str, any_of: bool = False) -> None:
     """Refuse, naming the kinds, a policy or request that needs advisory kinds the use case does not emit.
 

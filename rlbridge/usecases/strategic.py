@@ -235,6 +235,10 @@ class StrategicPlanning(UseCaseBase):
             names = dict.fromkeys(request_planner(r) for r in split_schedule(commands, is_command).requests)
             self.standing_agents = tuple(names) or (PLANNER,)
 
+    def departure_planner(self) -> StrategicPlanning:
+        """The planner that decides departure slots (a ``departure_slot`` use case's member): itself."""
+        return self
+
     def decider(self) -> str:
         """The planner agent that decides the current request (``planner`` with a single planner)."""
         req = self.current() if self.plan is not None else None
