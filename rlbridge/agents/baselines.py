@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, ClassVar
 
 import numpy as np
 
@@ -27,7 +27,7 @@ from aamsim.conflicts.service import search_pairs, traffic_snapshot
 from aamsim.units import KTS
 from rlbridge.agents.rollout import ActOutput
 from rlbridge.core import EpisodeCore, StepResult
-from rlbridge.usecases.protocol import check_advisory_kinds
+from rlbridge.usecases.spec import SPEED_ROLES, Needs, check_fits
 
 DECELERATE, HOLD, ACCELERATE = 0, 1, 2
 
@@ -36,6 +36,7 @@ class UnequippedActor:
     """No advisories: the aircraft fly their flight plans (the paper's baseline)."""
 
     obs_format: str | None = None
+    needs: ClassVar[Needs] = Needs()  # fits every use case
 
     def set_weights(self, weights: Any) -> None:
         pass
@@ -66,6 +67,9 @@ class SpeedMVPActor:
     """Speed-only Modified Voltage Potential conflict resolution (see the module docstring)."""
 
     obs_format: str | None = None
+    # Its actions 0/1/2 are decelerate / hold / accelerate: on fixed speed targets (reach_destination's
+    # 30/60/90 kt) its "hold" would select 60 kt, so such a use case is refused.
+    needs: ClassVar[Needs] = Needs(any_of=("speed",), speed_actions=SPEED_ROLES)
 
     def __init__(self, config: SpeedMVPConfig | None = None):
         self.config = config or SpeedMVPConfig()
@@ -122,7 +126,7 @@ class SpeedMVPActor:
         key = (core.seed, id(sim))
         if key != self._episode:  # a new episode: forget the previous aircraft
             if core.usecase is not None:  # its actions 0/1/2 are decelerate / hold / accelerate
-                check_advisory_kinds(core.usecase, ("speed",), "baseline mvp_speed")
+                check_fits(self.needs, core.usecase, "baseline mvp_speed")
             self._episode, self._cruise, self._advised = key, {}, set()
         t = sim.traffic
         view = sim.view

@@ -12,12 +12,14 @@
 
 from __future__ import annotations
 
-from typing import Any
+from typing import Any, ClassVar, cast
 
 import numpy as np
 
 from rlbridge.agents.rollout import ActOutput
 from rlbridge.core import EpisodeCore, StepResult
+from rlbridge.usecases.protocol import DepartureSlots
+from rlbridge.usecases.spec import Needs, check_fits
 
 PLANNER = "planner"
 
@@ -46,18 +48,18 @@ def fcfs_action(conflicts: np.ndarray, action_mask: np.ndarray, filed_layer: int
     return best[1] if best is not None else 0
 
 
-def _planner(core: EpisodeCore) -> Any:
+def _planner(core: EpisodeCore, needs: Needs, who: str) -> Any:
     uc = core.usecase
-    planner = getattr(uc, "planning", uc)  # the hierarchical use case wraps the planner
-    if not hasattr(planner, "candidate_table"):
-        raise TypeError(f"the planner baselines need a planning use case, not {uc.name}")
-    return planner
+    check_fits(needs, uc, who)  # it emits departure slots, so it has departure_planner
+    return cast(DepartureSlots, uc).departure_planner()
 
 
 class _PlannerBaseline:
     """A rule acting for the planner agent only (the hierarchical use case's aircraft get nothing)."""
 
     obs_format: str | None = None
+    needs: ClassVar[Needs] = Needs(any_of=("departure_slot",))  # a planner agent choosing departure slots
+    kind: ClassVar[str] = ""
 
     def set_weights(self, weights: Any) -> None:
         pass
@@ -67,7 +69,7 @@ class _PlannerBaseline:
 
     def act(self, result: StepResult, core: EpisodeCore, rng: np.random.Generator,
             explore: dict[str, Any]) -> ActOutput:
-        planner = _planner(core)
+        planner = _planner(core, self.needs, f"baseline {self.kind}")
         decider = planner.decider() if hasattr(planner, "decider") else PLANNER  # a planner per vertiport: its own
         mine = np.array([a == decider for a in result.agents], bool)
         actions = np.array([self.choose(planner) if m else 0 for m in mine], np.int64)
@@ -77,12 +79,16 @@ class _PlannerBaseline:
 class NoPlanningActor(_PlannerBaseline):
     """Depart on schedule, on the filed layer."""
 
+    kind = "no_planning"
+
     def choose(self, planner: Any) -> int:
         return int(planner.default_action())
 
 
 class FCFSActor(_PlannerBaseline):
     """First-come-first-served strategic deconfliction (module docstring)."""
+
+    kind = "fcfs"
 
     def choose(self, planner: Any) -> int:
         req = planner.current()

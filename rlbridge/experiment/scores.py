@@ -46,7 +46,7 @@ def usecase_contenders(usecase: str) -> tuple[str, list[str], list[str]]:
     from rlbridge.pretrained import available, load
     from rlbridge.usecases.registry import make_usecase
 
-    own = list(getattr(make_usecase(usecase), "baselines", None) or ["mvp_speed", "daa"])
+    own = list(make_usecase(usecase).spec.baselines)
     reference = "no_planning" if "no_planning" in own else "unequipped"
     others = [b for b in own if b != reference]
     learned = [n for n in available() if load(n).usecase == usecase]
