@@ -16,12 +16,13 @@ change made here and one made by a scenario line are the same change.
 
 from __future__ import annotations
 
-from collections.abc import Callable, Iterator, Sequence
+from collections.abc import Callable, Iterator
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from aamsim.errors import CommandError
+from aamsim.simapi import Target
 from aamsim.traffic import intents
 from aamsim.traffic.view import PUBLIC_FLAGS, PUBLIC_FLOATS, TrafficView
 from aamsim.units import Speed
@@ -33,7 +34,6 @@ if TYPE_CHECKING:
     from aamsim.traffic.traffic import FlightRecord, Traffic
     from aamsim.traffic.wind import WindField
 
-Target = str | int | Sequence[str] | np.ndarray
 
 __all__ = ["PUBLIC_FLAGS", "PUBLIC_FLOATS", "SimulationAPI", "Target", "TrafficView"]
 

@@ -30,7 +30,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 if TYPE_CHECKING:
-    from aamsim.simulation import Simulation
+    from aamsim.simapi import SimulationCore
 
 STALL_LIMIT_S = 3600.0
 DEFAULT_HORIZON_S = 86_400.0
@@ -46,7 +46,7 @@ class OpenEndWatch:
     _conditions: int = -1
     _closest: dict[str, tuple[int, float]] = field(default_factory=dict)  # callsign: active waypoint, closest [m]
 
-    def check(self, sim: Simulation, chunk_s: float) -> tuple[str, str] | None:
+    def check(self, sim: SimulationCore, chunk_s: float) -> tuple[str, str] | None:
         """Called after each chunk of ``chunk_s`` seconds: ``(reason, message)`` to stop, or None to go on.
 
         ``reason`` is ``"nothing_left"``, ``"no_progress"`` or ``"horizon"``.
@@ -78,7 +78,7 @@ class OpenEndWatch:
                                + tail)
         return None
 
-    def _progressed(self, sim: Simulation) -> bool:
+    def _progressed(self, sim: SimulationCore) -> bool:
         """True when something changed since the previous check (and remembers the state for the next)."""
         traffic, view = sim.traffic, sim.view
         moved = traffic.layout_version != self._layout or len(sim.conditions) != self._conditions

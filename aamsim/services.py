@@ -27,7 +27,7 @@ from aamsim.resolution.service import DAAService
 from aamsim.snapshots import SnapshotStream
 
 if TYPE_CHECKING:
-    from aamsim.simulation import Simulation
+    from aamsim.simapi import SimulationCore
 
 
 @dataclass(frozen=True)
@@ -41,7 +41,7 @@ class Services:
     mvp: MVPService  # BlueSky's Modified Voltage Potential resolution (idle until RESO MVP)
 
 
-def build_services(sim: Simulation, volumes: tuple[SeparationVolume, ...] = PAPER_VOLUMES,
+def build_services(sim: SimulationCore, volumes: tuple[SeparationVolume, ...] = PAPER_VOLUMES,
                    groups: tuple[str, ...] = DEFAULT_GROUPS) -> Services:
     """Create and attach conflict detection, metrics, DAA and MVP (once per simulation); returns ``sim.services``."""
     if sim.services is not None:
@@ -57,18 +57,18 @@ def build_services(sim: Simulation, volumes: tuple[SeparationVolume, ...] = PAPE
     return sim.services
 
 
-def services_of(sim: Simulation) -> Services:
+def services_of(sim: SimulationCore) -> Services:
     """The simulation's services, built with the defaults when no entry point built them (scripts, tests)."""
     return sim.require_services()
 
 
-def attach_run_services(sim: Simulation, cfg: Any) -> None:
+def attach_run_services(sim: SimulationCore, cfg: Any) -> None:
     """Conflict detection and the metric groups of the run config; they write into the run directory."""
     services = build_services(sim, tuple(getattr(cfg, "volumes", None) or PAPER_VOLUMES),
                               tuple(getattr(cfg, "metrics", DEFAULT_GROUPS)))
     conflicts, metrics = services.conflicts, services.metrics
 
-    def finish(sim: Simulation, out_dir: Path, summary: dict[str, Any]) -> None:
+    def finish(sim: SimulationCore, out_dir: Path, summary: dict[str, Any]) -> None:
         conflicts.finish(sim)
         events = conflicts.events  # built once for the metrics and the CSV
         summary["separation_volumes"] = {v.name: v.describe() for v in conflicts.volumes}

@@ -26,7 +26,7 @@ from aamsim.traffic.view import PUBLIC_FLOATS
 if TYPE_CHECKING:
     from collections.abc import Callable
 
-    from aamsim.simulation import Simulation
+    from aamsim.simapi import SimulationCore
 
 SNAPSHOT_FIELDS = ("lat", "lon", "alt", "hdg", "trk", "tas", "cas", "gs", "vs")
 
@@ -65,7 +65,7 @@ class TrafficSnapshot:
         return out
 
 
-def take_snapshot(sim: Simulation, fields: tuple[str, ...] = SNAPSHOT_FIELDS) -> TrafficSnapshot:
+def take_snapshot(sim: SimulationCore, fields: tuple[str, ...] = SNAPSHOT_FIELDS) -> TrafficSnapshot:
     """A frozen copy of the traffic now."""
     unknown = [x for x in fields if x not in PUBLIC_FLOATS]
     if unknown:
@@ -79,7 +79,7 @@ def take_snapshot(sim: Simulation, fields: tuple[str, ...] = SNAPSHOT_FIELDS) ->
 class SnapshotStream:
     """Publishes traffic snapshots to subscribers (see the module docstring)."""
 
-    def __init__(self, sim: Simulation, fields: tuple[str, ...] = SNAPSHOT_FIELDS):
+    def __init__(self, sim: SimulationCore, fields: tuple[str, ...] = SNAPSHOT_FIELDS):
         self.sim = sim
         self.fields = tuple(fields)
         self._last: tuple[int, int, str, TrafficSnapshot] | None = None

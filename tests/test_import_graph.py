@@ -15,8 +15,6 @@ import ast
 import sys
 from pathlib import Path
 
-import pytest
-
 ROOT = Path(__file__).resolve().parents[1]
 
 
@@ -115,12 +113,11 @@ def test_the_graph_builder_finds_type_only_cycles(tmp_path):
     assert cycles(graph) == [["pkg.a", "pkg.sub.b"]]
 
 
-# At the commit this test was written the graph had three cycles: 39 modules around the concrete Simulation
-# (aamsim.simulation <-> aamsim.api, aamsim.services, aamsim.stack.*, aamsim.conflicts.service,
-# aamsim.metrics.*, aamsim.resolution.*, aamsim.realtraffic.*, ...: type-only imports of Simulation from
-# modules it imports), 3 in aamsim.traffic (traffic <-> pool <-> conditions) and 3 in aamsim.compat.bluesky
-# (_session <-> _arrays, _state). The fix (a Protocol of the simulation API in a leaf module that the
-# handlers annotate against) is issue 29's facade, not done yet.
-@pytest.mark.xfail(strict=True, reason="3 import cycles remain in aamsim (39, 3 and 3 modules; see the comment)")
+# Three cycles were broken to make this hold (issue 29): the 39 modules around the concrete Simulation (its
+# services, the run-end check and the metric registry annotate against aamsim.simapi.SimulationCore, a
+# Protocol in a leaf module, instead of importing aamsim.simulation; the command registry no longer imports
+# aamsim.stack.context), aamsim.traffic (Traffic declares the BlockStorage protocol its pool satisfies) and
+# aamsim.compat.bluesky (the array store declares the ArraySession it uses; the session is given the
+# process's command stack instead of importing _state).
 def test_the_aamsim_import_graph_has_no_cycle():
     assert cycles(import_graph(ROOT / "aamsim")) == []

@@ -37,7 +37,7 @@ from aamsim.traffic.view import field_rows, kinematic_matrix
 from aamsim.units import R_EARTH
 
 if TYPE_CHECKING:
-    from aamsim.simulation import Simulation
+    from aamsim.simapi import SimulationCore
     from aamsim.traffic.traffic import Traffic
 
 # Pairs one check handles, per search (conflicts, losses of separation, pairs near enough for a volume).
@@ -93,7 +93,7 @@ class TrafficSnapshot:
     frame: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]  # pair-formula terms (pairs.pair_frame)
 
 
-def traffic_snapshot(sim: Simulation) -> TrafficSnapshot:
+def traffic_snapshot(sim: SimulationCore) -> TrafficSnapshot:
     """Positions, velocities (east, north, up) and the local frame of all aircraft now."""
     t = sim.traffic
     matrix, rows = kinematic_matrix(t, _KINEMATIC_FIELDS)
@@ -139,14 +139,14 @@ class ConflictService:
     _zone_advised: bool = False  # the airliner-zone warning (zone_advice) was given
 
     # ------------------------------------------------------------- lifecycle
-    def attach(self, sim: Simulation) -> None:
+    def attach(self, sim: SimulationCore) -> None:
         # The interval is read from the settings each time the check runs, so DT ASAS takes effect.
         sim.hooks.post_step.add(self.check, interval_s=lambda: sim.settings.cd_interval_s, name="conflicts",
                                 priority=10)
         sim.hooks.deleted.add(self.on_deleted, name="conflicts.deleted")
         sim.hooks.reset.add(self.on_reset, name="conflicts.reset")
 
-    def on_reset(self, sim: Simulation) -> None:
+    def on_reset(self, sim: SimulationCore) -> None:
         self.finish(sim)
         self._conflict_keys = np.empty(0, dtype=np.int64)
         self._serials.clear()
@@ -180,13 +180,13 @@ class ConflictService:
         raise KeyError(name)
 
     # ---------------------------------------------------------------- checks
-    def _lookback(self, sim: Simulation, n: int) -> np.ndarray:
+    def _lookback(self, sim: SimulationCore, n: int) -> np.ndarray:
         """Per aircraft, how far back the last interval reaches: to the last check or its creation."""
         now = sim.simt
         created = sim.view.created_s[:n]
         return np.maximum(np.minimum(now - self._last_check_s, now - created), 0.0)
 
-    def check(self, sim: Simulation) -> None:
+    def check(self, sim: SimulationCore) -> None:
         """Run all detections on the current state (the post-step hook).
 
         An exception that interrupts one of its compiled passes (Ctrl-C, an alarm, a MemoryError) is raised as
@@ -196,7 +196,7 @@ class ConflictService:
         with original_errors():
             self._check(sim)
 
-    def _check(self, sim: Simulation) -> None:
+    def _check(self, sim: SimulationCore) -> None:
         t = sim.traffic
         st = sim.settings
         n = t.n
@@ -304,7 +304,7 @@ class ConflictService:
         log.update(now, self._last_check_s, traffic.ids, ii, jj, serial, rank, t_in, t_out, dmin, t_min, cpa,
                    unseen_filter)
 
-    def on_deleted(self, sim: Simulation, slot: int, record: object) -> None:
+    def on_deleted(self, sim: SimulationCore, slot: int, record: object) -> None:
         """Check the deleted aircraft's last interval before it disappears."""
         s = traffic_snapshot(sim)
         n = len(s.ids)
@@ -334,7 +334,7 @@ class ConflictService:
         for log in self.logs.values():
             log.close_all(sim.simt, _open_keys_of(log, self._serial(acid)))
 
-    def finish(self, sim: Simulation) -> None:
+    def finish(self, sim: SimulationCore) -> None:
         """Close events still open at the end of the run (end time = now)."""
         for log in self.logs.values():
             log.close_all(sim.simt)
@@ -381,7 +381,7 @@ def _open_keys_of(log: EventLog, serial: int) -> np.ndarray:
     return keys[((keys >> 32) == serial) | ((keys & 0xFFFFFFFF) == serial)]
 
 
-def closest_intruders(sim: Simulation, max_range_m: float = 3000.0) -> tuple[np.ndarray, np.ndarray]:
+def closest_intruders(sim: SimulationCore, max_range_m: float = 3000.0) -> tuple[np.ndarray, np.ndarray]:
     """Distance [m] (3-D) from each aircraft to its closest intruder now, and that intruder's slot.
 
     Beyond ``max_range_m`` the distance is ``inf`` and the slot -1.
@@ -390,7 +390,7 @@ def closest_intruders(sim: Simulation, max_range_m: float = 3000.0) -> tuple[np.
     return nearest_per_aircraft(sim.traffic.n, pi, pj, d, max_range_m)
 
 
-def pairs_within(sim: Simulation, radius_m: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def pairs_within(sim: SimulationCore, radius_m: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Aircraft pairs (slots ``pi < pj``) now within ``radius_m`` horizontally or closer, and their 3-D distances.
 
     The pair search is a superset: filter on the distances for an exact radius. It stops at
@@ -406,6 +406,6 @@ def pairs_within(sim: Simulation, radius_m: float) -> tuple[np.ndarray, np.ndarr
     return pi, pj, d
 
 
-def conflicts_of(sim: Simulation) -> ConflictService:
+def conflicts_of(sim: SimulationCore) -> ConflictService:
     """The conflict service of a simulation (``sim.services.conflicts``; see :mod:`aamsim.services`)."""
     return sim.require_services().conflicts

@@ -19,7 +19,7 @@ import numpy as np
 from aamsim.units import FT, KTS, NM
 
 if TYPE_CHECKING:
-    from aamsim.simulation import Simulation
+    from aamsim.simapi import SimulationCore
 
 AIRLINER_ZONER_M = 5.0 * NM  # BlueSky's default ZONER
 AIRLINER_ZONEDH_M = 1000.0 * FT  # ... and ZONEDH
@@ -27,7 +27,7 @@ SLOW_MPS = 200.0 * KTS  # aircraft whose maximum speed is below this count as ro
 SHARE = 0.5  # warn when at least this share of the cooperative aircraft is rotorcraft-scale
 
 
-def zone_advice(sim: Simulation) -> str | None:
+def zone_advice(sim: SimulationCore) -> str | None:
     """The warning text when detection uses the airliner zone on mostly rotorcraft-scale traffic, else None."""
     st = sim.settings
     if st.cd_method == "OFF" or st.zoner_m != AIRLINER_ZONER_M or st.zonedh_m != AIRLINER_ZONEDH_M:

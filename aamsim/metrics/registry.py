@@ -22,7 +22,7 @@ from aamsim.conflicts.separation import PAPER_STANDARD, SeparationStandard
 
 if TYPE_CHECKING:
     from aamsim.conflicts.service import SeparationEvent
-    from aamsim.simulation import Simulation
+    from aamsim.simapi import SimulationCore
     from aamsim.traffic.traffic import FlightRecord
 
 MetricValue = float | int | None
@@ -47,7 +47,7 @@ class NotDeparted:
 class MetricContext:
     """What a metric function may read: the flights, the separation events, the run."""
 
-    sim: Simulation
+    sim: SimulationCore
     flights: list[FlightRecord]
     events: list[SeparationEvent]
     duration_s: float

@@ -17,7 +17,7 @@ from aamsim.metrics.standard import register_standard_metrics
 
 if TYPE_CHECKING:
     from aamsim.conflicts.events import SeparationEvent
-    from aamsim.simulation import Simulation
+    from aamsim.simapi import SimulationCore
 
 DEFAULT_GROUPS = ("safety", "operational")
 CONFLICT_COLUMNS = ["volume", "ac1", "ac2", "start_s", "end_s", "min_dist_m", "t_min_s",
@@ -47,7 +47,7 @@ class MetricsService:
     # they have no flight record, yet every scheduled flight must be counted (issue 28). None: nobody does.
     held_departures: Callable[[], Sequence[NotDeparted]] | None = None
 
-    def context(self, sim: Simulation, events: list[SeparationEvent] | None = None) -> MetricContext:
+    def context(self, sim: SimulationCore, events: list[SeparationEvent] | None = None) -> MetricContext:
         """The run's AAM flights and the events with at least one AAM aircraft in them (two replayed
         real aircraft meeting are not an AAM event; conflicts.csv lists them, marked).
 
@@ -70,24 +70,24 @@ class MetricsService:
             not_departed=self.not_departed(sim),
         )
 
-    def not_departed(self, sim: Simulation) -> list[NotDeparted]:
+    def not_departed(self, sim: SimulationCore) -> list[NotDeparted]:
         """The held flights that were due to depart before now: a flight filed to depart after the end of the
         run is not late (an unplanned run does not create it either)."""
         if self.held_departures is None:
             return []
         return [h for h in self.held_departures() if h.scheduled_departure_s < sim.simt]
 
-    def compute(self, sim: Simulation, groups: tuple[str, ...] | None = None,
+    def compute(self, sim: SimulationCore, groups: tuple[str, ...] | None = None,
                 events: list[SeparationEvent] | None = None) -> dict[str, dict[str, Any]]:
         return self.registry.compute(groups or self.groups, self.context(sim, events))
 
 
-def metrics_of(sim: Simulation) -> MetricsService:
+def metrics_of(sim: SimulationCore) -> MetricsService:
     """The metrics service of a simulation (``sim.services.metrics``; see :mod:`aamsim.services`)."""
     return sim.require_services().metrics
 
 
-def record_advisory(sim: Simulation, acid: str, action: str) -> None:
+def record_advisory(sim: SimulationCore, acid: str, action: str) -> None:
     """Count an advisory given to an aircraft; ``hold`` advisories are not alerts."""
     if action.lower() == "hold":
         return
@@ -96,7 +96,7 @@ def record_advisory(sim: Simulation, acid: str, action: str) -> None:
         record_advisories(sim, (i,), (action,))
 
 
-def record_advisories(sim: Simulation, slots: Sequence[int], actions: Sequence[str]) -> None:
+def record_advisories(sim: SimulationCore, slots: Sequence[int], actions: Sequence[str]) -> None:
     """:func:`record_advisory` for the aircraft in ``slots`` (one action each), by slot: a use case that
     advises many aircraft per decision has their slots already."""
     flights = sim.traffic.flights
@@ -109,7 +109,7 @@ def record_advisories(sim: Simulation, slots: Sequence[int], actions: Sequence[s
         flight.last_advisory = action + at
 
 
-def real_traffic_callsigns(sim: Simulation) -> frozenset[str]:
+def real_traffic_callsigns(sim: SimulationCore) -> frozenset[str]:
     """Callsigns of every replayed real aircraft of the run (flying or gone)."""
     return frozenset(rec.acid for rec in sim.flights(real_traffic=True))
 
@@ -125,7 +125,7 @@ def _column(values: list[float], decimals: int) -> list[str]:
     return [format(x, spec) if isfinite(x) else "" for x in values]
 
 
-def write_conflicts_csv(path: Path, sim: Simulation, events: list[SeparationEvent] | None = None) -> int:
+def write_conflicts_csv(path: Path, sim: SimulationCore, events: list[SeparationEvent] | None = None) -> int:
     """Every event of every volume; ``pair`` says AAM vs AAM, AAM vs real traffic or real vs real traffic.
 
     ``events``: the conflict service's events when the caller has them already."""

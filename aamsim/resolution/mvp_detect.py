@@ -30,7 +30,7 @@ from aamsim.conflicts.service import search_pairs, traffic_snapshot
 from aamsim.units import NM, R_EARTH  # R_EARTH: also the radius of BlueSky's compiled geo
 
 if TYPE_CHECKING:
-    from aamsim.simulation import Simulation
+    from aamsim.simapi import SimulationCore
 
 _M2NM = 0.0005399568034557236
 _DEG2RAD = 0.017453292519943295
@@ -49,7 +49,7 @@ class DirectedConflicts:
     tlos_s: np.ndarray  # time to loss of separation (tinconf)
 
 
-def bluesky_order(sim: Simulation) -> np.ndarray:
+def bluesky_order(sim: SimulationCore) -> np.ndarray:
     """Per slot, its rank in BlueSky's aircraft order (creation time, then slot)."""
     n = sim.view.n
     order = np.lexsort((np.arange(n), np.asarray(sim.view.created_s)))
@@ -58,7 +58,7 @@ def bluesky_order(sim: Simulation) -> np.ndarray:
     return rank
 
 
-def detect(sim: Simulation, rpz_m: float, hpz_m: float, dtlook_s: float) -> DirectedConflicts:
+def detect(sim: SimulationCore, rpz_m: float, hpz_m: float, dtlook_s: float) -> DirectedConflicts:
     """BlueSky's STATEBASED conflict pairs, both sides of each pair tested, as its resolution receives them."""
     view = sim.view
     n = view.n

@@ -40,7 +40,7 @@ from aamsim.resolution.mvp_detect import DirectedConflicts, detect
 from aamsim.units import R_EARTH  # also the radius of BlueSky's flat-earth pair formulas
 
 if TYPE_CHECKING:
-    from aamsim.simulation import Simulation
+    from aamsim.simapi import SimulationCore
 
 METHOD = "MVP"
 _BOUNCING_DEG = 30.0  # nearly parallel tracks: a conflict that keeps starting and ending
@@ -58,7 +58,7 @@ class MVPService:
     resolutions: int = 0  # times an aircraft started following a resolution
     _hook: Any = None
 
-    def attach(self, sim: Simulation) -> None:
+    def attach(self, sim: SimulationCore) -> None:
         # BlueSky detects and resolves inside the step that reaches each multiple of DT ASAS,
         # before that step moves the aircraft: here, at the boundary one step earlier, so the
         # resolution flies from that step on (see _reschedule).
@@ -68,10 +68,10 @@ class MVPService:
         sim.hooks.reset.add(self.on_reset, name="mvp.reset")
 
     @staticmethod
-    def active(sim: Simulation) -> bool:
+    def active(sim: SimulationCore) -> bool:
         return sim.settings.reso.upper() == METHOD
 
-    def on_reset(self, sim: Simulation) -> None:
+    def on_reset(self, sim: SimulationCore) -> None:
         self.settings = MVPSettings()
         self.pairs.clear()
         self.no_reso.clear()
@@ -79,7 +79,7 @@ class MVPService:
         self.following.clear()
         self.resolutions = 0
 
-    def on_deleted(self, sim: Simulation, slot: int, record: object) -> None:
+    def on_deleted(self, sim: SimulationCore, slot: int, record: object) -> None:
         # Its pairs stay: the next cycle ends them and sends its intruders back to their routes.
         acid = sim.view.ids[slot]
         self.no_reso.discard(acid)
@@ -92,7 +92,7 @@ class MVPService:
             which.symmetric_difference_update({acid})
 
     # ---------------------------------------------------------------- cycle
-    def _reschedule(self, sim: Simulation) -> bool:
+    def _reschedule(self, sim: SimulationCore) -> bool:
         """Keep the hook one step before each multiple of the interval; True when now is such a time."""
         dt_us = sim.clock.dt_us
         interval_us = max(round(sim.settings.cd_interval_s * 1e6), 1)
@@ -103,7 +103,7 @@ class MVPService:
         self._hook.next_due_us = target - interval_us
         return on_time
 
-    def update(self, sim: Simulation) -> None:
+    def update(self, sim: SimulationCore) -> None:
         if not self._reschedule(sim):
             return
         if not self.active(sim):
@@ -122,7 +122,7 @@ class MVPService:
             own = intr = np.empty(0, dtype=np.int64)
         self._resume(sim, own, intr)
 
-    def _resolve(self, sim: Simulation, conf: DirectedConflicts, keep: np.ndarray) -> None:
+    def _resolve(self, sim: SimulationCore, conf: DirectedConflicts, keep: np.ndarray) -> None:
         view, st = sim.view, sim.settings
         ids = view.ids
         no_reso = np.array([a in self.no_reso for a in ids], dtype=bool)
@@ -132,7 +132,7 @@ class MVPService:
         coop = np.flatnonzero(~np.asarray(view.noncooperative))
         sim.command_resolution(coop, trk[coop], gs[coop], vs[coop], alt_cmd[coop])
 
-    def _resume(self, sim: Simulation, own: np.ndarray, intr: np.ndarray) -> None:
+    def _resume(self, sim: SimulationCore, own: np.ndarray, intr: np.ndarray) -> None:
         """Which aircraft follow the resolution from now on; those whose last pair ended resume their route."""
         view = sim.view
         ids = view.ids
@@ -156,7 +156,7 @@ class MVPService:
         for acid, on in change.items():
             self._follow(sim, acid, on)
 
-    def _still_resolving(self, sim: Simulation, i: int, j: int, rpz: float) -> bool:
+    def _still_resolving(self, sim: SimulationCore, i: int, j: int, rpz: float) -> bool:
         """Before CPA, within the protected radius, or a bouncing conflict (BlueSky's resumenav test)."""
         view = sim.view
         lat_i, lat_j = float(view.lat[i]), float(view.lat[j])
@@ -170,7 +170,7 @@ class MVPService:
         bouncing = parallel and hdist < rpz * self.settings.factor_h
         return bool(not past_cpa or hdist < rpz or bouncing)
 
-    def _follow(self, sim: Simulation, acid: str, on: bool) -> None:
+    def _follow(self, sim: SimulationCore, acid: str, on: bool) -> None:
         slot = sim.view.slot(acid)
         if on:
             if acid not in self.following:
@@ -185,7 +185,7 @@ class MVPService:
         if len(sim.view.route(slot)):
             sim.resume_route(slot)
 
-    def release_all(self, sim: Simulation) -> None:
+    def release_all(self, sim: SimulationCore) -> None:
         """Every aircraft back to its autopilot now (``RESO OFF``), no direct-to; pairs forgotten."""
         slots = [s for s in (sim.view.find(a) for a in self.following) if s is not None]
         if slots:
@@ -197,7 +197,7 @@ class MVPService:
         return {"resolutions_started": self.resolutions, "settings": self.settings.describe()}
 
 
-def mvp_commands(sim: Simulation, conf: DirectedConflicts, keep: np.ndarray, settings: MVPSettings, rpz_m: float,
+def mvp_commands(sim: SimulationCore, conf: DirectedConflicts, keep: np.ndarray, settings: MVPSettings, rpz_m: float,
                  hpz_m: float, dtlook_s: float, no_reso: np.ndarray | None = None,
                  reso_off: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """MVP's track [deg], ground speed, vertical speed [m/s] and altitude [m] for every aircraft, from the

@@ -46,7 +46,7 @@ from aamsim.resolution.daa import LEVEL_NAMES, Alerts, DetectAndAvoid, SpeedBand
 from aamsim.units import Speed
 
 if TYPE_CHECKING:
-    from aamsim.simulation import Simulation
+    from aamsim.simapi import SimulationCore
 
 METHOD = "DAA"
 ADVISORY_NAMES = {GS: "speed", HDG: "heading", VS: "vertical speed"}
@@ -95,7 +95,7 @@ class DAAService:
     _raised: dict[str, int] = field(default_factory=dict)  # the level each aircraft was last counted at
     _axes: AxisResolver | None = None
 
-    def attach(self, sim: Simulation) -> None:
+    def attach(self, sim: SimulationCore) -> None:
         # After the conflict check (priority 10): both see the same state.
         sim.hooks.post_step.add(self.update, interval_s=lambda: self.daa.params.interval_s, name="daa", priority=20)
         sim.hooks.deleted.add(self.on_deleted, name="daa.deleted")
@@ -108,16 +108,16 @@ class DAAService:
         return self._axes
 
     @staticmethod
-    def active(sim: Simulation) -> bool:
+    def active(sim: SimulationCore) -> bool:
         return sim.settings.reso.upper() == METHOD
 
-    def on_reset(self, sim: Simulation) -> None:
+    def on_reset(self, sim: SimulationCore) -> None:
         self.advisories.clear()
         self.levels.clear()
         self._raised.clear()
         self._axes = None
 
-    def on_deleted(self, sim: Simulation, slot: int, record: object) -> None:
+    def on_deleted(self, sim: SimulationCore, slot: int, record: object) -> None:
         acid = sim.view.ids[slot]
         self.advisories.pop(acid, None)
         self.levels.pop(acid, None)
@@ -125,7 +125,7 @@ class DAAService:
         self.axes.forget(acid)
 
     # ---------------------------------------------------------------- cycle
-    def update(self, sim: Simulation) -> None:
+    def update(self, sim: SimulationCore) -> None:
         if not self.active(sim):
             if self.advisories:
                 self.release_all(sim)
@@ -165,7 +165,7 @@ class DAAService:
         if need:
             self._resolve(sim, alerts, np.array(need, dtype=np.int64), speed_bands)
 
-    def _resume_velocity(self, sim: Simulation, i: int, adv: Advisory) -> tuple[float, float, float]:
+    def _resume_velocity(self, sim: SimulationCore, i: int, adv: Advisory) -> tuple[float, float, float]:
         """What the aircraft flies once released (east, north, up [m/s]): its own speed, along its route or
         noted track (along its track of now after a speed advisory), towards its selected altitude."""
         gs = float(self.daa.gs_for(sim, np.array([i]), np.array([self._resume_cas(sim, i, adv)]))[0])
@@ -173,7 +173,7 @@ class DAAService:
         vs = self._own_vs(sim, i) if adv.asas else float(sim.view.vs[i])
         return gs * math.sin(trk), gs * math.cos(trk), vs
 
-    def _own_way_clear(self, sim: Simulation, i: int, adv: Advisory, speed_bands: SpeedBands) -> bool:
+    def _own_way_clear(self, sim: SimulationCore, i: int, adv: Advisory, speed_bands: SpeedBands) -> bool:
         """Whether the aircraft's own trajectory (what it flies once released) keeps well clear."""
         if not adv.asas:
             resume_gs = float(self.daa.gs_for(sim, np.array([i]), np.array([self._resume_cas(sim, i, adv)]))[0])
@@ -182,7 +182,7 @@ class DAAService:
         first, _ = self.axes.check_velocities(sim, np.array([i]), vel)
         return bool(first[0, 0] > self.daa.params.lookahead_s)
 
-    def _held_conflicts(self, sim: Simulation, i: int, adv: Advisory, speed_bands: SpeedBands,
+    def _held_conflicts(self, sim: SimulationCore, i: int, adv: Advisory, speed_bands: SpeedBands,
                         axis_bands: dict[str, AxisBands]) -> bool:
         if adv.axis == GS:
             return speed_bands.conflicts(i, adv.gs_mps)
@@ -192,7 +192,7 @@ class DAAService:
             axis_bands[adv.axis] = self.axes.bands(sim, adv.axis, held)
         return axis_bands[adv.axis].conflicts(i, adv.value)
 
-    def _resolve(self, sim: Simulation, alerts: Alerts, need: np.ndarray, speed_bands: SpeedBands) -> None:
+    def _resolve(self, sim: SimulationCore, alerts: Alerts, need: np.ndarray, speed_bands: SpeedBands) -> None:
         """Advise each aircraft of ``need`` on the first axis with a conflict-free value, else by recovery."""
         axes = self.daa.params.resolution_axes
         urgent = most_urgent(alerts, need)
@@ -238,7 +238,7 @@ class DAAService:
         self.levels = now
 
     # ------------------------------------------------------------- advisories
-    def _advise(self, sim: Simulation, slot: int, axis: str, value: float) -> None:
+    def _advise(self, sim: SimulationCore, slot: int, axis: str, value: float) -> None:
         view = sim.view
         acid = view.ids[slot]
         adv = self.advisories.get(acid)
@@ -262,7 +262,7 @@ class DAAService:
         self.issued_by_axis[axis] += 1
         record_advisory(sim, acid, ADVISORY_NAMES[axis])
 
-    def _fly(self, sim: Simulation, slot: int, adv: Advisory) -> None:
+    def _fly(self, sim: SimulationCore, slot: int, adv: Advisory) -> None:
         """Command a heading or vertical-speed resolution (the other variables as the autopilot has them)."""
         view, p = sim.view, self.daa.params
         cas = float(view.selspd[slot])
@@ -281,31 +281,31 @@ class DAAService:
             adv.asas = True
 
     @staticmethod
-    def _route_track(sim: Simulation, slot: int, adv: Advisory) -> float:
+    def _route_track(sim: SimulationCore, slot: int, adv: Advisory) -> float:
         """The track the aircraft flies on its own: towards its active waypoint, or its noted track."""
         view = sim.view
         return float(view.qdr2wp[slot]) if adv.resume_lnav and len(view.route(slot)) else adv.resume_trk
 
     @staticmethod
-    def _own_vs(sim: Simulation, slot: int) -> float:
+    def _own_vs(sim: SimulationCore, slot: int) -> float:
         """The vertical speed the autopilot flies towards the selected altitude [m/s]."""
         view = sim.view
         dz = float(view.selalt[slot]) - float(view.alt[slot])
         return math.copysign(abs(float(view.ap_vs[slot])), dz) if abs(dz) > 1.0 else 0.0
 
     @staticmethod
-    def _resume_cas(sim: Simulation, slot: int, adv: Advisory) -> float:
+    def _resume_cas(sim: SimulationCore, slot: int, adv: Advisory) -> float:
         if adv.resume.is_mach:
             return mach2cas(adv.resume.value, float(sim.view.alt[slot]))
         return adv.resume.value
 
-    def _stop_following(self, sim: Simulation, slot: int, adv: Advisory) -> None:
+    def _stop_following(self, sim: SimulationCore, slot: int, adv: Advisory) -> None:
         sim.follow_resolution(slot, False)
         adv.asas = False
         if adv.resume_lnav and len(sim.view.route(slot)):
             sim.resume_route(slot)
 
-    def _release(self, sim: Simulation, acid: str, adv: Advisory) -> None:
+    def _release(self, sim: SimulationCore, acid: str, adv: Advisory) -> None:
         del self.advisories[acid]
         self.axes.forget(acid)
         slot = sim.view.slot(acid)
@@ -316,7 +316,7 @@ class DAAService:
             if adv.resume_vnav_speed:
                 sim.set_navigation(acid, vnav_speed=True)
 
-    def release_all(self, sim: Simulation) -> None:
+    def release_all(self, sim: SimulationCore) -> None:
         """Resume every aircraft's own speed and route (``RESO OFF``)."""
         for acid, adv in list(self.advisories.items()):
             if acid in sim.view:

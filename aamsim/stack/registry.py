@@ -157,11 +157,11 @@ def _declared_params(fn: Callable[..., Any], name: str) -> tuple[tuple[Param, ..
     per function. It depends on the function only (Param is frozen).
     """
     # Handlers annotate ``sim: CommandContext`` (plugins may still write ``sim: Simulation``)
-    # under TYPE_CHECKING; only the argument types matter here, so the first is not resolved.
-    from aamsim.stack.context import CommandContext
-
+    # under TYPE_CHECKING; only the argument types matter here, so the first is not resolved. Another
+    # mention of the name resolves to Any, which is no argument type either (refused below, as the
+    # protocol itself would be): the registry does not import the context module that names it.
     hints = typing.get_type_hints(_without_first_annotation(fn), globalns=getattr(fn, "__globals__", None),
-                                  localns={"CommandContext": CommandContext}, include_extras=True)
+                                  localns={"CommandContext": Any}, include_extras=True)
     sig = inspect.signature(fn)
     params: list[Param] = []
     names = list(sig.parameters)

@@ -17,7 +17,7 @@ from __future__ import annotations
 import math
 from collections.abc import Iterator
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING
+from typing import Protocol
 
 import numpy as np
 
@@ -28,12 +28,23 @@ from aamsim.traffic.performance import Envelope
 from aamsim.traffic.route import Route
 from aamsim.units import FPM, Speed
 
-if TYPE_CHECKING:
-    from aamsim.traffic.pool import TrafficPool
-
 # The step kernel's per-slot working arrays: guidance bearing [deg] and distance [m] computed by
 # the waypoint test, whether they are this step's ("fresh"), and whether the waypoint is reached.
 Scratch = tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]
+
+
+class BlockStorage(Protocol):
+    """Shared storage a :class:`Traffic` can be a block of (:class:`~aamsim.traffic.pool.TrafficPool`).
+
+    Declared here, not imported from the pool, so that this module does not depend on the pool that
+    depends on it (the import graph of ``aamsim`` has no cycle, issue 29).
+    """
+
+    def bind(self, traffic: Traffic) -> None:
+        """Give ``traffic`` its block's arrays and capacity."""
+
+    def grow(self) -> None:
+        """Double every block, this traffic's included."""
 
 
 def new_state_arrays(capacity: int) -> tuple[np.ndarray, np.ndarray, Scratch]:
@@ -115,7 +126,7 @@ class Traffic:
     F: np.ndarray = field(init=False, repr=False)
     B: np.ndarray = field(init=False, repr=False)
     scratch: Scratch = field(init=False, repr=False)  # the step kernel's working arrays, per slot
-    pool: TrafficPool | None = field(default=None, repr=False)  # shared storage this traffic is a block of
+    pool: BlockStorage | None = field(default=None, repr=False)  # shared storage this traffic is a block of
     world: int = 0  # its block in the pool
     ids: list[str] = field(default_factory=list)
     types: list[str] = field(default_factory=list)

@@ -105,7 +105,7 @@ def init(mode: str = "sim", configfile: str | None = None, scenfile: str | None 
     package = importlib.import_module(__name__)
     session = PROCESS.session
     if session is None:
-        session = PROCESS.session = Session(package)
+        session = PROCESS.session = Session(package, PROCESS.pending)
     else:
         session.reset_traffic()
         session.set_state(INIT)

@@ -22,13 +22,35 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, Protocol
 
 import numpy as np
 
 if TYPE_CHECKING:
-    from aamsim.compat.bluesky._session import Session
+    from aamsim.simulation import Simulation
     from aamsim.traffic.view import TrafficView
+
+
+class ArraySession(Protocol):
+    """What the store and the fields' sources use of the shim's session (:class:`._session.Session`).
+
+    Declared here rather than imported, so that this module does not depend on the session module that
+    imports it (the import graph of ``aamsim`` has no cycle, issue 29).
+    """
+
+    @property
+    def simulation(self) -> Simulation:
+        """The aamsim simulation behind the session."""
+
+    @property
+    def view(self) -> TrafficView:
+        """The simulation's traffic view (aamsim's slot order)."""
+
+    def order(self) -> np.ndarray:
+        """aamsim slot of each aircraft, in BlueSky's order."""
+
+    def write(self, target: str, slots: np.ndarray, values: np.ndarray) -> None:
+        """Set the public field ``target`` of the aircraft in ``slots`` through the simulator's API."""
 
 
 class FieldArray(np.ndarray):
@@ -44,7 +66,7 @@ class FieldArray(np.ndarray):
             super().__setitem__(key, value.reshape(()))
 
 
-Source = Callable[["TrafficView", np.ndarray, "Session"], np.ndarray]
+Source = Callable[["TrafficView", np.ndarray, "ArraySession"], np.ndarray]
 
 
 @dataclass(frozen=True)
@@ -59,7 +81,7 @@ class Field:
 def view_field(view_name: str) -> Source:
     """Values of the view's field ``view_name`` in BlueSky's order."""
 
-    def get(view: TrafficView, order: np.ndarray, session: Session) -> np.ndarray:
+    def get(view: TrafficView, order: np.ndarray, session: ArraySession) -> np.ndarray:
         return getattr(view, view_name)[order]
 
     return get
@@ -73,7 +95,7 @@ class ArrayStore:
     changes. Assigning a whole array (``bs.traf.alt = a``) goes through :meth:`assign`.
     """
 
-    def __init__(self, session: Session) -> None:
+    def __init__(self, session: ArraySession) -> None:
         self._session = session
         self._held: list[tuple[Any, str]] = []  # (owner, attribute) of the arrays handed out
         self._given: list[tuple[Any, str, Field, np.ndarray]] = []  # writable ones and a copy of what was handed out

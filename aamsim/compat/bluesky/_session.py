@@ -25,7 +25,6 @@ import numpy as np
 
 from aamsim.compat.bluesky import settings
 from aamsim.compat.bluesky._arrays import ArrayStore
-from aamsim.compat.bluesky._state import PROCESS
 from aamsim.simulation import Simulation
 
 if TYPE_CHECKING:
@@ -46,7 +45,10 @@ class StackWarning(UserWarning):
 class Session:
     """The simulation behind ``bs.traf`` / ``bs.sim`` and what BlueSky's API keeps beside it."""
 
-    def __init__(self, package: Any) -> None:
+    def __init__(self, package: Any, pending: list[str]) -> None:
+        # BlueSky's Stack.cmdstack, the process's (``_state.PROCESS.pending``): given, not imported, so that
+        # this module does not depend on the state module that holds the session (no import cycle, issue 29).
+        self._pending = pending
         self.package = package  # the ``bluesky`` module: bs.scr and bs.net are looked up there, as BlueSky does
         self.simulation = Simulation(dt=settings.simdt)
         self.ids: list[str] = []  # BlueSky's traf.id: callsigns as given, in BlueSky's order (one list, kept)
@@ -149,7 +151,7 @@ class Session:
     # ------------------------------------------------------------------ the stack
     def process(self, lines: list[str] | None = None) -> None:
         """Run stacked command lines now (those stacked while running run too, as in BlueSky)."""
-        pending = PROCESS.pending if lines is None else lines
+        pending = self._pending if lines is None else lines
         if not pending:
             return
         self.before_change()
@@ -216,7 +218,7 @@ class Session:
     def reset(self) -> None:
         """BlueSky's ``sim.reset()``: traffic, time, the step (back to ``settings.simdt``), stack and areas."""
         self.arrays.invalidate()
-        PROCESS.pending.clear()
+        self._pending.clear()
         sim = self.simulation
         self.delete_all()
         sim.reset()

@@ -23,23 +23,24 @@ from aamsim.traffic.wind import wind_from
 from aamsim.units import Speed
 
 if TYPE_CHECKING:
+    from aamsim.compat.bluesky._arrays import ArraySession
     from aamsim.compat.bluesky._session import Session
     from aamsim.traffic.view import TrafficView
 
 
-def _coslat(view: TrafficView, order: np.ndarray, session: Session) -> np.ndarray:
+def _coslat(view: TrafficView, order: np.ndarray, session: ArraySession) -> np.ndarray:
     return np.cos(np.deg2rad(view.lat[order]))
 
 
 def _atmosphere(k: int) -> Source:
-    def get(view: TrafficView, order: np.ndarray, session: Session) -> np.ndarray:
+    def get(view: TrafficView, order: np.ndarray, session: ArraySession) -> np.ndarray:
         return np.asarray(aero.vatmos(view.alt[order])[k], dtype=float)
 
     return get
 
 
 def _wind(k: int) -> Source:
-    def get(view: TrafficView, order: np.ndarray, session: Session) -> np.ndarray:
+    def get(view: TrafficView, order: np.ndarray, session: ArraySession) -> np.ndarray:
         wind = session.simulation.wind
         lat, lon, alt = view.lat[order], view.lon[order], view.alt[order]
         if not wind.active:
