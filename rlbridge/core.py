@@ -35,6 +35,7 @@ from aamsim.limits import SimulationLimits
 from aamsim.metrics import metrics_of
 from aamsim.scenarios import resolve_scenario
 from aamsim.services import build_services
+from aamsim.snapshots import SNAPSHOT_FIELDS, TrafficSnapshot, take_snapshot
 from aamsim.stack.parser import ParsedScenario, TimedCommand
 from aamsim.stack.tokens import next_arg
 from rlbridge.usecases.protocol import Feedback, Observations, UseCase, check_feedback, empty_info
@@ -470,6 +471,12 @@ class EpisodeCore:
             raise RuntimeError("traffic_state() before reset()")
         assert self.sim.services is not None
         return self.sim.services.snapshots.latest().as_dict(TRAFFIC_STATE_FIELDS)
+
+    def snapshot(self, fields: tuple[str, ...] = SNAPSHOT_FIELDS) -> TrafficSnapshot:
+        """A frozen copy of the traffic now (the fields' SI arrays): what a policy reads besides its observations."""
+        if self.sim is None:
+            raise RuntimeError("snapshot() before reset()")
+        return take_snapshot(self.sim, fields)
 
     def close(self) -> None:
         self.sim = None

@@ -103,10 +103,10 @@ def test_advisory_kinds_are_declared_and_the_others_refused():
                                                 r"heading_altitude_sa does not declare them \(its advisory kinds: "
                                                 r"heading, altitude\)"):
         uc.action_targets(core.sim, np.array([0]), "speed")
-    result = core.step({})
+    core.step({})
     rng = np.random.default_rng(0)
     with pytest.raises(AdvisoryKindError, match="baseline mvp_speed needs speed advisories"):
-        make_actor({"kind": "mvp_speed"}).act(result, core, rng, {})
+        make_actor({"kind": "mvp_speed"}).check_usecase(core.usecase)
     corridor = EpisodeCore(TINY, "corridor_sa", {}, time_limit_s=300.0)
     with pytest.raises(AdvisoryKindError, match=r"baseline mvp needs heading or altitude advisories; use case "
                                                 r"corridor_sa does not declare them \(its advisory kinds: speed\)"):

@@ -42,8 +42,8 @@ import numpy as np
 from aamsim.resolution import DAAParams, DetectAndAvoid, SpeedBands
 from aamsim.units import KTS
 from rlbridge.agents.daa_manoeuvre import ManoeuvreDAA
-from rlbridge.agents.rollout import ActOutput
-from rlbridge.core import EpisodeCore, StepResult
+from rlbridge.agents.rollout import ActOutput, EpisodeAccess
+from rlbridge.core import StepResult
 from rlbridge.usecases.protocol import ADVISORY_KINDS, UseCaseBase, check_advisory_kinds
 
 
@@ -65,6 +65,8 @@ class DAAActor:
     """Speed-only detect and avoid on a use case's discrete speed actions (see the module docstring)."""
 
     obs_format: str | None = None
+    snapshot_fields: tuple[str, ...] = ()
+    reads_simulation = True  # aamsim's services in process (rlbridge.agents.rollout.EpisodeAccess)
 
     def __init__(self, config: DAAPolicyConfig | None = None):
         self.config = config or DAAPolicyConfig()
@@ -77,7 +79,7 @@ class DAAActor:
     def set_weights(self, weights: Any) -> None:
         pass
 
-    def act(self, result: StepResult, core: EpisodeCore, rng: np.random.Generator,
+    def act(self, result: StepResult, core: EpisodeAccess, rng: np.random.Generator,
             explore: dict[str, Any]) -> ActOutput:
         sim = core.sim
         assert sim is not None
@@ -169,7 +171,7 @@ class DAAActor:
                 actions[rows[r]], advise[rows[r]] = a, True
         return ActOutput(actions, advise=advise)
 
-    def _act_manoeuvres(self, result: StepResult, core: EpisodeCore) -> ActOutput:
+    def _act_manoeuvres(self, result: StepResult, core: EpisodeAccess) -> ActOutput:
         """Heading and altitude advisories (rlbridge.agents.daa_manoeuvre)."""
         sim = core.sim
         assert sim is not None

@@ -24,8 +24,8 @@ from aamsim.resolution.mvp import MVPSettings
 from aamsim.resolution.mvp_detect import detect
 from aamsim.resolution.mvp_service import mvp_commands
 from rlbridge.agents.manoeuvres import MANOEUVRE_KINDS, action_targets
-from rlbridge.agents.rollout import ActOutput
-from rlbridge.core import EpisodeCore, StepResult
+from rlbridge.agents.rollout import ActOutput, EpisodeAccess
+from rlbridge.core import StepResult
 from rlbridge.usecases.protocol import check_advisory_kinds
 
 
@@ -42,6 +42,8 @@ class MVPActor:
     """Heading and altitude MVP on a use case's discrete advisories (see the module docstring)."""
 
     obs_format: str | None = None
+    snapshot_fields: tuple[str, ...] = ()
+    reads_simulation = True  # aamsim's services in process (rlbridge.agents.rollout.EpisodeAccess)
 
     def __init__(self, config: MVPConfig | None = None):
         self.config = config or MVPConfig()
@@ -52,7 +54,7 @@ class MVPActor:
     def set_weights(self, weights: Any) -> None:
         pass
 
-    def act(self, result: StepResult, core: EpisodeCore, rng: np.random.Generator,
+    def act(self, result: StepResult, core: EpisodeAccess, rng: np.random.Generator,
             explore: dict[str, Any]) -> ActOutput:
         sim, usecase = core.sim, core.usecase
         assert sim is not None

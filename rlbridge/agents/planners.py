@@ -16,8 +16,8 @@ from typing import Any
 
 import numpy as np
 
-from rlbridge.agents.rollout import ActOutput
-from rlbridge.core import EpisodeCore, StepResult
+from rlbridge.agents.rollout import ActOutput, EpisodeAccess
+from rlbridge.core import StepResult
 
 PLANNER = "planner"
 
@@ -46,7 +46,7 @@ def fcfs_action(conflicts: np.ndarray, action_mask: np.ndarray, filed_layer: int
     return best[1] if best is not None else 0
 
 
-def _planner(core: EpisodeCore) -> Any:
+def _planner(core: EpisodeAccess) -> Any:
     uc = core.usecase
     planner = getattr(uc, "planning", uc)  # the hierarchical use case wraps the planner
     if not hasattr(planner, "candidate_table"):
@@ -58,6 +58,8 @@ class _PlannerBaseline:
     """A rule acting for the planner agent only (the hierarchical use case's aircraft get nothing)."""
 
     obs_format: str | None = None
+    snapshot_fields: tuple[str, ...] = ()
+    reads_simulation = True  # aamsim's services in process (rlbridge.agents.rollout.EpisodeAccess)
 
     def set_weights(self, weights: Any) -> None:
         pass
@@ -65,7 +67,7 @@ class _PlannerBaseline:
     def choose(self, planner: Any) -> int:
         raise NotImplementedError
 
-    def act(self, result: StepResult, core: EpisodeCore, rng: np.random.Generator,
+    def act(self, result: StepResult, core: EpisodeAccess, rng: np.random.Generator,
             explore: dict[str, Any]) -> ActOutput:
         planner = _planner(core)
         decider = planner.decider() if hasattr(planner, "decider") else PLANNER  # a planner per vertiport: its own

@@ -4,9 +4,11 @@ A policy is named by a string: a baseline of the agents' registry
 (``rlbridge.agents.BASELINE_KINDS``: ``unequipped``, ``mvp_speed``, the
 planners' ``no_planning`` and ``fcfs``, and any baseline added there later,
 e.g. ``daa``) or the path of a training run directory or checkpoint file
-(``aamgym train`` output: its best weights, acting greedily). The agents'
-actors read an episode through ``core.sim`` and ``core.seed`` only;
-:class:`SimHandle` gives them that for a simulation driven by a use case.
+(``aamgym train`` output: its best weights, acting greedily). An actor reads
+the step result and a traffic snapshot of the fields it names
+(``snapshot_fields``), as in a rollout; the baselines still bound to the
+simulation (``reads_simulation``: ``daa``, ``mvp``, the planners) read the
+:class:`SimHandle` (simulation, seed, use case) instead.
 
 The registry is imported when a policy is built, not with this module: use
 cases sit below the agents, and only a composed use case (hierarchical, or a
@@ -15,17 +17,17 @@ planner with a tactical layer) reaches up to them.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, cast
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from aamsim.snapshots import take_snapshot
 from rlbridge.usecases.protocol import Observations
 
 if TYPE_CHECKING:
     from aamsim import Simulation
-    from rlbridge.core import EpisodeCore
 
 NO_POLICY = "unequipped"  # the name of "no actions at all"
 
@@ -55,6 +57,7 @@ class FrozenPolicy:
     obs_format: str | None  # what the actor needs from the use case ("flat", "dict", None: any)
     usecase_params: dict[str, Any]  # the parameters it was trained with ({} for baselines)
     usecase: str | None  # the use case it was trained on (None for baselines)
+    _checked: Any = field(default=None, init=False, repr=False, compare=False)  # use case last checked
 
     @property
     def active(self) -> bool:
@@ -67,7 +70,17 @@ class FrozenPolicy:
         n = len(agents)
         result = StepResult(agents, obs, np.zeros(n), np.zeros(n, bool), np.zeros(n, bool), list(agents),
                             handle.sim.simt, False)
-        out = self.actor.act(result, cast("EpisodeCore", handle), rng, self.explore)
+        if handle.usecase is not self._checked:
+            check = getattr(self.actor, "check_usecase", None)
+            if check is not None:
+                check(handle.usecase)
+            self._checked = handle.usecase
+        if getattr(self.actor, "reads_simulation", False):
+            seen: Any = handle
+        else:
+            fields = tuple(getattr(self.actor, "snapshot_fields", ()))
+            seen = take_snapshot(handle.sim, fields) if fields else None
+        out = self.actor.act(result, seen, rng, self.explore)
         if out.actions is None:
             return None
         actions = np.asarray(out.actions, np.int64)
