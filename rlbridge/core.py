@@ -38,8 +38,8 @@ from aamsim.services import build_services
 from aamsim.snapshots import SNAPSHOT_FIELDS, TrafficSnapshot, take_snapshot
 from aamsim.stack.parser import ParsedScenario, TimedCommand
 from aamsim.stack.tokens import next_arg
+from rlbridge.policies import make_usecase_with_policies
 from rlbridge.usecases.protocol import Feedback, Observations, UseCase, check_feedback, empty_info
-from rlbridge.usecases.registry import make_usecase
 
 TRAFFIC_STATE_FIELDS = ("lat", "lon", "alt", "tas", "gs", "trk", "vs")
 DEFAULT_EXTRA_TIME_S = 7200.0  # default episode limit: last scheduled command + 2 h
@@ -131,7 +131,7 @@ class EpisodeCore:
             raise ScenarioError(f"scenario not found: {scenario}")
         self.path = path
         self.text = path.read_text(encoding="utf-8", errors="replace")
-        self.usecase: UseCase = (make_usecase(usecase, **(params or {})) if isinstance(usecase, (str, type))
+        self.usecase: UseCase = (make_usecase_with_policies(usecase, **(params or {})) if isinstance(usecase, (str, type))
                                  else usecase)
         self.dt = dt
         self.plugins = tuple(plugins)

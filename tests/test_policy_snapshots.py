@@ -176,3 +176,25 @@ def test_rollouts_and_training_over_zeromq_match_in_process(tmp_path, monkeypatc
         assert _train(remote) == _train(local)
     finally:
         stop_process(proc)
+
+
+def test_the_documented_policy_acts_on_snapshots_as_written():
+    import re
+
+    from rlbridge.agents.rollout import policy_input
+    from rlbridge.core import EpisodeCore
+
+    text = (DATA.parents[1] / "docs" / "algorithms.md").read_text()
+    code = re.search(r"## Writing a policy.*?```python\n(.*?)```", text, re.DOTALL).group(1)
+    namespace: dict = {}
+    exec(compile(code, "algorithms.md", "exec"), namespace)  # noqa: S102 - the documented example, run as written
+    actor = namespace["SlowDownWhenClose"]()
+    core = EpisodeCore(str(DATA / "three_way.scn"), "corridor_sa", {}, time_limit_s=900.0)
+    actor.check_usecase(core.usecase)
+    result, advised = core.reset(0), 0
+    while not result.done:
+        out = actor.act(result, policy_input(actor, core), np.random.default_rng(0), {})
+        acts = {a: int(x) for a, x, g in zip(result.agents, out.actions, out.advise) if g and a in result.alive}
+        advised += len(acts)
+        result = core.step(acts)
+    assert advised > 0  # the three aircraft meet: within 2 km of each other for a while

@@ -24,7 +24,8 @@ from typing import Any
 
 import gymnasium as gym
 
-from rlbridge.usecases.registry import make_usecase, usecase_class
+from rlbridge.policies import make_usecase_with_policies as make_usecase
+from rlbridge.usecases.registry import usecase_class
 
 LEARNER_KINDS = ("d2mava", "dqn")
 BASELINE_KINDS = ("unequipped", "mvp_speed", "daa", "mvp", "no_planning", "fcfs")

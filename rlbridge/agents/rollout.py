@@ -32,7 +32,8 @@ import numpy as np
 from aamsim.scenarios import resolve_scenario
 from rlbridge.backends import BACKENDS, EpisodeBackend, make_backend
 from rlbridge.core import StepResult
-from rlbridge.usecases.registry import Observations, make_usecase
+from rlbridge.policies import make_usecase_with_policies
+from rlbridge.usecases.registry import Observations
 from rlbridge.vector.engine import VectorEngine
 
 if TYPE_CHECKING:
@@ -221,7 +222,8 @@ class EnvSpec:
     def make_engine(self, episodes: int, obs_format: str | None = None) -> VectorEngine:
         """``episodes`` episode engines stepped together in one world set (backend ``local`` only)."""
         if self.backend != "local":
-            raise ValueError("BlueSky runs one episode per process: lockstep episodes need backend=local")
+            raise ValueError(f"lockstep episodes step in one world set of this process: they need backend=local, "
+                             f"not {self.backend!r} (run one episode at a time there: lockstep=False)")
         params = dict(self.params)
         if obs_format is not None:
             params["obs_format"] = obs_format
@@ -282,7 +284,7 @@ class RolloutWorker:
         check = getattr(self.actors[name], "check_usecase", None)
         if check is not None:
             usecase = getattr(self._core_for(self.actors[name]), "usecase", None)
-            check(usecase if usecase is not None else make_usecase(self.env.usecase, **self.env.params))
+            check(usecase if usecase is not None else make_usecase_with_policies(self.env.usecase, **self.env.params))
         self._checked.add(name)
 
     def set_weights(self, weights: Any, actor: str = "policy") -> None:
@@ -323,8 +325,9 @@ class RolloutWorker:
         act = self.actors[actor]
         t0 = time.perf_counter()
         engine = self._engine_for(act, len(seeds)) if len(seeds) > 1 else None
+        cores: list[Any]
         if engine is not None:
-            cores = engine.cores
+            cores = list(engine.cores)
             started = engine.reset(dict(enumerate(seeds)))
             results = [started[k] for k in range(len(seeds))]
         else:

@@ -138,15 +138,15 @@ def with_altitude_noise(usecase: str, params: dict[str, Any], noise_ft: float, l
 def evaluation_baselines(cfg: DictConfig, env: EnvSpec) -> list[str]:
     """The baselines to evaluate: ``cfg.baselines``, or (null) the use case's own; each must be one it can use."""
     from rlbridge.agents import BASELINE_KINDS
-    from rlbridge.usecases.registry import make_usecase
+    from rlbridge.policies import RegistryPolicies, make_usecase_with_policies
     from rlbridge.usecases.tactical import tactical_baselines
 
-    usecase = make_usecase(env.usecase, **env.params)
+    usecase = make_usecase_with_policies(env.usecase, **env.params)
     own = getattr(usecase, "baselines", None)
     # A use case that names no baselines has aircraft as agents: every speed-advisory baseline applies
     # (mvp_speed and daa by default).
     default = list(own) if own is not None else ["mvp_speed", "daa"]
-    applies = set(own) if own is not None else set(tactical_baselines())
+    applies = set(own) if own is not None else set(tactical_baselines(RegistryPolicies()))
     names = [str(b) for b in cfg.baselines] if cfg.baselines is not None else default
     for b in names:
         if b not in BASELINE_KINDS:

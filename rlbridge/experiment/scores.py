@@ -43,10 +43,10 @@ COLUMNS = (
 
 def usecase_contenders(usecase: str) -> tuple[str, list[str], list[str]]:
     """(reference baseline, other baselines, shipped pretrained policies) of a use case."""
+    from rlbridge.policies import make_usecase_with_policies
     from rlbridge.pretrained import available, load
-    from rlbridge.usecases.registry import make_usecase
 
-    own = list(getattr(make_usecase(usecase), "baselines", None) or ["mvp_speed", "daa"])
+    own = list(getattr(make_usecase_with_policies(usecase), "baselines", None) or ["mvp_speed", "daa"])
     reference = "no_planning" if "no_planning" in own else "unequipped"
     others = [b for b in own if b != reference]
     learned = [n for n in available() if load(n).usecase == usecase]
