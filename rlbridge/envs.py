@@ -26,8 +26,8 @@ from pettingzoo import ParallelEnv
 from aamsim.scenarios import resolve_scenario
 from rlbridge.backends import make_backend
 from rlbridge.core import StepResult
-from rlbridge.render import RENDER_FPS, RENDER_MODES, EnvRenderer, check_render_mode
 from rlbridge.policies import make_usecase_with_policies
+from rlbridge.render import RENDER_FPS, RENDER_MODES, EnvRenderer, check_render_mode
 
 
 class AamParallelEnv(ParallelEnv):

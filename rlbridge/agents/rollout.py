@@ -327,7 +327,7 @@ class RolloutWorker:
         engine = self._engine_for(act, len(seeds)) if len(seeds) > 1 else None
         cores: list[Any]
         if engine is not None:
-            cores = list(engine.cores)
+            cores = engine.cores
             started = engine.reset(dict(enumerate(seeds)))
             results = [started[k] for k in range(len(seeds))]
         else:
