@@ -1,12 +1,8 @@
 """aamsim: a BlueSky-compatible, headless, fast-time air-traffic simulator for AAM research."""
 
-from aamsim.numba_cache import configure as _configure_numba_cache
-from aamsim.numba_cache import defer_scipy_import as _defer_scipy_import
-
-_configure_numba_cache()  # before any compiled function is defined (see aamsim/numba_cache.py)
-_defer_scipy_import()
-
+# Nothing runs at import: Numba's cache directory is chosen at the first compilation (aamsim/numba_cache.py).
 from aamsim.api import SimulationAPI, Target
+from aamsim.conflicts.separation import SeparationStandard
 from aamsim.simulation import Simulation
 from aamsim.traffic.view import TrafficView
 from aamsim.units import Speed
@@ -15,4 +11,4 @@ from aamsim.units import Speed
 # versions). Its only home: setup.cfg reads it, rlbridge re-exports it, CITATION.cff and the top
 # release of CHANGELOG.md repeat it (tests/test_project_files.py); a release is the tag vX.Y.Z.
 __version__ = "0.1.0"
-__all__ = ["Simulation", "SimulationAPI", "Speed", "Target", "TrafficView", "__version__"]
+__all__ = ["SeparationStandard", "Simulation", "SimulationAPI", "Speed", "Target", "TrafficView", "__version__"]

@@ -13,7 +13,9 @@ from collections.abc import Callable
 from typing import Any, Protocol, cast, overload
 
 import numpy as np
-from numba import njit, vectorize
+from numba import vectorize
+
+from aamsim.numba_cache import njit, prepare
 
 P0 = 101325.0  # Pa, sea-level pressure
 RHO0 = 1.225  # kg/m^3, sea-level density
@@ -76,12 +78,6 @@ def mach2tas_scalar(mach: float, h: float) -> float:
     return mach * speed_of_sound(h)
 
 
-@njit(cache=True, inline="always")
-def tas2mach_scalar(tas: float, h: float) -> float:
-    """True airspeed [m/s] to Mach number at altitude h [m]."""
-    return tas / speed_of_sound(h)
-
-
 @njit(cache=True)
 def spd2tas_scalar(spd: float, is_mach: bool, h: float) -> float:
     """A commanded speed (CAS m/s, or Mach when ``is_mach``) to TAS [m/s]."""
@@ -120,6 +116,7 @@ def _conversion(name: str, scalar: Callable[[float, float], float], element: Cal
         if np.ndim(speed) == 0 and np.ndim(h) == 0:
             return scalar(float(speed), float(h))
         if not ufunc:
+            prepare()  # the cache directory keyed by the sources, before Numba picks one for the ufunc
             ufunc.append(vectorize(["float64(float64, float64)"], cache=True)(element))
         return ufunc[0](speed, h)
 

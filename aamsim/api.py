@@ -27,6 +27,7 @@ from aamsim.traffic.view import PUBLIC_FLAGS, PUBLIC_FLOATS, TrafficView
 from aamsim.units import Speed
 
 if TYPE_CHECKING:
+    from aamsim.conflicts.separation import SeparationStandard
     from aamsim.services import Services
     from aamsim.traffic.route import Route
     from aamsim.traffic.traffic import FlightRecord, Traffic
@@ -56,6 +57,19 @@ class SimulationAPI:
 
             return build_services(self)  # type: ignore[arg-type]
         return self.services
+
+    @property
+    def separation_standard(self) -> SeparationStandard:
+        """The NMAC and LoWC volumes [m] that events, metrics, use cases and baselines count against.
+
+        The conflict service owns it (:attr:`aamsim.conflicts.ConflictService.standard`; ``SEPVOLUME``
+        changes it); reading it builds the services with the defaults when no entry point built them.
+        """
+        return self.require_services().conflicts.standard
+
+    def set_separation_standard(self, standard: SeparationStandard) -> None:
+        """Count NMAC and LoWC events against ``standard`` from now on (the conflict service's volumes)."""
+        self.require_services().conflicts.set_standard(standard)
 
     def flights(self, real_traffic: bool = False) -> Iterator[FlightRecord]:
         """Closed flights followed by the open ones (their distance and times brought up to date).

@@ -22,8 +22,8 @@ from functools import cache
 from typing import TYPE_CHECKING
 
 import numpy as np
-from numba import njit
 
+from aamsim.numba_cache import njit
 from aamsim.units import NM, R_EARTH
 
 WGS84_A = 6378137.0  # m, semi-major axis

@@ -10,6 +10,12 @@ fresh cache (compiled once, about a minute).
 
 ``NUMBA_CACHE_DIR`` set by the user is respected. The directory is also passed
 on to subprocesses (Ray workers, the simulation server) through the environment.
+
+None of this happens at import: the package's compiled functions are made with
+:func:`njit` below, which leaves the cache off until the function is first
+compiled or loaded; that first time, :func:`prepare` hashes the sources, picks
+the directory (once a process) and Numba's cache is switched on for the
+function. An entry point may also call :func:`configure` itself.
 """
 
 from __future__ import annotations
@@ -20,7 +26,12 @@ import os
 import shutil
 import sys
 import time
+from collections.abc import Callable
 from pathlib import Path
+from typing import Any, TypeVar
+
+from numba.core.caching import NullCache
+from numba.core.registry import CPUDispatcher
 
 _PACKAGES = ("aamsim", "rlbridge", "uamtoolkit_import")
 # Folders without compiled code, that no compiled code reads: a change there keeps the cache.
@@ -76,6 +87,54 @@ def configure() -> str | None:
 
     numba.config.CACHE_DIR = str(directory)  # type: ignore[attr-defined]
     return str(directory)
+
+
+def prepare() -> None:
+    """What a process needs before it compiles or loads its first function of these packages.
+
+    Numba's cache directory for this exact source (:func:`configure`, once a process: later calls
+    find ``NUMBA_CACHE_DIR`` set and return at once) and the deferred SciPy import.
+    """
+    configure()
+    defer_scipy_import()
+
+
+class SourceKeyedDispatcher(CPUDispatcher):  # type: ignore[misc]
+    """A compiled function that switches Numba's on-disk cache on at its first compilation, not at import.
+
+    Numba picks a function's cache directory when its cache is switched on; ``njit(cache=True)`` does that
+    when the module is imported, which would force the source hash and the directory to exist before any
+    import of the package. Every compilation and every load from the cache goes through :meth:`compile`
+    (a call from Python with new argument types, and the typing of a call from another compiled
+    function), so switching the cache on there is the same cache, chosen later.
+    """
+
+    def compile(self, sig: Any) -> Any:
+        if isinstance(getattr(self, "_cache", None), NullCache):  # (Numba sets it in __init__)
+            prepare()
+            self.enable_caching()
+        return super().compile(sig)
+
+
+_F = TypeVar("_F", bound=Callable[..., Any])
+
+
+def njit(*, cache: bool = False, **options: Any) -> Callable[[_F], _F]:
+    """``numba.njit(**options)`` whose ``cache=True`` takes effect at the first compilation (see above).
+
+    Args:
+        cache: keep the machine code on disk, in the directory keyed by the sources (:func:`configure`).
+        **options: Numba's other options (``inline``, ``parallel``, ``error_model``, ...), unchanged.
+    """
+    import numba
+
+    def decorate(fn: _F) -> _F:
+        dispatcher = numba.njit(**options)(fn)
+        if cache and type(dispatcher) is CPUDispatcher:  # (NUMBA_DISABLE_JIT returns the plain function)
+            dispatcher.__class__ = SourceKeyedDispatcher  # the same object; only its compile() differs
+        return dispatcher  # type: ignore[no-any-return]
+
+    return decorate
 
 
 def defer_scipy_import() -> None:

@@ -45,7 +45,3 @@ def resolve_scenario(name: str | Path) -> Path | None:
     if p.is_file():
         return p
     return packaged_scenario(str(name))
-
-
-def list_packaged() -> list[str]:
-    return sorted(p.name for p in packaged_dir().glob("*.scn"))

@@ -27,14 +27,13 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from aamsim.errors import CommandError
-from aamsim.units import NM
+from aamsim.units import NM, R_EARTH
 
 if TYPE_CHECKING:
     from aamsim.stack.context import CommandContext
 
 UNBOUNDED_TOP_M = 1e9  # BlueSky's defaults: no altitude limit
 UNBOUNDED_BOTTOM_M = -1e9
-_EARTH_RADIUS_M = 6371000.0  # kwikdist's sphere
 
 
 @dataclass
@@ -90,7 +89,7 @@ def kwikdist_nm(lat_a: float, lon_a: float, lat_b: np.ndarray, lon_b: np.ndarray
     dlat = np.radians(lat_b - lat_a)
     dlon = np.radians(((lon_b - lon_a) + 180.0) % 360.0 - 180.0)
     cavelat = np.cos(np.radians(lat_a + lat_b) * 0.5)
-    return _EARTH_RADIUS_M * np.sqrt(dlat * dlat + dlon * dlon * cavelat * cavelat) / NM
+    return R_EARTH * np.sqrt(dlat * dlat + dlon * dlon * cavelat * cavelat) / NM
 
 
 class Shapes:

@@ -40,6 +40,7 @@ from aamsim.stack.parser import ParsedScenario, TimedCommand
 from aamsim.stack.tokens import next_arg
 from rlbridge.policies import make_usecase_with_policies
 from rlbridge.usecases.protocol import Feedback, Observations, UseCase, check_feedback, empty_info
+from rlbridge.usecases.spec import UseCaseSpec, spec_of
 
 TRAFFIC_STATE_FIELDS = ("lat", "lon", "alt", "tas", "gs", "trk", "vs")
 DEFAULT_EXTRA_TIME_S = 7200.0  # default episode limit: last scheduled command + 2 h
@@ -133,6 +134,7 @@ class EpisodeCore:
         self.text = path.read_text(encoding="utf-8", errors="replace")
         self.usecase: UseCase = (make_usecase_with_policies(usecase, **(params or {})) if isinstance(usecase, (str, type))
                                  else usecase)
+        self.spec: UseCaseSpec = spec_of(self.usecase)  # a use case without a spec is refused here
         self.dt = dt
         self.plugins = tuple(plugins)
         self.file_guard = file_guard
@@ -154,7 +156,7 @@ class EpisodeCore:
         standing = list(self.usecase.standing_agents)
         # Aircraft named by CRE lines are known agents before the run, unless the use case's agents are not
         # aircraft (a planner).
-        named = scenario_callsigns(self._parsed) if getattr(self.usecase, "aircraft_agents", True) else []
+        named = scenario_callsigns(self._parsed) if self.spec.aircraft_agents else []
         self.possible_agents: list[str] = standing + [a for a in named if a not in standing]
         self._possible = set(self.possible_agents)
         # Called with each episode's new simulation, before it runs (a recorder attaches here:
@@ -453,6 +455,10 @@ class EpisodeCore:
             conflicts_of(self.sim).finish(self.sim)
         out = metrics_of(self.sim).compute(self.sim, groups)
         extra = self.usecase.extra_metrics(self.sim)
+        undeclared = sorted(set(extra) - set(self.spec.metrics))
+        if undeclared:
+            raise ValueError(f"use case {self.usecase.name}: extra_metrics gave {', '.join(undeclared)}, which its "
+                             f"spec does not declare (UseCaseSpec.metrics: {', '.join(self.spec.metrics) or 'none'})")
         if extra:
             out[self.usecase.name] = extra
         return out

@@ -16,6 +16,7 @@ from typing import Any
 
 from rlbridge.usecases.frozen import FrozenPolicy
 from rlbridge.usecases.registry import UseCase, make_usecase, usecase_class
+from rlbridge.usecases.spec import spec_of
 
 
 class RegistryPolicies:
@@ -58,7 +59,7 @@ def make_usecase_with_policies(usecase: str | type, **params: Any) -> UseCase:
     """:func:`rlbridge.usecases.registry.make_usecase`, with :class:`RegistryPolicies` injected where the use
     case flies frozen policies (its ``policy_params``)."""
     cls = usecase if isinstance(usecase, type) else usecase_class(usecase)
-    if getattr(cls, "policy_params", ()):
+    if spec_of(cls).policy_params:
         return make_usecase(usecase, policies=RegistryPolicies(), **params)
     return make_usecase(usecase, **params)
 

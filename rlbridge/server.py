@@ -90,10 +90,10 @@ class Session:
 
 def _refuse_policy_files(usecase: str, params: dict[str, Any]) -> None:
     """A client names frozen policies by baseline name only: the server loads no file a client names."""
-    from rlbridge.usecases.registry import usecase_class
+    from rlbridge.usecases.registry import usecase_spec
 
     try:
-        names = tuple(getattr(usecase_class(usecase), "policy_params", ()))
+        names = usecase_spec(usecase).policy_params
     except KeyError:
         return  # the use case's own error comes with the episode
     if not names:

@@ -23,7 +23,7 @@ from rlbridge.agents.d2mava import D2MAVAConfig
 from rlbridge.agents.ddqn import DDQNConfig
 from rlbridge.experiment.preflight import check_job, preflight, sweep_points
 from rlbridge.experiment.schema import check_mapping, check_value, describe
-from rlbridge.usecases.registry import available, usecase_class
+from rlbridge.usecases.registry import available, usecase_spec
 
 ROOT = Path(__file__).resolve().parent.parent
 TINY = str(ROOT / "tests" / "data" / "tiny_conflict.scn")
@@ -146,7 +146,7 @@ WRONG = {int: "abc", float: "abc", bool: "yes", str: ["a", "list"]}
 
 def param_classes() -> list[type]:
     classes = [DDQNConfig, D2MAVAConfig]
-    classes += [c for c in (getattr(usecase_class(n), "params_class", None) for n in available()) if c is not None]
+    classes += [usecase_spec(n).params_class for n in available()]
     return classes
 
 

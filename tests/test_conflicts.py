@@ -275,8 +275,9 @@ def test_fused_check_equals_brute_force(traffic, rpz, tlook, lookback, cylinder,
     cyl = np.array([cylinder, False])
     out = detect_all(sim.traffic.F, n, _SNAPSHOT_ROWS, R_EARTH, back, True, rpz, 150.0, tlook, radii, cyl, half,
                      1000.0, cap_hint)
-    ci, cj, tcpa, _dcpa, _tin, li, lj, inconf, tcpamax, eq, ei, ej = out[:12]
-    closest = out[18]
+    ci, cj, tcpa, li, lj = out.conflict_i, out.conflict_j, out.tcpa, out.los_i, out.los_j
+    inconf, tcpamax, eq, ei, ej = out.inconf, out.tcpamax, out.event_volume, out.event_i, out.event_j
+    closest = out.closest
     ai, aj = _all_pairs(n)
     conf, tcpa_a, _, _, _, los = statebased(s.lat, s.lon, s.alt, s.u, s.v, s.w, ai, aj, rpz, 150.0, tlook)
     brute = dict(zip(zip(ai[conf].tolist(), aj[conf].tolist()), tcpa_a[conf].tolist()))
@@ -365,6 +366,7 @@ def test_fused_check_agrees_with_statebased_at_the_zone_edge(rel):
     for k in (0, 5):  # the head-on pair (0, 1) and the crossing pair (2, 3)
         rpz = float(dcpa[k]) * (1.0 + rel)
         conf = statebased(s.lat, s.lon, s.alt, s.u, s.v, s.w, ai, aj, rpz, 150.0, 600.0)[0]
-        ci, cj = detect_all(sim.traffic.F, 4, _SNAPSHOT_ROWS, R_EARTH, np.zeros(4), True, rpz, 150.0, 600.0, lo,
-                            np.zeros(2, bool), hi, 1000.0, 0)[:2]
+        found = detect_all(sim.traffic.F, 4, _SNAPSHOT_ROWS, R_EARTH, np.zeros(4), True, rpz, 150.0, 600.0, lo,
+                           np.zeros(2, bool), hi, 1000.0, 0)
+        ci, cj = found.conflict_i, found.conflict_j
         assert set(zip(ci.tolist(), cj.tolist())) == set(zip(ai[conf].tolist(), aj[conf].tolist()))

@@ -22,6 +22,7 @@ from aamsim.units import FT, R_EARTH
 from rlbridge.agents import make_actor
 from rlbridge.core import EpisodeCore
 from rlbridge.usecases.protocol import AdvisoryKindError
+from rlbridge.usecases.spec import CapabilityError
 
 HERE = Path(__file__).parent
 ROOT = HERE.parent
@@ -98,19 +99,19 @@ def test_advisory_kinds_are_declared_and_the_others_refused():
     core = engine()
     core.reset(0)
     uc = core.usecase
-    assert uc.advisory_kinds == ("heading", "altitude")
+    assert uc.spec.action_kinds == ("heading", "altitude")
     with pytest.raises(AdvisoryKindError, match=r"applying speed advisories needs speed advisories; use case "
                                                 r"heading_altitude_sa does not declare them \(its advisory kinds: "
                                                 r"heading, altitude\)"):
         uc.action_targets(core.sim, np.array([0]), "speed")
     core.step({})
-    rng = np.random.default_rng(0)
-    with pytest.raises(AdvisoryKindError, match="baseline mvp_speed needs speed advisories"):
+    with pytest.raises(CapabilityError, match=r"baseline mvp_speed does not fit use case heading_altitude_sa: it "
+                                              r"needs speed actions \(its action kinds: heading, altitude\)"):
         make_actor({"kind": "mvp_speed"}).check_usecase(core.usecase)
     corridor = EpisodeCore(TINY, "corridor_sa", {}, time_limit_s=300.0)
-    with pytest.raises(AdvisoryKindError, match=r"baseline mvp needs heading or altitude advisories; use case "
-                                                r"corridor_sa does not declare them \(its advisory kinds: speed\)"):
-        make_actor({"kind": "mvp"}).act(corridor.reset(0), corridor, rng, {})
+    with pytest.raises(CapabilityError, match=r"baseline mvp does not fit use case corridor_sa: it needs heading "
+                                              r"or altitude actions \(its action kinds: speed\)"):
+        make_actor({"kind": "mvp"}).check_usecase(corridor.usecase)
 
 
 def run_episode(kind: str, seed: int = 0) -> dict:

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 import os
 import subprocess
 import sys
@@ -47,7 +48,9 @@ def test_package_roots_cover_the_packages():
 
 
 def test_cache_directory_follows_the_source_and_respects_the_user(tmp_path):
-    code = "import aamsim, os, numba; print(os.environ['NUMBA_CACHE_DIR'] + '|' + str(numba.config.CACHE_DIR))"
+    # The directory is chosen at the first compilation (here a load or compile of cas2tas_scalar).
+    code = ("import aamsim, os, numba; from aamsim import aero; aero.cas2tas_scalar(50.0, 0.0); print("
+            "os.environ['NUMBA_CACHE_DIR'] + '|' + str(numba.config.CACHE_DIR))")
     env = {k: v for k, v in os.environ.items() if k != "NUMBA_CACHE_DIR"}
     env.update(PYTHONPATH=str(ROOT), XDG_CACHE_HOME=str(tmp_path / "xdg"))
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, check=True).stdout
@@ -58,6 +61,51 @@ def test_cache_directory_follows_the_source_and_respects_the_user(tmp_path):
     env["NUMBA_CACHE_DIR"] = str(tmp_path / "mine")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, check=True).stdout
     assert out.strip() == f"{tmp_path / 'mine'}|{tmp_path / 'mine'}"
+
+
+_WATCH_IMPORT = """
+import json, os, sys
+import numpy, numba, numba.np.linalg  # dependencies: what their own imports do is theirs
+events = []
+def hook(event, args):
+    if event in ("os.mkdir", "os.rmdir", "os.remove", "shutil.rmtree", "os.putenv", "os.unsetenv"):
+        events.append([event, str(args[0])])
+    elif event == "open" and isinstance(args[0], str) and args[1] == "rb" and args[0].endswith(".py"):
+        events.append([event, args[0]])  # a source read as bytes (the digest; imports use open_code, mode 'r')
+sys.addaudithook(hook)
+before = dict(os.environ)
+ensure_blas = numba.np.linalg.ensure_blas
+import aamsim, aamsim.numba_cache
+print(json.dumps({
+    "events": events,
+    "environ_changed": dict(os.environ) != before,
+    "numba_cache_dir": str(numba.config.CACHE_DIR),
+    "blas_probe_patched": numba.np.linalg.ensure_blas is not ensure_blas or "numba.np.arraymath" in sys.modules,
+}))
+"""
+
+
+def test_import_does_no_work(tmp_path):
+    """``import aamsim`` hashes no source, creates or removes no directory, sets no environment variable
+    and leaves Numba as it was: that work waits for the first compilation (issue 29)."""
+    env = {k: v for k, v in os.environ.items() if k != "NUMBA_CACHE_DIR"}
+    env.update(PYTHONPATH=str(ROOT), XDG_CACHE_HOME=str(tmp_path / "xdg"), PYTHONDONTWRITEBYTECODE="1")
+    out = subprocess.run([sys.executable, "-c", _WATCH_IMPORT], capture_output=True, text=True, env=env, check=True)
+    seen = json.loads(out.stdout.strip().splitlines()[-1])
+    assert seen == {"events": [], "environ_changed": False, "numba_cache_dir": "", "blas_probe_patched": False}
+    assert not (tmp_path / "xdg").exists()
+
+
+def test_a_second_process_loads_the_compiled_code_from_the_cache(tmp_path):
+    """The cache chosen at the first compilation is the one the next process loads from: no compilation."""
+    code = ("from aamsim import aero; aero.cas2tas_scalar(50.0, 0.0); "
+            "s = aero.cas2tas_scalar.stats; print(sum(s.cache_hits.values()), sum(s.cache_misses.values()))")
+    env = {k: v for k, v in os.environ.items() if k != "NUMBA_CACHE_DIR"}
+    env.update(PYTHONPATH=str(ROOT), XDG_CACHE_HOME=str(tmp_path / "xdg"))
+    runs = [subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env,
+                           check=True).stdout.split() for _ in range(2)]
+    assert runs == [["0", "1"], ["1", "0"]]
+    assert [p.name for p in (tmp_path / "xdg" / "aamsim" / "numba").iterdir()] == [source_digest(package_roots())]
 
 
 def test_checkouts_sharing_the_cache_keep_each_others_directories(tmp_path, monkeypatch) -> None:

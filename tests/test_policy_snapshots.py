@@ -125,11 +125,12 @@ def test_simulation_bound_baselines_are_refused_over_zeromq_naming_the_backends(
 
 def test_a_worker_refuses_a_baseline_whose_actions_do_not_fit_the_use_case():
     from rlbridge.agents.rollout import EnvSpec, RolloutWorker
-    from rlbridge.usecases.protocol import AdvisoryKindError
+    from rlbridge.usecases.spec import CapabilityError
 
     worker = RolloutWorker(EnvSpec(str(DATA / "daa_turns.scn"), "heading_altitude_sa", {}, time_limit_s=60.0),
                            {"policy": {"kind": "mvp_speed"}})
-    with pytest.raises(AdvisoryKindError, match="baseline mvp_speed needs speed advisories"):
+    with pytest.raises(CapabilityError, match=r"baseline mvp_speed does not fit use case heading_altitude_sa: it "
+                                              r"needs speed actions \(its action kinds: heading, altitude\)"):
         worker.collect([0])
 
 

@@ -88,6 +88,7 @@ class _WrongInfo(UseCaseBase):
     """A use case whose feedback does not match its declared info columns."""
 
     name = "wrong_info"
+    spec = ReachDestination.spec
     info_fields = {"flag": np.bool_}  # noqa: RUF012
 
     def __init__(self) -> None:
@@ -180,4 +181,4 @@ def test_reach_destination_counts_speed_changes_as_advisories_and_names_its_base
     assert changing > steady
     from rlbridge.usecases.reach import ReachDestination
 
-    assert ReachDestination.baselines == ("daa",)
+    assert ReachDestination.spec.baselines == ("daa",)

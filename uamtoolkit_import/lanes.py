@@ -28,6 +28,8 @@ import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 
+from aamsim.units import R_EARTH
+
 Leg = tuple[str, str, float, float]
 """A directed segment (from, to) and when it is flown: enter and exit times [s]."""
 
@@ -101,7 +103,7 @@ class LaneBook:
 
         def xy(point: str) -> tuple[float, float]:
             lat, lon = self.position(point)  # type: ignore[misc]
-            return (math.radians(lon - lon0) * 6371000.0 * coslat, math.radians(lat - lat0) * 6371000.0)
+            return (math.radians(lon - lon0) * R_EARTH * coslat, math.radians(lat - lat0) * R_EARTH)
 
         for a, b, ta, tb in legs:
             lo, hi = max(ta, t0), min(tb, t1)

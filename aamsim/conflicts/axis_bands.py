@@ -24,11 +24,11 @@ velocities ``u`` (east), ``v`` (north), ``w`` (up) [m/s].
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
 
 from aamsim.conflicts.bands import MAX_BANDS, hdg_conflicts, merge_bands, vs_conflicts
 from aamsim.conflicts.pairs import relative_state
 from aamsim.conflicts.wellclear import in_violation, violation_interval
+from aamsim.numba_cache import njit
 
 
 @njit(cache=True)

@@ -28,10 +28,10 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
 
 from aamsim.conflicts.pairs import relative_state
 from aamsim.conflicts.wellclear import horizontal_interval, vertical_interval, violation_interval
+from aamsim.numba_cache import njit
 
 MAX_EDGES = 32  # critical points per pair and variable (ground speed: at most 2 + 4 * 2 + 2 + 2 + 4 + 1)
 MAX_BANDS = MAX_EDGES // 2 + 1

@@ -12,7 +12,8 @@ import math
 from dataclasses import dataclass, field
 
 import numpy as np
-from numba import njit
+
+from aamsim.numba_cache import njit
 
 
 @dataclass

@@ -12,13 +12,45 @@ closest-intruder distances.
 from __future__ import annotations
 
 import math
+from typing import NamedTuple
 
 import numpy as np
-from numba import njit
 
 from aamsim.conflicts.grid import NO_PAIR_LIMIT, Strips, build_strips, candidate_pairs, snapshot_arrays, swept_boxes
 from aamsim.conflicts.pairs import encounter_pair, relative_state, slant_distances, statebased_pair
+from aamsim.numba_cache import njit
 from aamsim.units import R_EARTH
+
+
+class Detection(NamedTuple):
+    """What one conflict check (:func:`detect_all`) finds; slots are rows of the traffic matrix.
+
+    Conflicts (STATEBASED, BlueSky's names) are the pairs ``conflict_i < conflict_j``; losses of separation
+    the pairs ``los_i, los_j``. Events are the pairs inside a separation volume during the last interval,
+    grouped by volume (``inside_count[q]`` of volume q, in the order of the volumes).
+    """
+
+    conflict_i: np.ndarray  # int64, slot of the first aircraft of each conflict
+    conflict_j: np.ndarray  # int64, slot of the second
+    tcpa: np.ndarray  # s, time to the closest point of approach
+    dcpa: np.ndarray  # m, horizontal distance at it
+    tinconf: np.ndarray  # s, time to the loss of separation
+    los_i: np.ndarray  # int64, pairs in loss of separation now
+    los_j: np.ndarray  # int64
+    inconf: np.ndarray  # bool, per aircraft: in a conflict
+    tcpamax: np.ndarray  # s, per aircraft: the largest tcpa of its conflicts (0 when none)
+    event_volume: np.ndarray  # int64, per inside pair: its volume's index
+    event_i: np.ndarray  # int64, slots of the inside pair
+    event_j: np.ndarray  # int64
+    event_t_in: np.ndarray  # s, entry time in the interval
+    event_t_out: np.ndarray  # s, exit time
+    event_dmin: np.ndarray  # m, smallest distance inside
+    event_t_min: np.ndarray  # s, time of that distance
+    event_state: np.ndarray  # (pairs, 12): lat, lon, alt of i, of j, east/north/up velocity of i, of j at t_min
+    inside_count: np.ndarray  # int64, per volume: its inside pairs
+    closest: np.ndarray  # m, per aircraft: the closest intruder within the closest range (inf beyond)
+    min_distance: float  # m, the smallest pair distance (now, or inside a volume during the interval)
+    cut: bool  # True when a pair search stopped at max_pairs
 
 
 @njit(cache=True)
@@ -239,7 +271,6 @@ def volume_pass(lat: np.ndarray, lon: np.ndarray, latr: np.ndarray, lonr: np.nda
     return eq, ei, ej, etin, etout, edmin, etmin, epos, count, closest, dnow
 
 
-@njit(cache=True)
 def detect_all(
     F: np.ndarray,
     n: int,
@@ -256,7 +287,7 @@ def detect_all(
     closest_range: float,
     cap_hint: int = 0,
     max_pairs: int = NO_PAIR_LIMIT,
-) -> tuple:
+) -> Detection:
     """One conflict check on the first ``n`` aircraft of the traffic matrix ``F``.
 
     Args:
@@ -267,16 +298,38 @@ def detect_all(
         closest_range: closest-intruder distances beyond this [m] are inf.
         cap_hint: expected number of conflicts (sizes the output; any number is correct).
         max_pairs: each pair search (conflicts, LoS, pairs near enough for a volume) stops once it has
-            found this many; the last value returned says whether one did.
+            found this many; :attr:`Detection.cut` says whether one did.
 
     Returns:
-        Conflicts (i, j, tcpa, dcpa, tinconf), LoS pairs (i, j), per-aircraft
-        in-conflict flag and largest tcpa; inside pairs of every volume
-        (volume, i, j, t_in, t_out, dmin, t_min, the state of i and j at t_min:
-        lat, lon, alt of i, then of j, then east, north, up velocities of i, then of j); per-volume
-        inside counts; per-aircraft closest distance; the smallest pair distance (now, or inside a
-        volume during the interval); True when a pair search stopped at ``max_pairs``.
+        The conflicts, losses of separation, inside pairs of every volume, closest-intruder distances
+        and whether a pair search stopped at ``max_pairs``: a :class:`Detection`.
     """
+    # The compiled pass returns a plain tuple and the record is made here, in Python: Numba boxes a
+    # named tuple by calling its class, Python code that a pending signal (Ctrl-C, an alarm) then
+    # interrupts inside the boxing, which crashed the process (tests/test_compiled_errors.py).
+    return Detection._make(_detect_all(F, n, rows, r_earth, lookback, cd_on, rpz, hpz, tlook, radii, cylinder,
+                                       half_heights, closest_range, cap_hint, max_pairs))
+
+
+@njit(cache=True)
+def _detect_all(
+    F: np.ndarray,
+    n: int,
+    rows: np.ndarray,
+    r_earth: float,
+    lookback: np.ndarray,
+    cd_on: bool,
+    rpz: float,
+    hpz: float,
+    tlook: float,
+    radii: np.ndarray,
+    cylinder: np.ndarray,
+    half_heights: np.ndarray,
+    closest_range: float,
+    cap_hint: int = 0,
+    max_pairs: int = NO_PAIR_LIMIT,
+) -> tuple:
+    """:func:`detect_all`, compiled: the fields of a :class:`Detection` as a tuple, in its order."""
     lat, lon, alt, u, v, w, x, y, err, latr, lonr, ch, sh = snapshot_arrays(F, n, rows, r_earth)
     zeros = np.zeros(n)
     empty = np.empty(0, dtype=np.int64)

@@ -21,7 +21,8 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
+
+from aamsim.numba_cache import njit
 
 # build_strips' result: box bounds in strip/x order (x0, x1, y0, y1), the aircraft of each
 # entry, its x bucket, where each strip starts, whether the entry is in its box's lowest

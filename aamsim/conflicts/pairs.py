@@ -12,8 +12,8 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
 
+from aamsim.numba_cache import njit
 from aamsim.units import R_EARTH
 
 

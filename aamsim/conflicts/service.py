@@ -31,6 +31,7 @@ from aamsim.conflicts.events import EventLog, SeparationEvent
 from aamsim.conflicts.fused import detect_all, new_pair_count, pairs_now, volume_pass
 from aamsim.conflicts.grid import NO_PAIR_LIMIT, candidate_pairs, snapshot_arrays, swept_boxes
 from aamsim.conflicts.pairs import nearest_per_aircraft, slant_distances
+from aamsim.conflicts.separation import LOWC, NMAC, PAPER_STANDARD, SeparationStandard, SeparationVolume
 from aamsim.conflicts.zone_advice import zone_advice
 from aamsim.traffic.view import field_rows, kinematic_matrix
 from aamsim.units import R_EARTH
@@ -49,25 +50,7 @@ _KINEMATIC_FIELDS = ("lat", "lon", "alt", "gseast", "gsnorth", "vs")
 _SNAPSHOT_ROWS = field_rows(_KINEMATIC_FIELDS)
 
 
-@dataclass(frozen=True)
-class SeparationVolume:
-    """A sphere (3-D slant distance < radius) or a cylinder (|dh| < radius and |dz| < half_height)."""
-
-    name: str
-    radius_m: float
-    half_height_m: float | None = None
-
-    @property
-    def cylinder(self) -> bool:
-        return self.half_height_m is not None
-
-    def describe(self) -> str:
-        if self.cylinder:
-            return f"{self.name}: cylinder r={self.radius_m:g} m, h=+-{self.half_height_m:g} m"
-        return f"{self.name}: sphere r={self.radius_m:g} m (3-D slant)"
-
-
-PAPER_VOLUMES = (SeparationVolume("nmac", 150.0), SeparationVolume("lowc", 450.0))
+PAPER_VOLUMES = PAPER_STANDARD.volumes()
 
 
 @dataclass(frozen=True)
@@ -176,6 +159,20 @@ class ConflictService:
     def set_volume(self, volume: SeparationVolume) -> None:
         self.volumes = tuple(v for v in self.volumes if v.name != volume.name) + (volume,)
 
+    @property
+    def standard(self) -> SeparationStandard:
+        """The separation standard: this service's ``nmac`` and ``lowc`` volumes (``SEPVOLUME`` changes them)."""
+        try:
+            return SeparationStandard.from_volumes(self.volume(NMAC), self.volume(LOWC))
+        except KeyError as exc:
+            raise LookupError(f"the conflict service has no {exc.args[0]!r} volume, so no separation standard "
+                              f"(its volumes: {', '.join(v.name for v in self.volumes)})") from None
+
+    def set_standard(self, standard: SeparationStandard) -> None:
+        """Use ``standard``'s NMAC and LoWC volumes from now on (other volumes stay)."""
+        for volume in standard.volumes():
+            self.set_volume(volume)
+
     def volume(self, name: str) -> SeparationVolume:
         for vol in self.volumes:
             if vol.name == name:
@@ -210,8 +207,7 @@ class ConflictService:
             # An interruption (Ctrl-C, an alarm) or a MemoryError while the compiled pass hands its arrays
             # back arrives as its own exception, not as Numba's opaque SystemError (aamsim.compiled_errors).
             with original_errors():
-                (ci, cj, tcpa, dcpa, tin, li, lj, inconf, tcpamax, _eq, ei, ej, e_in, e_out, e_dmin, e_tmin, e_pos,
-                 count, closest, dnow, cut) = detect_all(
+                found = detect_all(
                     matrix, n, rows, R_EARTH, self._lookback(sim, n), cd_on, st.zoner_m, st.zonedh_m, st.dtlook_s,
                     radii, cylinder, half_heights, self.closest_range_m, self._conflicts_hint, MAX_PAIRS_PER_CHECK)
         except MemoryError:
@@ -223,8 +219,8 @@ class ConflictService:
                                     "this check was skipped, as is each later one that runs out of memory (the "
                                     "next check that runs covers the time since the last one)")
             return
-        self._conflicts_hint = len(ci) + len(ci) // 4
-        if cut:
+        self._conflicts_hint = len(found.conflict_i) + len(found.conflict_i) // 4
+        if found.cut:
             self.checks_cut += 1
             if self.checks_cut == 1:
                 sim.report("error", f"conflict detection: over {MAX_PAIRS_PER_CHECK:,} aircraft pairs close together "
@@ -238,21 +234,23 @@ class ConflictService:
                 self._zone_advised = True
                 sim.report("warning", advice)
         if cd_on:
-            self.state = ConflictState(ids_now, ci, cj, tcpa, dcpa, tin, li, lj, inconf, tcpamax)
-            self._count_new_conflicts(self._serials_of(t)[0], ci, cj)
+            self.state = ConflictState(ids_now, found.conflict_i, found.conflict_j, found.tcpa, found.dcpa,
+                                       found.tinconf, found.los_i, found.los_j, found.inconf, found.tcpamax)
+            self._count_new_conflicts(self._serials_of(t)[0], found.conflict_i, found.conflict_j)
         elif self.state is not None:
             self.state = None
             self._conflict_keys = np.empty(0, dtype=np.int64)
         lo = 0
         for q, vol in enumerate(self.volumes):
-            hi = lo + int(count[q])  # inside pairs come grouped by volume
+            hi = lo + int(found.inside_count[q])  # inside pairs come grouped by volume
             log = self._log(vol.name)
             if hi > lo or len(log.open_keys):
-                self._merge_events(log, sim.simt, t, ei[lo:hi], ej[lo:hi], e_in[lo:hi], e_out[lo:hi],
-                                   e_dmin[lo:hi], e_tmin[lo:hi], e_pos[lo:hi], None)
+                self._merge_events(log, sim.simt, t, found.event_i[lo:hi], found.event_j[lo:hi],
+                                   found.event_t_in[lo:hi], found.event_t_out[lo:hi], found.event_dmin[lo:hi],
+                                   found.event_t_min[lo:hi], found.event_state[lo:hi], None)
             lo = hi
-        self._closest_ids, self._closest_arr = ids_now, closest
-        self.min_separation_m = min(self.min_separation_m, dnow)
+        self._closest_ids, self._closest_arr = ids_now, found.closest
+        self.min_separation_m = min(self.min_separation_m, found.min_distance)
         self._last_check_s = sim.simt
 
     def _volume_arrays(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

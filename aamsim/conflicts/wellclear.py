@@ -27,9 +27,9 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
 
 from aamsim.conflicts.pairs import relative_state
+from aamsim.numba_cache import njit
 
 # A relative speed below this [m/s] is no relative motion (the state then never changes).
 _STILL = 1e-9
@@ -124,24 +124,6 @@ def in_violation(sx: float, sy: float, sz: float, vx: float, vy: float, vz: floa
     if not vertical and sz * vz < 0.0:
         vertical = -sz / vz <= tcoa
     return horizontal and vertical
-
-
-@njit(cache=True)
-def pair_violations(dx: np.ndarray, dy: np.ndarray, dz: np.ndarray, du: np.ndarray, dv: np.ndarray,
-                    dw: np.ndarray, dmod: float, hmd: float, taumod: float, zthr: float, tcoa: float,
-                    lookahead: float) -> tuple[np.ndarray, np.ndarray]:
-    """Per pair (relative states in arrays), the violation interval within ``[0, lookahead]``.
-
-    Returns ``t_in`` (time to loss of well clear; 0 when not well clear now) and ``t_out``;
-    ``t_in > t_out`` where the pair stays well clear over the look-ahead.
-    """
-    m = dx.shape[0]
-    t_in = np.empty(m)
-    t_out = np.empty(m)
-    for k in range(m):
-        t_in[k], t_out[k] = violation_interval(dx[k], dy[k], dz[k], du[k], dv[k], dw[k], dmod, hmd, taumod,
-                                               zthr, tcoa, 0.0, lookahead)
-    return t_in, t_out
 
 
 @njit(cache=True)

@@ -18,6 +18,8 @@ from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
+from aamsim.conflicts.separation import PAPER_STANDARD, SeparationStandard
+
 if TYPE_CHECKING:
     from aamsim.conflicts.service import SeparationEvent
     from aamsim.simulation import Simulation
@@ -54,6 +56,8 @@ class MetricContext:
     conflict_pairs: int = 0
     real_traffic: frozenset[str] = frozenset()  # callsigns of replayed real aircraft (aamsim.realtraffic)
     not_departed: list[NotDeparted] = field(default_factory=list)  # scheduled flights never created
+    # The volumes the safety metrics count (nmac_*, lowc_*): the conflict service's standard.
+    separation: SeparationStandard = PAPER_STANDARD
     # Per volume, its events and their counts by encounter and by pair kind: a dense run has tens of
     # thousands of events and a dozen metrics reading them.
     _by_volume: dict[str, list[SeparationEvent]] = field(default_factory=dict, init=False, repr=False,

@@ -10,7 +10,8 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from aamsim.conflicts.events import classify_encounter, track_speed
-from aamsim.conflicts.service import conflicts_of
+from aamsim.conflicts.separation import PAPER_STANDARD, SeparationStandard
+from aamsim.conflicts.service import ConflictService, conflicts_of
 from aamsim.metrics.registry import MetricContext, MetricRegistry, NotDeparted, pair_kind
 from aamsim.metrics.standard import register_standard_metrics
 
@@ -28,6 +29,14 @@ def _standard_registry() -> MetricRegistry:
     reg = MetricRegistry()
     register_standard_metrics(reg)
     return reg
+
+
+def _standard_or_default(service: ConflictService) -> SeparationStandard:
+    """The service's separation standard; the paper's when its volumes have no ``nmac``/``lowc`` (custom sets)."""
+    try:
+        return service.standard
+    except LookupError:
+        return PAPER_STANDARD
 
 
 @dataclass
@@ -57,6 +66,7 @@ class MetricsService:
             hold_speed_mps=sim.settings.hold_speed_mps,
             min_separation_m=service.min_separation_m,
             conflict_pairs=service.conflict_pairs_total,
+            separation=_standard_or_default(service),
             not_departed=self.not_departed(sim),
         )
 

@@ -10,6 +10,7 @@ from __future__ import annotations
 import math
 from typing import TYPE_CHECKING
 
+from aamsim.conflicts.separation import LOWC, NMAC
 from aamsim.metrics.registry import AAM_VS_AAM, AAM_VS_REAL, MetricContext, MetricFn, MetricRegistry, MetricValue
 
 if TYPE_CHECKING:
@@ -67,17 +68,17 @@ def _events_between(volume: str, kind: str) -> MetricFn:
 
 def register_standard_metrics(reg: MetricRegistry) -> None:
     # ------------------------------------------------------------------ safety
-    for vol in ("nmac", "lowc"):
+    for vol in (NMAC, LOWC):  # the separation standard's volumes (aamsim.conflicts.separation)
         reg.add("safety", f"{vol}_events", _events(vol))
         reg.add("safety", f"{vol}_per_flight", _events(vol, per="flight"))
         reg.add("safety", f"{vol}_per_flight_hour", _events(vol, per="hour"))
-    for vol in ("nmac", "lowc"):  # the AAM events split by what the other aircraft is (real traffic overlays)
+    for vol in (NMAC, LOWC):  # the AAM events split by what the other aircraft is (real traffic overlays)
         reg.add("safety", f"{vol}_events_aam_vs_aam", _events_between(vol, AAM_VS_AAM))
         reg.add("safety", f"{vol}_events_aam_vs_real_traffic", _events_between(vol, AAM_VS_REAL))
     for kind in ENCOUNTERS:  # NMAC events by geometry at the closest point (docs/metrics.md)
-        reg.add("safety", f"nmac_{kind.replace('-', '_')}", _events_by_encounter("nmac", kind))
+        reg.add("safety", f"nmac_{kind.replace('-', '_')}", _events_by_encounter(NMAC, kind))
     reg.add("safety", "min_separation_m", lambda c: c.min_separation_m if math.isfinite(c.min_separation_m) else None)
-    reg.add("safety", "time_in_lowc_s", lambda c: sum(e.duration_s(c.duration_s) for e in c.events_of("lowc")))
+    reg.add("safety", "time_in_lowc_s", lambda c: sum(e.duration_s(c.duration_s) for e in c.events_of(LOWC)))
     reg.add("safety", "conflict_pairs", lambda c: c.conflict_pairs)
     # ------------------------------------------------------------- operational
     reg.add("operational", "flights", lambda c: len(c.flights))

@@ -17,7 +17,8 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
+
+from aamsim.numba_cache import njit
 
 
 @njit(cache=True)

@@ -46,10 +46,11 @@ from collections.abc import Callable
 from typing import Any, TypeVar
 
 import numpy as np
-from numba import njit, prange
+from numba import prange
 
 from aamsim.aero import GAMMA, LAPSE, P0, R_AIR, RHO0, T0, T_STRAT
 from aamsim.geo import qdrdist_scalar
+from aamsim.numba_cache import njit
 from aamsim.traffic.fields import (
     AIRBORNE_S,
     ALT,

@@ -36,9 +36,9 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
 
 from aamsim.geo import WGS84_A, WGS84_B, qdrdist_scalar
+from aamsim.numba_cache import njit
 from aamsim.traffic.fields import (
     C_COSHDG,
     C_COSLA0,

@@ -33,9 +33,9 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
 
 from aamsim import aero
+from aamsim.numba_cache import njit
 from aamsim.traffic import fields as f
 from aamsim.units import FPM, FT
 

@@ -31,8 +31,8 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
 
+from aamsim.numba_cache import njit
 from aamsim.units import FT
 
 ALT_STEP_M = 100.0 * FT  # profile table resolution

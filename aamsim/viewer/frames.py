@@ -29,7 +29,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from aamsim.settings import SimSettings
-from aamsim.units import MAX_CALLSIGN_CHARS
+from aamsim.units import MAX_CALLSIGN_CHARS, R_EARTH
 
 if TYPE_CHECKING:
     from aamsim.simulation import Simulation
@@ -40,7 +40,6 @@ STATUS_NAMES = ("normal", "lowc", "nmac", "holding")
 # (colour-blind safe against each other and against the dark map).
 STATUS_COLOURS = ("#4fa3e0", "#f39c12", "#e8253a", "#b07cdb")
 
-EARTH_RADIUS_M = 6_371_000.0
 DEFAULT_HOLD_SPEED_MPS = SimSettings.hold_speed_mps  # the default holding-speed threshold (5 kt)
 DEFAULT_AIRBORNE_ALT_M = SimSettings.airborne_alt_m  # the default: above 10 ft an aircraft is airborne
 
@@ -514,8 +513,8 @@ class RunReplay:
         if gap > 0 and hi > lo:
             dist = self._gs[lo:hi] * gap
             rad = np.radians(trk)
-            lat += np.degrees(dist * np.cos(rad) / EARTH_RADIUS_M)
-            lon += np.degrees(dist * np.sin(rad) / (EARTH_RADIUS_M * np.cos(np.radians(lat))))
+            lat += np.degrees(dist * np.cos(rad) / R_EARTH)
+            lon += np.degrees(dist * np.sin(rad) / (R_EARTH * np.cos(np.radians(lat))))
         tas = self._tas[lo:hi]
         airborne, status = airborne_status(self._alt[lo:hi], tas, self.hold_speed_mps)
         live = (self._ev_start <= t) & (t <= self._ev_end)

@@ -25,7 +25,8 @@ from typing import Any
 import gymnasium as gym
 
 from rlbridge.policies import make_usecase_with_policies as make_usecase
-from rlbridge.usecases.registry import usecase_class
+from rlbridge.usecases.registry import usecase_class, usecase_spec
+from rlbridge.usecases.spec import Needs, check_fits
 
 LEARNER_KINDS = ("d2mava", "dqn")
 BASELINE_KINDS = ("unequipped", "mvp_speed", "daa", "mvp", "no_planning", "fcfs")
@@ -59,8 +60,7 @@ def usecase_dims(usecase: str, params: dict[str, Any]) -> dict[str, int]:
 
 def has_obs_format(usecase: str) -> bool:
     """Whether the use case takes an ``obs_format`` parameter (flat or dict observations)."""
-    params = getattr(usecase_class(usecase), "params_class", None)
-    return params is not None and "obs_format" in {f.name for f in fields(params)}
+    return "obs_format" in {f.name for f in fields(usecase_spec(usecase).params_class)}
 
 
 def make_actor(spec: dict[str, Any]) -> Any:
@@ -101,6 +101,25 @@ def make_actor(spec: dict[str, Any]) -> Any:
     raise KeyError(f"unknown actor kind {kind!r}; known: {', '.join(LEARNER_KINDS + BASELINE_KINDS)}")
 
 
+def baseline_needs(kind: str) -> Needs:
+    """What baseline ``kind`` needs from a use case (its actor class's ``needs``)."""
+    if kind not in BASELINE_KINDS:
+        raise KeyError(f"unknown baseline {kind!r}; known: {', '.join(BASELINE_KINDS)}")
+    needs: Needs = type(make_actor({"kind": kind})).needs
+    return needs
+
+
+def check_baseline_fits(kind: str, usecase: Any) -> None:
+    """Refuse baseline ``kind`` on ``usecase`` (a use case, its class, or a registry name) when it does not fit.
+
+    Raises:
+        CapabilityError: naming the use case and the capability it lacks (e.g. ``mvp_speed`` on
+            ``reach_destination``, whose speed actions are fixed targets, not decelerate / hold / accelerate).
+    """
+    target = usecase_class(usecase) if isinstance(usecase, str) else usecase
+    check_fits(baseline_needs(kind), target, f"baseline {kind}")
+
+
 def learner_config_class(kind: str) -> type:
     """The hyper-parameter dataclass of a learner kind (what ``algorithm.params`` must fit)."""
     if kind == "d2mava":
@@ -131,4 +150,5 @@ def make_learner(kind: str, config: dict[str, Any], dims: dict[str, Any], device
     raise KeyError(f"unknown learner kind {kind!r}; known: {', '.join(LEARNER_KINDS)}")
 
 
-__all__ = ["BASELINE_KINDS", "LEARNER_KINDS", "learner_config_class", "make_actor", "make_learner", "usecase_dims"]
+__all__ = ["BASELINE_KINDS", "LEARNER_KINDS", "baseline_needs", "check_baseline_fits", "learner_config_class",
+           "make_actor", "make_learner", "usecase_dims"]

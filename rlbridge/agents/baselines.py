@@ -21,7 +21,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, ClassVar
 
 import numpy as np
 
@@ -33,7 +33,7 @@ from aamsim.snapshots import TrafficSnapshot
 from aamsim.units import KTS, R_EARTH
 from rlbridge.agents.rollout import ActOutput
 from rlbridge.core import StepResult
-from rlbridge.usecases.protocol import check_advisory_kinds
+from rlbridge.usecases.spec import SPEED_ROLES, Needs, check_fits
 
 DECELERATE, HOLD, ACCELERATE = 0, 1, 2
 # Positions and velocities (east, north, up), the order of aamsim.conflicts.grid.snapshot_arrays' rows.
@@ -58,6 +58,7 @@ class UnequippedActor:
 
     obs_format: str | None = None
     snapshot_fields: tuple[str, ...] = ()
+    needs: ClassVar[Needs] = Needs()  # fits every use case
 
     def set_weights(self, weights: Any) -> None:
         pass
@@ -89,6 +90,9 @@ class SpeedMVPActor:
 
     obs_format: str | None = None
     snapshot_fields: tuple[str, ...] = (*KINEMATIC_FIELDS, "trk", "cas", "selspd")
+    # Its actions 0/1/2 are decelerate / hold / accelerate: on fixed speed targets (reach_destination's
+    # 30/60/90 kt) its "hold" would select 60 kt, so such a use case is refused.
+    needs: ClassVar[Needs] = Needs(any_of=("speed",), speed_actions=SPEED_ROLES)
 
     def __init__(self, config: SpeedMVPConfig | None = None):
         self.config = config or SpeedMVPConfig()
@@ -100,9 +104,9 @@ class SpeedMVPActor:
         pass
 
     def check_usecase(self, usecase: Any) -> None:
-        """Its actions 0/1/2 are decelerate / hold / accelerate: a use case of speed advisories only."""
+        """Its actions 0/1/2 are decelerate / hold / accelerate: refuse a use case without that speed layout."""
         if usecase is not None:
-            check_advisory_kinds(usecase, ("speed",), "baseline mvp_speed")
+            check_fits(self.needs, usecase, "baseline mvp_speed")
 
     def speed_changes(self, snap: TrafficSnapshot) -> np.ndarray:
         """Per snapshot row: summed MVP speed change along track [m/s] (NaN: no conflict)."""

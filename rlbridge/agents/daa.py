@@ -26,7 +26,7 @@ advisories are those a learned policy could give:
 Agents never alerted get no advisory (as the unequipped aircraft). The use case
 must say which speed each action selects (:class:`rlbridge.usecases.protocol.SpeedActions`):
 ``corridor_sa`` and ``reach_destination`` do. On a use case whose advisories are
-headings and altitudes (``advisory_kinds``; ``heading_altitude_sa``), the same
+headings and altitudes (its spec's ``action_kinds``; ``heading_altitude_sa``), the same
 logic turns and changes level: :mod:`rlbridge.agents.daa_manoeuvre`. A use case
 with none of these kinds is refused, naming its kinds.
 """
@@ -35,7 +35,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from typing import Any, cast
+from typing import Any, ClassVar, cast
 
 import numpy as np
 
@@ -44,7 +44,8 @@ from aamsim.units import KTS
 from rlbridge.agents.daa_manoeuvre import ManoeuvreDAA
 from rlbridge.agents.rollout import ActOutput, EpisodeAccess
 from rlbridge.core import StepResult
-from rlbridge.usecases.protocol import ADVISORY_KINDS, UseCaseBase, check_advisory_kinds
+from rlbridge.usecases.protocol import ADVISORY_KINDS, UseCaseBase
+from rlbridge.usecases.spec import Needs, check_fits, spec_of
 
 
 @dataclass(frozen=True)
@@ -67,6 +68,8 @@ class DAAActor:
     obs_format: str | None = None
     snapshot_fields: tuple[str, ...] = ()
     reads_simulation = True  # aamsim's services in process (rlbridge.agents.rollout.EpisodeAccess)
+    # Speed actions of either layout (it steers with their targets), or heading / altitude actions.
+    needs: ClassVar[Needs] = Needs(any_of=ADVISORY_KINDS)
 
     def __init__(self, config: DAAPolicyConfig | None = None):
         self.config = config or DAAPolicyConfig()
@@ -79,6 +82,11 @@ class DAAActor:
     def set_weights(self, weights: Any) -> None:
         pass
 
+    def check_usecase(self, usecase: Any) -> None:
+        """Refuse a use case with neither speed nor heading / altitude actions, naming its kinds."""
+        if usecase is not None:
+            check_fits(self.needs, usecase, "baseline daa")
+
     def act(self, result: StepResult, core: EpisodeAccess, rng: np.random.Generator,
             explore: dict[str, Any]) -> ActOutput:
         sim = core.sim
@@ -86,10 +94,9 @@ class DAAActor:
         usecase = core.usecase
         key = (core.seed, id(sim))
         if key != self._episode:  # a new episode: forget the previous aircraft
-            check_advisory_kinds(usecase, ADVISORY_KINDS, "baseline daa", any_of=True)
             self._episode, self._held, self._own = key, {}, {}
             self._manoeuvre = ManoeuvreDAA(self.daa)
-        if "speed" not in getattr(usecase, "advisory_kinds", ()):
+        if "speed" not in spec_of(usecase).action_kinds:
             return self._act_manoeuvres(result, core)
         view = sim.view
         alive = set(result.alive)

@@ -18,6 +18,7 @@ import numpy as np
 
 from aamsim.conflicts.axis_bands import manoeuvre_intervals
 from aamsim.resolution.daa import DAAParams, isotropic_pairs
+from rlbridge.usecases.spec import spec_of
 
 MANOEUVRE_KINDS = ("heading", "altitude")
 
@@ -34,7 +35,7 @@ class ActionTargets:
 
 def action_targets(usecase: Any, sim: Any, slots: np.ndarray) -> ActionTargets:
     """The targets of a heading / altitude use case's actions (a kind it lacks keeps the value of now)."""
-    kinds = tuple(getattr(usecase, "advisory_kinds", ()))
+    kinds = spec_of(usecase).action_kinds
     view = sim.view
     n = int(usecase.action_space().n)
     trk = usecase.action_targets(sim, slots, "heading") if "heading" in kinds else \

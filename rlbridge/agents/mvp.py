@@ -1,7 +1,7 @@
 """The ``mvp`` baseline: BlueSky's Modified Voltage Potential by heading and altitude, on a use case's actions.
 
 For use cases whose advisories are headings and altitudes
-(``advisory_kinds``; ``heading_altitude_sa``), as ``mvp_speed`` is for speed
+(its spec's ``action_kinds``; ``heading_altitude_sa``), as ``mvp_speed`` is for speed
 advisories: BlueSky's state-based detection and MVP resolution
 (:mod:`aamsim.resolution.mvp_detect`, :func:`aamsim.resolution.mvp_service.mvp_commands`,
 the same cycle as ``RESO MVP``, horizontal and vertical) give every aircraft in
@@ -16,7 +16,7 @@ none (as the unequipped aircraft).
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, ClassVar
 
 import numpy as np
 
@@ -26,7 +26,7 @@ from aamsim.resolution.mvp_service import mvp_commands
 from rlbridge.agents.manoeuvres import MANOEUVRE_KINDS, action_targets
 from rlbridge.agents.rollout import ActOutput, EpisodeAccess
 from rlbridge.core import StepResult
-from rlbridge.usecases.protocol import check_advisory_kinds
+from rlbridge.usecases.spec import Needs, check_fits
 
 
 @dataclass(frozen=True)
@@ -44,6 +44,7 @@ class MVPActor:
     obs_format: str | None = None
     snapshot_fields: tuple[str, ...] = ()
     reads_simulation = True  # aamsim's services in process (rlbridge.agents.rollout.EpisodeAccess)
+    needs: ClassVar[Needs] = Needs(any_of=MANOEUVRE_KINDS)  # heading or altitude actions
 
     def __init__(self, config: MVPConfig | None = None):
         self.config = config or MVPConfig()
@@ -54,13 +55,17 @@ class MVPActor:
     def set_weights(self, weights: Any) -> None:
         pass
 
+    def check_usecase(self, usecase: Any) -> None:
+        """Refuse a use case with neither heading nor altitude actions, naming its kinds."""
+        if usecase is not None:
+            check_fits(self.needs, usecase, "baseline mvp")
+
     def act(self, result: StepResult, core: EpisodeAccess, rng: np.random.Generator,
             explore: dict[str, Any]) -> ActOutput:
         sim, usecase = core.sim, core.usecase
         assert sim is not None
         key = (core.seed, id(sim))
         if key != self._episode:
-            check_advisory_kinds(usecase, MANOEUVRE_KINDS, "baseline mvp", any_of=True)
             self._episode, self._advised = key, set()
         view = sim.view
         alive = set(result.alive)

@@ -12,12 +12,14 @@
 
 from __future__ import annotations
 
-from typing import Any
+from typing import Any, ClassVar, cast
 
 import numpy as np
 
 from rlbridge.agents.rollout import ActOutput, EpisodeAccess
 from rlbridge.core import StepResult
+from rlbridge.usecases.protocol import DepartureSlots
+from rlbridge.usecases.spec import Needs, check_fits
 
 PLANNER = "planner"
 
@@ -47,11 +49,8 @@ def fcfs_action(conflicts: np.ndarray, action_mask: np.ndarray, filed_layer: int
 
 
 def _planner(core: EpisodeAccess) -> Any:
-    uc = core.usecase
-    planner = getattr(uc, "planning", uc)  # the hierarchical use case wraps the planner
-    if not hasattr(planner, "candidate_table"):
-        raise TypeError(f"the planner baselines need a planning use case, not {uc.name}")
-    return planner
+    # check_usecase refused a use case without departure slots, so it has departure_planner
+    return cast(DepartureSlots, core.usecase).departure_planner()
 
 
 class _PlannerBaseline:
@@ -60,9 +59,16 @@ class _PlannerBaseline:
     obs_format: str | None = None
     snapshot_fields: tuple[str, ...] = ()
     reads_simulation = True  # aamsim's services in process (rlbridge.agents.rollout.EpisodeAccess)
+    needs: ClassVar[Needs] = Needs(any_of=("departure_slot",))  # a planner agent choosing departure slots
+    kind: ClassVar[str] = ""
 
     def set_weights(self, weights: Any) -> None:
         pass
+
+    def check_usecase(self, usecase: Any) -> None:
+        """Refuse a use case whose actions are not departure slots (no planner agent), naming its kinds."""
+        if usecase is not None:
+            check_fits(self.needs, usecase, f"baseline {self.kind}")
 
     def choose(self, planner: Any) -> int:
         raise NotImplementedError
@@ -79,12 +85,16 @@ class _PlannerBaseline:
 class NoPlanningActor(_PlannerBaseline):
     """Depart on schedule, on the filed layer."""
 
+    kind = "no_planning"
+
     def choose(self, planner: Any) -> int:
         return int(planner.default_action())
 
 
 class FCFSActor(_PlannerBaseline):
     """First-come-first-served strategic deconfliction (module docstring)."""
+
+    kind = "fcfs"
 
     def choose(self, planner: Any) -> int:
         req = planner.current()

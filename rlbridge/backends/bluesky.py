@@ -100,7 +100,7 @@ class BlueSkyEpisode(EpisodeCore):
     def __init__(self, scenario: str | Path, usecase: Any = "corridor_sa", params: dict[str, Any] | None = None,
                  time_limit_s: float | None = None, dt: float = 0.05, **kwargs: Any):
         super().__init__(scenario, usecase, params, time_limit_s=time_limit_s, dt=dt, **kwargs)
-        if getattr(self.usecase, "plans_departures", False):
+        if self.spec.plans_departures:
             # BlueSky reads the scenario file itself: it would create every flight at its filed time.
             raise ValueError(f"use case {self.usecase.name} plans departures, which the bluesky backend cannot "
                              "hold back; run it on the local or zmq backend")

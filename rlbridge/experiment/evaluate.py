@@ -42,7 +42,8 @@ from rlbridge.agents import BASELINE_KINDS
 from rlbridge.agents.rollout import EnvSpec, EpisodeStats
 from rlbridge.experiment.train import find_checkpoint, load_checkpoint, resolve_scenario_path
 from rlbridge.experiment.workers import make_pool
-from rlbridge.usecases.registry import usecase_class
+from rlbridge.policies import make_usecase_with_policies
+from rlbridge.usecases.registry import usecase_spec
 
 log = logging.getLogger("aamgym.evaluate")
 
@@ -57,7 +58,8 @@ CSV_COLUMNS = ("policy", "seed", "nmac_events", "lowc_events", "reward_per_aircr
 def baseline_label(name: str, env: EnvSpec) -> str:
     """A baseline's label in reports; ``daa`` says which advisories it gives on the use case."""
     if name == "daa":
-        kinds = getattr(usecase_class(env.usecase), "advisory_kinds", ("speed",))
+        # The instance's spec: the hierarchical use case's aircraft actions depend on its ``train``.
+        kinds = make_usecase_with_policies(env.usecase, **env.params).spec.action_kinds
         if "speed" not in kinds:
             return f"DAA {'/'.join(kinds)} (DO-365/DAIDALUS)"
     return BASELINE_LABELS.get(name, name)
@@ -125,8 +127,7 @@ def with_altitude_noise(usecase: str, params: dict[str, Any], noise_ft: float, l
     """The evaluation's altitude noise given to the use case that flies aircraft as agents (corridor_sa, and
     the hierarchical use case's corridor level); a planner's flights keep their scenario's noise."""
     noise = {"alt_noise_ft": noise_ft, "alt_noise_lanes_ft": lanes_ft}
-    params_class = getattr(usecase_class(usecase), "params_class", None)
-    fields = {f.name for f in dataclass_fields(params_class)} if params_class is not None else set()
+    fields = {f.name for f in dataclass_fields(usecase_spec(usecase).params_class)}
     if "alt_noise_ft" in fields:
         # A planner's params may take the noise's size but fly their own layers (no lanes to give).
         return {**params, **{k: v for k, v in noise.items() if k in fields}}
@@ -136,24 +137,20 @@ def with_altitude_noise(usecase: str, params: dict[str, Any], noise_ft: float, l
 
 
 def evaluation_baselines(cfg: DictConfig, env: EnvSpec) -> list[str]:
-    """The baselines to evaluate: ``cfg.baselines``, or (null) the use case's own; each must be one it can use."""
-    from rlbridge.agents import BASELINE_KINDS
-    from rlbridge.policies import RegistryPolicies, make_usecase_with_policies
-    from rlbridge.usecases.tactical import tactical_baselines
+    """The baselines to evaluate: ``cfg.baselines``, or (null) the use case's own (its spec's ``baselines``);
+    each must be one its spec lists and must fit it (rlbridge.agents.check_baseline_fits)."""
+    from rlbridge.agents import BASELINE_KINDS, check_baseline_fits
 
     usecase = make_usecase_with_policies(env.usecase, **env.params)
-    own = getattr(usecase, "baselines", None)
-    # A use case that names no baselines has aircraft as agents: every speed-advisory baseline applies
-    # (mvp_speed and daa by default).
-    default = list(own) if own is not None else ["mvp_speed", "daa"]
-    applies = set(own) if own is not None else set(tactical_baselines(RegistryPolicies()))
-    names = [str(b) for b in cfg.baselines] if cfg.baselines is not None else default
+    applies = usecase.spec.baselines
+    names = [str(b) for b in cfg.baselines] if cfg.baselines is not None else list(applies)
     for b in names:
         if b not in BASELINE_KINDS:
             raise ValueError(f"unknown baseline {b!r}; known: {', '.join(BASELINE_KINDS)}")
         if b != "unequipped" and b not in applies:
             raise ValueError(f"baseline {b!r} does not apply to use case {env.usecase}; its baselines: unequipped, "
                              f"{', '.join(b for b in BASELINE_KINDS if b in applies and b != 'unequipped')}")
+        check_baseline_fits(b, usecase)
     return names
 
 

@@ -143,7 +143,7 @@ def one_line(text: str) -> str:
 def params_classes(cfg: dict[str, Any]) -> dict[str, type | None]:
     """The dataclasses ``algorithm.params`` and ``usecase.params`` must fit (None: unknown name, reported)."""
     from rlbridge.agents import learner_config_class
-    from rlbridge.usecases.registry import usecase_class
+    from rlbridge.usecases.registry import usecase_spec
 
     out: dict[str, type | None] = {}
     algorithm = cfg.get("algorithm")
@@ -155,7 +155,7 @@ def params_classes(cfg: dict[str, Any]) -> dict[str, type | None]:
     usecase = cfg.get("usecase")
     if isinstance(usecase, dict):
         try:
-            out["usecase"] = getattr(usecase_class(str(usecase.get("name"))), "params_class", None)
+            out["usecase"] = usecase_spec(str(usecase.get("name"))).params_class
         except KeyError:
             out["usecase"] = None
     return out
@@ -164,7 +164,7 @@ def params_classes(cfg: dict[str, Any]) -> dict[str, type | None]:
 def params_problems(cfg: dict[str, Any]) -> list[str]:
     """Unknown learner kinds and use cases, and what the parameter dataclasses refuse when built."""
     from rlbridge.agents import LEARNER_KINDS, learner_config_class
-    from rlbridge.usecases.registry import available, usecase_class
+    from rlbridge.usecases.registry import available, usecase_spec
 
     problems = []
     algorithm = cfg.get("algorithm")
@@ -180,9 +180,7 @@ def params_problems(cfg: dict[str, Any]) -> list[str]:
         if name not in available():
             problems.append(f"usecase.name={name}: expected one of {', '.join(available())}")
         else:
-            params_class = getattr(usecase_class(name), "params_class", None)
-            if params_class is not None:
-                problems += _build(params_class, usecase.get("params") or {}, "usecase.params")
+            problems += _build(usecase_spec(name).params_class, usecase.get("params") or {}, "usecase.params")
     return problems
 
 

@@ -46,7 +46,7 @@ def usecase_contenders(usecase: str) -> tuple[str, list[str], list[str]]:
     from rlbridge.policies import make_usecase_with_policies
     from rlbridge.pretrained import available, load
 
-    own = list(getattr(make_usecase_with_policies(usecase), "baselines", None) or ["mvp_speed", "daa"])
+    own = list(make_usecase_with_policies(usecase).spec.baselines)
     reference = "no_planning" if "no_planning" in own else "unequipped"
     others = [b for b in own if b != reference]
     learned = [n for n in available() if load(n).usecase == usecase]

@@ -27,9 +27,10 @@ import numpy as np
 
 from aamsim.conflicts import SeparationVolume, conflicts_of, pairs_within
 from aamsim.metrics import record_advisories
-from aamsim.units import KTS
+from aamsim.units import KTS, R_EARTH
 from rlbridge.observe import corridor_features, nearest_neighbours
 from rlbridge.usecases.protocol import Feedback, Observations, UseCaseBase, make_params, start_overlay
+from rlbridge.usecases.spec import SPEED_ROLES, UseCaseSpec
 from rlbridge.usecases.variation import NYC_LANES_FT, PAPER_ALT_NOISE_FT, add_altitude_noise
 
 if TYPE_CHECKING:
@@ -126,8 +127,9 @@ class CorridorSA(UseCaseBase):
 
     name = "corridor_sa"
     env_name = "CorridorSA"
-    params_class = CorridorParams
-    advisory_kinds: tuple[str, ...] = ("speed",)  # its actions select speeds
+    # Its actions 0/1/2 decelerate / hold / accelerate; an action other than hold is an advisory.
+    spec = UseCaseSpec(CorridorParams, action_kinds=("speed",), speed_actions=SPEED_ROLES,
+                       baselines=("mvp_speed", "daa"), advisory="non_hold")
     fixed_traffic: ClassVar[dict[str, Any]] = {"alt_noise_ft": 0.0}
     # Per agent: was it in an NMAC / LoWC event at some time during the interval.
     info_fields = {"nmac": np.bool_, "lowc": np.bool_}  # noqa: RUF012
@@ -211,7 +213,7 @@ class CorridorSA(UseCaseBase):
                 wlon[s, :] = lon[s]
         dlat = np.radians(dest_lat - lat)
         dlon = np.radians((dest_lon - lon + 180.0) % 360.0 - 180.0)
-        ddest = 6371000.0 * np.hypot(dlat, dlon * np.cos(np.radians(0.5 * (dest_lat + lat))))
+        ddest = R_EARTH * np.hypot(dlat, dlon * np.cos(np.radians(0.5 * (dest_lat + lat))))
         return ddest, wlat, wlon, dest_lat, dest_lon
 
     def _pairs(self, sim: Simulation) -> tuple[int, np.ndarray, np.ndarray, np.ndarray]:

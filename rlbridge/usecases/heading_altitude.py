@@ -49,6 +49,7 @@ from aamsim.units import FPM, FT, R_EARTH
 from rlbridge.observe import nearest_neighbours
 from rlbridge.usecases.protocol import Feedback, Observations, UseCaseBase, make_params
 from rlbridge.usecases.rejoin import RouteKeeper, east_north_m
+from rlbridge.usecases.spec import UseCaseSpec
 from rlbridge.usecases.variation import NYC_LANES_FT, PAPER_ALT_NOISE_FT, add_altitude_noise
 
 if TYPE_CHECKING:
@@ -137,9 +138,11 @@ class HeadingAltitudeSA(UseCaseBase):
 
     name = "heading_altitude_sa"
     env_name = "HeadingAltitudeSA"
-    params_class = HeadingAltitudeParams
-    advisory_kinds: tuple[str, ...] = ("heading", "altitude")
-    baselines: ClassVar[tuple[str, ...]] = ("daa", "mvp")
+    # An action other than resume that differs from the aircraft's previous one is an advisory.
+    spec = UseCaseSpec(HeadingAltitudeParams, action_kinds=("heading", "altitude"), baselines=("daa", "mvp"),
+                       advisory="manoeuvre_change",
+                       metrics=("heading_advisories", "altitude_advisories", "mean_abs_xtrack_m",
+                                "max_abs_xtrack_m", "mean_abs_dalt_m"))
     fixed_traffic: ClassVar[dict[str, Any]] = {"alt_noise_ft": 0.0}
     info_fields = {"nmac": np.bool_, "lowc": np.bool_, "xtrack_m": np.float64, "dalt_m": np.float64}  # noqa: RUF012
 

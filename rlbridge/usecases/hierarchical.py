@@ -22,7 +22,7 @@ requests, throughput) under ``hierarchical``.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import TYPE_CHECKING, Any, ClassVar
 
 import gymnasium as gym
@@ -32,7 +32,8 @@ from aamsim.stack.parser import TimedCommand
 from rlbridge.usecases.corridor import CorridorSA
 from rlbridge.usecases.frozen import NO_POLICY, FrozenPolicy, PolicySource, SimHandle, frozen_policy
 from rlbridge.usecases.protocol import Feedback, Observations, UseCaseBase, check_advisory_kinds, make_params
-from rlbridge.usecases.strategic import PLANNER, StrategicPlanning
+from rlbridge.usecases.spec import UseCaseSpec
+from rlbridge.usecases.strategic import PLANNER, PLANNING_METRICS, StrategicPlanning
 from rlbridge.usecases.tactical import PLANNER_BASELINES
 
 if TYPE_CHECKING:
@@ -63,11 +64,14 @@ class Hierarchical(UseCaseBase):
 
     name = "hierarchical"
     env_name = "Hierarchical"
-    params_class = HierarchicalParams
-    plans_departures = True
+    # The class's spec is that of its default level (train="planner": the strategic planner's, plus its
+    # own metrics); an instance with train="tactical" has the corridor level's actions and baselines.
+    spec = UseCaseSpec(HierarchicalParams, action_kinds=StrategicPlanning.spec.action_kinds,
+                       baselines=StrategicPlanning.spec.baselines, advisory="tactical_layer",
+                       metrics=("train", "planner", "tactical", *PLANNING_METRICS), aircraft_agents=False,
+                       plans_departures=True, policy_params=("tactical", "planner"))
     # Both levels draw the paper's altitude noise by default; fixed traffic switches both off.
     fixed_traffic: ClassVar[dict[str, Any]] = {"planning": {"alt_noise_ft": 0.0}, "corridor": {"alt_noise_ft": 0.0}}
-    policy_params: ClassVar[tuple[str, ...]] = ("tactical", "planner")  # frozen policies: baseline names or run paths
 
     def __init__(self, policies: PolicySource | None = None, **params: Any):
         """``policies``: builds the frozen planner and tactical layer (rlbridge.usecases.frozen)."""
@@ -79,9 +83,7 @@ class Hierarchical(UseCaseBase):
         if p.train == "planner":
             self.planning = StrategicPlanning(policies, **{**p.planning, "tactical": p.tactical, **fmt})
             self.standing_agents = (PLANNER,)
-            self.aircraft_agents = False
             self.info_fields = dict(self.planning.info_fields)
-            self.baselines: tuple[str, ...] = StrategicPlanning.baselines
         else:
             policy = frozen_policy(p.planner, "planner", (NO_POLICY, *PLANNER_BASELINES), policies)
             if policy.usecase not in (None, "strategic_planning"):
@@ -93,10 +95,15 @@ class Hierarchical(UseCaseBase):
             self.corridor = CorridorSA(**{**p.corridor, **fmt})
             self.standing_agents = ()
             self.info_fields = dict(self.corridor.info_fields)
-            self.baselines = ("mvp_speed", "daa")
-            self.advisory_kinds = self.corridor.advisory_kinds  # the aircraft's speed actions
+            level = self.corridor.spec  # the aircraft's speed actions, advisories and baselines
+            self.spec = replace(Hierarchical.spec, action_kinds=level.action_kinds, speed_actions=level.speed_actions,
+                                baselines=level.baselines, advisory=level.advisory, aircraft_agents=True)
         self._rng = np.random.default_rng(0)
         self._handle: SimHandle | None = None
+
+    def departure_planner(self) -> StrategicPlanning:
+        """The planner that decides departure slots (what the planner baselines steer): its planning level."""
+        return self.planning
 
     @property
     def level(self) -> Any:

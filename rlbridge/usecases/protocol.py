@@ -16,7 +16,11 @@ A use case names only what every use case has:
 * optional **extra metrics** added to the episode's standard metrics;
 * optional **scenario commands**: the commands the engine queues, so that a
   planner can hold departure requests back and release them as it decides
-  (``holding`` tells the engine the scenario is not over while it does).
+  (``holding`` tells the engine the scenario is not over while it does);
+* its **spec** (:class:`~rlbridge.usecases.spec.UseCaseSpec`): what it is as
+  data (parameters class, action kinds, the baselines that fit, how an
+  advisory is counted, its metrics, whether aircraft are agents, whether it
+  plans departures, which parameters name frozen policies).
 
 The engine (:mod:`rlbridge.core`), the environments, the wire and the agents'
 dimension helpers use nothing else, so a new use case is one module plus a
@@ -31,6 +35,8 @@ from typing import TYPE_CHECKING, Any, ClassVar, Protocol
 import gymnasium as gym
 import numpy as np
 
+from rlbridge.usecases.spec import CapabilityError, UseCaseSpec, spec_of
+
 if TYPE_CHECKING:
     from aamsim import Simulation
     from aamsim.stack.parser import TimedCommand
@@ -43,7 +49,7 @@ ADVISORY_KINDS = ("speed", "heading", "altitude")
 ADVISORY_UNITS = {"speed": "CAS m/s", "heading": "deg true", "altitude": "m"}
 
 
-class AdvisoryKindError(TypeError):
+class AdvisoryKindError(CapabilityError):
     """A use case was asked for an advisory kind it does not declare, or a policy needs one it lacks."""
 
 
@@ -79,6 +85,7 @@ class UseCase(Protocol):
 
     name: str  # registry name, e.g. "corridor_sa"
     env_name: str  # Gymnasium id part: aamgym/<env_name>-v<N>
+    spec: UseCaseSpec  # what it is as data (rlbridge.usecases.spec)
     standing_agents: tuple[str, ...]
     info_fields: dict[str, type]
 
@@ -120,8 +127,10 @@ class UseCaseBase:
 
     name: ClassVar[str] = ""
     env_name: ClassVar[str] = ""
+    # No default: every use case declares its own (spec_of names one that does not). An attribute, not a
+    # ClassVar: the hierarchical use case's spec depends on which level learns.
+    spec: UseCaseSpec
     standing_agents: tuple[str, ...] = ()
-    aircraft_agents: bool = True  # aircraft can be agents (False: agent_of is always None, e.g. a planner)
     info_fields: dict[str, type] = {}  # noqa: RUF012 (read-only by convention; subclasses replace it)
     default_decision_interval_s: ClassVar[float] = 10.0
     # Episode variation (rlbridge.usecases.variation): the parameters that switch the use case's draws
@@ -129,13 +138,11 @@ class UseCaseBase:
     fixed_traffic: ClassVar[dict[str, Any]] = {}
     # Gymnasium id version: bumped when the environment's behaviour changes (aamgym/<env_name>-v<N>).
     env_version: ClassVar[int] = 1
-    # The advisory kinds its actions emit (ADVISORY_KINDS); each has a ``<kind>_action_targets`` method.
-    advisory_kinds: tuple[str, ...] = ()
 
     def action_targets(self, sim: Simulation, slots: np.ndarray, kind: str) -> np.ndarray:
         """Per aircraft slot, the target each action sets for advisory ``kind`` (ADVISORY_UNITS): (n, n_actions).
 
-        A kind the use case does not declare in ``advisory_kinds`` is an error naming it.
+        A kind its spec's ``action_kinds`` do not declare is an error naming it.
         """
         check_advisory_kinds(self, (kind,), f"applying {kind} advisories")
         targets: np.ndarray = getattr(self, f"{kind}_action_targets")(sim, slots)
@@ -173,6 +180,14 @@ class SpeedActions(Protocol):
         ...
 
 
+class DepartureSlots(Protocol):
+    """A use case whose actions choose departure slots (``departure_slot``; what the planner baselines steer)."""
+
+    def departure_planner(self) -> Any:
+        """The planner deciding the requests (candidate slots, conflicts, the current request)."""
+        ...
+
+
 def check_advisory_kinds(usecase: Any, needed: tuple[str, ...], who: str, any_of: bool = False) -> None:
     """Refuse, naming the kinds, a policy or request that needs advisory kinds the use case does not emit.
 
@@ -181,7 +196,7 @@ def check_advisory_kinds(usecase: Any, needed: tuple[str, ...], who: str, any_of
     unknown = [k for k in needed if k not in ADVISORY_KINDS]
     if unknown:
         raise AdvisoryKindError(f"unknown advisory kind(s) {', '.join(unknown)}; known: {', '.join(ADVISORY_KINDS)}")
-    have = tuple(getattr(usecase, "advisory_kinds", ()))
+    have = tuple(k for k in spec_of(usecase).action_kinds if k in ADVISORY_KINDS)
     missing = [k for k in needed if k not in have]
     if (any_of and len(missing) == len(needed)) or (not any_of and missing):
         kinds = ", ".join(have) if have else "none"

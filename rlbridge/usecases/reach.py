@@ -22,13 +22,13 @@ import numpy as np
 
 from aamsim.metrics import record_advisory
 from aamsim.units import KTS
+from aamsim.units import R_EARTH as R_EARTH_M
 from rlbridge.usecases.protocol import Feedback, Observations, UseCaseBase, make_params, start_overlay
+from rlbridge.usecases.spec import SPEED_TARGETS, UseCaseSpec
 from rlbridge.usecases.variation import PAPER_CRUISE_KTS, check_range, draw_cruise_speed
 
 if TYPE_CHECKING:
     from aamsim import Simulation
-
-R_EARTH_M = 6371000.0
 
 
 @dataclass(frozen=True)
@@ -64,12 +64,13 @@ class ReachDestination(UseCaseBase):
 
     name = "reach_destination"
     env_name = "ReachDestination"
-    params_class = ReachParams
-    advisory_kinds: tuple[str, ...] = ("speed",)  # its actions select speeds
+    # Each action selects one of speeds_kts. The rule-based baselines that fit: DAA steers with
+    # speed_action_targets (these speeds); the speed-only MVP needs decelerate/hold/accelerate actions
+    # (its "hold" would select 60 kt here) and is refused. An action that changes the selected speed is
+    # an advisory.
+    spec = UseCaseSpec(ReachParams, action_kinds=("speed",), speed_actions=SPEED_TARGETS, baselines=("daa",),
+                       advisory="target_change", metrics=("arrivals", "flights_ended"))
     fixed_traffic: ClassVar[dict[str, Any]] = {"cruise_speed_kts": ()}
-    # The rule-based baselines that fit: DAA steers with speed_action_targets (these speeds); the
-    # speed-only MVP baseline's actions are corridor_sa's decelerate/hold/accelerate, not speeds.
-    baselines: ClassVar[tuple[str, ...]] = ("daa",)
     info_fields = {"arrived": np.bool_, "dist_m": np.float64}  # noqa: RUF012
 
     def __init__(self, **params: Any):

@@ -4,7 +4,8 @@ A new use case is a new module that defines a class following
 :class:`~rlbridge.usecases.protocol.UseCase` plus an entry here
 (``BUILTIN_USECASES``) or in the ``rlbridge.usecases`` entry-point group of
 another package; the environments and the server look use cases up by name
-and need no edit. Each gets the Gymnasium id ``aamgym/<env_name>-v1`` (and ``-v0``: fixed traffic, see
+and need no edit. Every entry declares a
+:class:`~rlbridge.usecases.spec.UseCaseSpec` (:func:`usecase_spec`). Each gets the Gymnasium id ``aamgym/<env_name>-v1`` (and ``-v0``: fixed traffic, see
 :func:`env_id`).
 """
 
@@ -15,6 +16,7 @@ from importlib.metadata import entry_points
 from typing import Any
 
 from rlbridge.usecases.protocol import Feedback, Observations, UseCase, UseCaseBase
+from rlbridge.usecases.spec import UseCaseSpec, spec_of
 
 BUILTIN_USECASES: dict[str, str] = {
     "corridor_sa": "rlbridge.usecases.corridor:CorridorSA",
@@ -50,8 +52,22 @@ def make_usecase(name: str | type, **params: Any) -> UseCase:
     (docs/tutorials/new-usecase.md); a simulation server knows use cases by name only.
     """
     cls = name if isinstance(name, type) else usecase_class(name)
+    spec_of(cls)  # a use case without a spec is refused before it is built
     usecase: UseCase = cls(**params)
     return usecase
+
+
+def usecase_spec(name: str | type) -> UseCaseSpec:
+    """The spec a registry entry (or a use case class) declares, without building the use case.
+
+    A use case whose spec depends on its parameters (``hierarchical``'s ``train``) declares its
+    default one on the class; its instances carry their own (``make_usecase(...).spec``).
+
+    Raises:
+        KeyError: an unknown name.
+        CapabilityError: the use case declares no spec.
+    """
+    return spec_of(name if isinstance(name, type) else usecase_class(name))
 
 
 def env_id(name: str, version: int | None = None) -> str:
@@ -65,5 +81,5 @@ def env_id(name: str, version: int | None = None) -> str:
     return f"aamgym/{cls.env_name or name}-v{getattr(cls, 'env_version', 1) if version is None else version}"
 
 
-__all__ = ["BUILTIN_USECASES", "Feedback", "Observations", "UseCase", "UseCaseBase", "available", "env_id",
-           "make_usecase", "usecase_class"]
+__all__ = ["BUILTIN_USECASES", "Feedback", "Observations", "UseCase", "UseCaseBase", "UseCaseSpec", "available",
+           "env_id", "make_usecase", "usecase_class", "usecase_spec"]

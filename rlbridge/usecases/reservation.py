@@ -25,12 +25,11 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from aamsim.units import R_EARTH as R_EARTH_M
 from rlbridge.usecases.schedule import DepartureRequest, Schedule
 
 if TYPE_CHECKING:
     from aamsim import Simulation
-
-R_EARTH_M = 6371000.0
 
 
 @dataclass(frozen=True)

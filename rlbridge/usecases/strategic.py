@@ -40,6 +40,7 @@ from rlbridge.usecases.frozen import PolicySource
 from rlbridge.usecases.protocol import Feedback, Observations, UseCaseBase, make_params
 from rlbridge.usecases.reservation import Frame, Intent, IntentTable, probe_intents
 from rlbridge.usecases.schedule import DepartureRequest, Schedule, split_schedule
+from rlbridge.usecases.spec import UseCaseSpec
 from rlbridge.usecases.tactical import TacticalLayer
 from rlbridge.usecases.variation import PAPER_ALT_NOISE_FT, add_altitude_noise
 
@@ -157,17 +158,22 @@ class Episode:
     last_decider: str = PLANNER  # the planner that decided last (gets the interval's NMAC and LoWC)
 
 
+PLANNING_METRICS = ("requests", "decided", "flights_planned", "unplaced", "unplaced_flights", "delayed_flights",
+                    "mean_delay_s", "p95_delay_s", "max_delay_s", "layer_changes", "intent_conflicts", "arrivals",
+                    "throughput_per_hour", "tactical_decisions")  # planning_metrics' keys
+
+
 class StrategicPlanning(UseCaseBase):
     """``strategic_planning`` (``aamgym/StrategicPlanning-v1``): see the module docstring."""
 
     name = "strategic_planning"
     env_name = "StrategicPlanning"
-    params_class = StrategicParams
+    # Its planner agent chooses each departure's slot; it holds the scenario's departures back (not on
+    # BlueSky's reader); ``tactical`` names a frozen policy (a baseline name or a run path).
+    spec = UseCaseSpec(StrategicParams, action_kinds=("departure_slot",), baselines=("no_planning", "fcfs"),
+                       advisory="tactical_layer", metrics=PLANNING_METRICS, aircraft_agents=False,
+                       plans_departures=True, policy_params=("tactical",))
     standing_agents: tuple[str, ...] = (PLANNER,)
-    aircraft_agents = False
-    policy_params: ClassVar[tuple[str, ...]] = ("tactical",)  # frozen policies: baseline names or run paths
-    plans_departures: ClassVar[bool] = True  # holds the scenario's departures back (not on BlueSky's reader)
-    baselines: ClassVar[tuple[str, ...]] = ("no_planning", "fcfs")
     fixed_traffic: ClassVar[dict[str, Any]] = {"alt_noise_ft": 0.0}
     info_fields = {"delay_s": np.float64, "unplaced": np.bool_, "intent_conflicts": np.int64,  # noqa: RUF012
                    "nmac": np.int64, "lowc": np.int64}
@@ -230,6 +236,10 @@ class StrategicPlanning(UseCaseBase):
         if self.params.planners == "vertiport":
             names = dict.fromkeys(request_planner(r) for r in split_schedule(commands, is_command).requests)
             self.standing_agents = tuple(names) or (PLANNER,)
+
+    def departure_planner(self) -> StrategicPlanning:
+        """The planner that decides departure slots (a ``departure_slot`` use case's member): itself."""
+        return self
 
     def decider(self) -> str:
         """The planner agent that decides the current request (``planner`` with a single planner)."""
