@@ -34,7 +34,7 @@ from pettingzoo import AECEnv
 
 from rlbridge.backends import make_backend
 from rlbridge.core import StepResult
-from rlbridge.usecases.registry import make_usecase
+from rlbridge.policies import make_usecase_with_policies
 from rlbridge.usecases.strategic import StrategicPlanning
 
 USECASE = "strategic_planning"
@@ -52,7 +52,7 @@ class StrategicPlanningAEC(AECEnv):
             raise ValueError("the AEC view has a planner per vertiport (planners='vertiport'); for one planner "
                              "use rlbridge.parallel_env or aamgym/StrategicPlanning-v1")
         params = {**params, "planners": "vertiport"}
-        self._usecase = cast(StrategicPlanning, make_usecase(USECASE, **params))
+        self._usecase = cast(StrategicPlanning, make_usecase_with_policies(USECASE, **params))
         self.core = make_backend(scenario, USECASE, params, backend, address, time_limit_s, dt, timeout_s)
         self.possible_agents: list[str] = list(self.core.possible_agents)
         self.agents: list[str] = []

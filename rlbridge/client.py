@@ -19,9 +19,10 @@ from typing import Any, Self
 
 import zmq
 
+from aamsim.snapshots import SNAPSHOT_FIELDS, TrafficSnapshot
 from rlbridge.core import TRAFFIC_STATE_FIELDS, StepResult
 from rlbridge.protocol import DEFAULT_MAX_MESSAGE_BYTES, PROTOCOL_VERSION, ProtocolError, decode, request
-from rlbridge.wire import actions_to_payload, step_result_from_payload
+from rlbridge.wire import actions_to_payload, snapshot_from_payload, step_result_from_payload
 
 
 class ServerUnavailable(ConnectionError):
@@ -235,6 +236,12 @@ class RemoteEpisode:
             raise RuntimeError("traffic_state() before reset()")
         state = self._call("state")
         return {k: state[k] for k in ("simt", "ids", *TRAFFIC_STATE_FIELDS)}
+
+    def snapshot(self, fields: tuple[str, ...] = SNAPSHOT_FIELDS) -> TrafficSnapshot:
+        """A frozen copy of the server's traffic now, ``fields`` only (float64, bit for bit the server's)."""
+        if not self._ready:
+            raise RuntimeError("snapshot() before reset()")
+        return snapshot_from_payload(self._call("state", fields=list(fields)))
 
     def close(self) -> None:
         """Free the server session (best effort) and close the socket."""

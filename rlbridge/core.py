@@ -35,10 +35,11 @@ from aamsim.limits import SimulationLimits
 from aamsim.metrics import metrics_of
 from aamsim.scenarios import resolve_scenario
 from aamsim.services import build_services
+from aamsim.snapshots import SNAPSHOT_FIELDS, TrafficSnapshot, take_snapshot
 from aamsim.stack.parser import ParsedScenario, TimedCommand
 from aamsim.stack.tokens import next_arg
+from rlbridge.policies import make_usecase_with_policies
 from rlbridge.usecases.protocol import Feedback, Observations, UseCase, check_feedback, empty_info
-from rlbridge.usecases.registry import make_usecase
 from rlbridge.usecases.spec import UseCaseSpec, spec_of
 
 TRAFFIC_STATE_FIELDS = ("lat", "lon", "alt", "tas", "gs", "trk", "vs")
@@ -131,7 +132,7 @@ class EpisodeCore:
             raise ScenarioError(f"scenario not found: {scenario}")
         self.path = path
         self.text = path.read_text(encoding="utf-8", errors="replace")
-        self.usecase: UseCase = (make_usecase(usecase, **(params or {})) if isinstance(usecase, (str, type))
+        self.usecase: UseCase = (make_usecase_with_policies(usecase, **(params or {})) if isinstance(usecase, (str, type))
                                  else usecase)
         self.spec: UseCaseSpec = spec_of(self.usecase)  # a use case without a spec is refused here
         self.dt = dt
@@ -476,6 +477,12 @@ class EpisodeCore:
             raise RuntimeError("traffic_state() before reset()")
         assert self.sim.services is not None
         return self.sim.services.snapshots.latest().as_dict(TRAFFIC_STATE_FIELDS)
+
+    def snapshot(self, fields: tuple[str, ...] = SNAPSHOT_FIELDS) -> TrafficSnapshot:
+        """A frozen copy of the traffic now (the fields' SI arrays): what a policy reads besides its observations."""
+        if self.sim is None:
+            raise RuntimeError("snapshot() before reset()")
+        return take_snapshot(self.sim, fields)
 
     def close(self) -> None:
         self.sim = None

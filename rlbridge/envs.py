@@ -26,8 +26,8 @@ from pettingzoo import ParallelEnv
 from aamsim.scenarios import resolve_scenario
 from rlbridge.backends import make_backend
 from rlbridge.core import StepResult
+from rlbridge.policies import make_usecase_with_policies
 from rlbridge.render import RENDER_FPS, RENDER_MODES, EnvRenderer, check_render_mode
-from rlbridge.usecases.registry import make_usecase
 
 
 class AamParallelEnv(ParallelEnv):
@@ -62,7 +62,7 @@ class AamParallelEnv(ParallelEnv):
     ):
         super().__init__()
         self.render_mode = check_render_mode(render_mode)
-        self._usecase = make_usecase(usecase, **params)
+        self._usecase = make_usecase_with_policies(usecase, **params)
         version = getattr(type(self._usecase), "env_version", 1)
         self.metadata = {**self.metadata, "name": f"aamgym_{self._usecase.name}_v{version}"}
         self.core = make_backend(scenario, usecase, params, backend, address, time_limit_s, dt, timeout_s, threads)

@@ -40,7 +40,12 @@ from rlbridge.protocol import (
     reply,
 )
 from rlbridge.scenario_access import ScenarioAccessError, ScenarioRoots
-from rlbridge.wire import actions_from_payload, step_result_to_payload
+from rlbridge.wire import (
+    actions_from_payload,
+    snapshot_fields_from_request,
+    snapshot_to_payload,
+    step_result_to_payload,
+)
 
 log = logging.getLogger(__name__)
 
@@ -171,7 +176,7 @@ SCHEMAS: dict[str, dict[str, tuple[tuple[type, ...], bool]]] = {
     "reset": {**{k: (kinds, False) for k, (kinds, _) in _OPEN_FIELDS.items()}, "seed": (_INT + _NIL, False)},
     "step": {"actions": ((dict, np.ndarray), False), "agents": ((list,), False)},
     "stack": {"text": (_STR, True)},
-    "state": {},
+    "state": {"fields": ((list,), False)},
     "metrics": {"groups": ((list,), False)},
     "close": {},
     "shutdown": {},
@@ -406,7 +411,10 @@ class SimulationServer:
         core = self._need_core(session)
         if core.sim is None:
             raise RequestError("bad_request", "state before reset")
-        return core.traffic_state()
+        fields = snapshot_fields_from_request(message.get("fields"))
+        if fields is None:
+            return core.traffic_state()
+        return snapshot_to_payload(core.snapshot(fields))
 
     def _metrics(self, session: Session | None, identity: bytes, message: dict[str, Any]) -> dict[str, Any]:
         core = self._need_core(session)

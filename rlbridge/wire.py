@@ -1,7 +1,9 @@
-"""Episode values on the wire: step results and actions as protocol payloads (``docs/protocol.md``).
+"""Episode values on the wire: step results, actions and traffic snapshots as protocol payloads (``docs/protocol.md``).
 
-Both ends use these functions, so a :class:`~rlbridge.core.StepResult` that
-crosses the wire comes back with the same arrays, dtypes and values.
+Both ends use these functions, so a :class:`~rlbridge.core.StepResult` or an
+:class:`aamsim.snapshots.TrafficSnapshot` that crosses the wire comes back with
+the same arrays, dtypes and values (float64 state arrays travel as raw buffers:
+bit for bit).
 """
 
 from __future__ import annotations
@@ -10,6 +12,8 @@ from typing import Any
 
 import numpy as np
 
+from aamsim.snapshots import TrafficSnapshot
+from aamsim.traffic.view import PUBLIC_FLOATS
 from rlbridge.core import StepResult
 from rlbridge.protocol import ProtocolError
 from rlbridge.usecases.protocol import INFO_DTYPES, Observations
@@ -111,3 +115,47 @@ def actions_from_payload(payload: dict[str, Any]) -> dict[str, Any]:
     if actions.ndim == 1 and actions.dtype.kind in _INT_KINDS:
         return dict(zip(agents, actions.tolist()))
     return {a: actions[k] for k, a in enumerate(agents)}
+
+
+def snapshot_fields_from_request(value: Any) -> tuple[str, ...] | None:
+    """The traffic fields a ``state`` request asks for (None: the default set); unknown names are an error."""
+    if value is None:
+        return None
+    if not isinstance(value, list) or not all(isinstance(x, str) for x in value):
+        raise ProtocolError("state: 'fields' must be a list of strings")
+    unknown = [x for x in value if x not in PUBLIC_FLOATS]
+    if unknown:
+        raise ProtocolError(f"state: unknown traffic field(s) {', '.join(map(repr, unknown))}; "
+                            f"known: {', '.join(PUBLIC_FLOATS)}")
+    if len(set(value)) != len(value):
+        raise ProtocolError("state: 'fields' names a field twice")
+    return tuple(value)
+
+
+def snapshot_to_payload(snap: TrafficSnapshot) -> dict[str, Any]:
+    """``simt``, ``ids``, ``fields`` and one float64 array per field (SI units)."""
+    out: dict[str, Any] = {"simt": float(snap.simt), "ids": list(snap.ids), "fields": list(snap.fields)}
+    for k, name in enumerate(snap.fields):
+        out[name] = np.ascontiguousarray(snap.values[k], dtype=np.float64)
+    return out
+
+
+def snapshot_from_payload(payload: dict[str, Any]) -> TrafficSnapshot:
+    """Rebuild a traffic snapshot from a ``state`` reply, checking every field (read-only values)."""
+    ids = _str_list(payload, "ids")
+    fields = _str_list(payload, "fields")
+    simt = payload.get("simt")
+    if not isinstance(simt, float):
+        raise ProtocolError("reply field 'simt' must be a number")
+    n = len(ids)
+    rows = []
+    for name in fields:
+        arr = payload.get(name)
+        if name not in PUBLIC_FLOATS or not isinstance(arr, np.ndarray) or arr.dtype != np.float64 \
+                or arr.shape != (n,):
+            raise ProtocolError(f"reply field {name!r} must be a known traffic field with a float64 array of "
+                                f"{n} values")
+        rows.append(arr)
+    values = np.stack(rows) if rows else np.zeros((0, n))
+    values.flags.writeable = False
+    return TrafficSnapshot(simt, tuple(ids), tuple(fields), values)

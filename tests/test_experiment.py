@@ -338,7 +338,9 @@ def test_evaluate_on_bluesky_agrees_with_aamsim_and_the_report_shows_both(tmp_pa
 def test_rollouts_refuse_a_backend_they_cannot_run_on():
     from rlbridge.agents.rollout import EnvSpec
 
-    with pytest.raises(ValueError, match="'local', 'bluesky'"):
+    with pytest.raises(ValueError, match="'local', 'zmq', 'bluesky'"):
+        EnvSpec(TINY, backend="ray")
+    with pytest.raises(ValueError, match='backend "zmq" needs the address of a simulation server'):
         EnvSpec(TINY, backend="zmq")
 
 

@@ -104,15 +104,14 @@ def test_advisory_kinds_are_declared_and_the_others_refused():
                                                 r"heading_altitude_sa does not declare them \(its advisory kinds: "
                                                 r"heading, altitude\)"):
         uc.action_targets(core.sim, np.array([0]), "speed")
-    result = core.step({})
-    rng = np.random.default_rng(0)
+    core.step({})
     with pytest.raises(CapabilityError, match=r"baseline mvp_speed does not fit use case heading_altitude_sa: it "
                                               r"needs speed actions \(its action kinds: heading, altitude\)"):
-        make_actor({"kind": "mvp_speed"}).act(result, core, rng, {})
+        make_actor({"kind": "mvp_speed"}).check_usecase(core.usecase)
     corridor = EpisodeCore(TINY, "corridor_sa", {}, time_limit_s=300.0)
     with pytest.raises(CapabilityError, match=r"baseline mvp does not fit use case corridor_sa: it needs heading "
                                               r"or altitude actions \(its action kinds: speed\)"):
-        make_actor({"kind": "mvp"}).act(corridor.reset(0), corridor, rng, {})
+        make_actor({"kind": "mvp"}).check_usecase(corridor.usecase)
 
 
 def run_episode(kind: str, seed: int = 0) -> dict:

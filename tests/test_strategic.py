@@ -14,6 +14,7 @@ import rlbridge
 from aamsim.units import FT
 from rlbridge.agents import make_actor
 from rlbridge.core import EpisodeCore
+from rlbridge.policies import make_usecase_with_policies
 from rlbridge.usecases import env_id, make_usecase
 
 CROSS = str(Path(__file__).parent / "data" / "strategic_cross.scn")
@@ -125,7 +126,7 @@ def test_bad_parameters_and_policies_name_the_known_ones():
     with pytest.raises(KeyError, match="unknown use case 'strategic'; available:.*strategic_planning"):
         make_usecase("strategic")
     with pytest.raises(ValueError, match="tactical layer 'dax' is neither a known baseline \\(unequipped, mvp_speed"):
-        make_usecase("strategic_planning", tactical="dax")
+        make_usecase_with_policies("strategic_planning", tactical="dax")  # the registry's source validates names
     with pytest.raises(ValueError, match="multiple of intent_grid_s"):
         make_usecase("strategic_planning", slot_s=7.0)
 
@@ -196,7 +197,7 @@ def test_hierarchical_planner_with_frozen_tactical_layer_reports_both_levels():
     with pytest.raises(ValueError, match="train must be 'planner' or 'tactical'"):
         make_usecase("hierarchical", train="both")
     with pytest.raises(ValueError, match="planner 'mvp_speed' is neither a known baseline \\(unequipped, no_planning"):
-        make_usecase("hierarchical", train="tactical", planner="mvp_speed")
+        make_usecase_with_policies("hierarchical", train="tactical", planner="mvp_speed")
 
 
 def test_the_planner_is_the_only_agent():

@@ -6,12 +6,13 @@ from __future__ import annotations
 from dataclasses import fields, replace
 from pathlib import Path
 
-import numpy as np
 import pytest
 
 from aamsim import Simulation
 from rlbridge.agents import BASELINE_KINDS, baseline_needs, check_baseline_fits, make_actor
+from rlbridge.agents.rollout import EnvSpec, RolloutWorker
 from rlbridge.core import EpisodeCore
+from rlbridge.policies import make_usecase_with_policies
 from rlbridge.usecases import available, make_usecase, usecase_spec
 from rlbridge.usecases.reach import ReachDestination, ReachParams
 from rlbridge.usecases.spec import SPEED_ROLES, SPEED_TARGETS, CapabilityError, Needs, UseCaseSpec, check_fits
@@ -29,20 +30,24 @@ def test_mvp_speed_is_refused_on_reach_destination_instead_of_holding_at_60_kt()
     select 30/60/90 kt, so its "hold" (action 1) selected 60 kt. It is refused, naming the use case and the
     speed action layout it needs."""
     core = EpisodeCore(THREE_WAY, "reach_destination", {"cruise_speed_kts": ()}, time_limit_s=300)
-    result = core.reset(1)
     actor = make_actor({"kind": "mvp_speed"})
-    with pytest.raises(TypeError, match=r"baseline mvp_speed does not fit use case reach_destination: it needs "
-                                        r"speed actions laid out as decelerate_hold_accelerate \(its speed actions: "
-                                        r"fixed_targets\)"):
-        actor.act(result, core, np.random.default_rng(0), {})
+    refusal = (r"baseline mvp_speed does not fit use case reach_destination: it needs speed actions laid out as "
+               r"decelerate_hold_accelerate \(its speed actions: fixed_targets\)")
+    with pytest.raises(TypeError, match=refusal):
+        actor.check_usecase(core.usecase)
     core.close()
+    # The rollout worker asks before the first decision: no episode runs with mvp_speed on it.
+    worker = RolloutWorker(EnvSpec(THREE_WAY, "reach_destination", {"cruise_speed_kts": ()}, time_limit_s=300),
+                           {"policy": {"kind": "mvp_speed"}})
+    with pytest.raises(TypeError, match=refusal):
+        worker.collect([1])
 
 
 @pytest.mark.parametrize("name", available())
 def test_every_registry_entry_declares_a_spec_that_its_baselines_fit(name):
     spec = usecase_spec(name)
     assert isinstance(spec, UseCaseSpec)
-    uc = make_usecase(name)
+    uc = make_usecase_with_policies(name)
     assert isinstance(uc.params, spec.params_class)  # the parameters it builds are the declared class
     assert "unequipped" not in spec.baselines and set(spec.baselines) <= set(BASELINE_KINDS)
     for kind in ("unequipped", *uc.spec.baselines):
@@ -68,10 +73,10 @@ def test_the_capability_table():
 
 
 def test_hierarchical_instance_spec_follows_the_level_that_learns():
-    planner = make_usecase("hierarchical", planning=NO_LAYERS)
+    planner = make_usecase_with_policies("hierarchical", planning=NO_LAYERS)
     assert planner.spec == usecase_spec("hierarchical")
     assert planner.spec.action_kinds == ("departure_slot",) and not planner.spec.aircraft_agents
-    tactical = make_usecase("hierarchical", train="tactical", planner="fcfs", planning=NO_LAYERS)
+    tactical = make_usecase_with_policies("hierarchical", train="tactical", planner="fcfs", planning=NO_LAYERS)
     assert tactical.spec.action_kinds == ("speed",) and tactical.spec.speed_actions == SPEED_ROLES
     assert tactical.spec.baselines == ("mvp_speed", "daa") and tactical.spec.aircraft_agents
     assert tactical.spec.plans_departures and tactical.spec.policy_params == ("tactical", "planner")

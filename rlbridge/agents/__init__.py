@@ -24,7 +24,8 @@ from typing import Any
 
 import gymnasium as gym
 
-from rlbridge.usecases.registry import make_usecase, usecase_class, usecase_spec
+from rlbridge.policies import make_usecase_with_policies as make_usecase
+from rlbridge.usecases.registry import usecase_class, usecase_spec
 from rlbridge.usecases.spec import Needs, check_fits
 
 LEARNER_KINDS = ("d2mava", "dqn")

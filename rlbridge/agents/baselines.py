@@ -12,6 +12,9 @@
   a conflict an aircraft that was advised before resumes its flight-plan speed (accelerate
   or decelerate back into a band around it, then hold); one never advised gets no advisory.
   docs/algorithms.md describes it.
+
+Both act on the step result and a traffic snapshot (:class:`aamsim.snapshots.TrafficSnapshot`,
+``snapshot_fields``), never on the simulation, so they run on every episode backend.
 """
 
 from __future__ import annotations
@@ -22,26 +25,45 @@ from typing import Any, ClassVar
 
 import numpy as np
 
+from aamsim.conflicts.grid import snapshot_arrays
 from aamsim.conflicts.pairs import statebased
-from aamsim.conflicts.service import search_pairs, traffic_snapshot
-from aamsim.units import KTS
+from aamsim.conflicts.service import TrafficSnapshot as ConflictGeometry
+from aamsim.conflicts.service import search_pairs
+from aamsim.snapshots import TrafficSnapshot
+from aamsim.units import KTS, R_EARTH
 from rlbridge.agents.rollout import ActOutput
-from rlbridge.core import EpisodeCore, StepResult
+from rlbridge.core import StepResult
 from rlbridge.usecases.spec import SPEED_ROLES, Needs, check_fits
 
 DECELERATE, HOLD, ACCELERATE = 0, 1, 2
+# Positions and velocities (east, north, up), the order of aamsim.conflicts.grid.snapshot_arrays' rows.
+KINEMATIC_FIELDS = ("lat", "lon", "alt", "gseast", "gsnorth", "vs")
+
+
+def conflict_geometry(snap: TrafficSnapshot) -> ConflictGeometry:
+    """The conflict detection's view of a traffic snapshot: positions, velocities and the local flat frame.
+
+    The same arrays :func:`aamsim.conflicts.service.traffic_snapshot` computes from the
+    simulation (one compiled loop over the same float64 values), from a snapshot with the
+    fields of :data:`KINEMATIC_FIELDS`.
+    """
+    matrix = np.ascontiguousarray(snap.columns(KINEMATIC_FIELDS), dtype=np.float64)
+    rows = np.arange(len(KINEMATIC_FIELDS), dtype=np.int64)
+    lat, lon, alt, u, v, w, x, y, err, *frame = snapshot_arrays(matrix, len(snap.ids), rows, R_EARTH)
+    return ConflictGeometry(list(snap.ids), lat, lon, alt, u, v, w, x, y, err, tuple(frame))  # type: ignore[arg-type]
 
 
 class UnequippedActor:
     """No advisories: the aircraft fly their flight plans (the paper's baseline)."""
 
     obs_format: str | None = None
+    snapshot_fields: tuple[str, ...] = ()
     needs: ClassVar[Needs] = Needs()  # fits every use case
 
     def set_weights(self, weights: Any) -> None:
         pass
 
-    def act(self, result: StepResult, core: EpisodeCore, rng: np.random.Generator,
+    def act(self, result: StepResult, snapshot: TrafficSnapshot | None, rng: np.random.Generator,
             explore: dict[str, Any]) -> ActOutput:
         return ActOutput(None)
 
@@ -67,6 +89,7 @@ class SpeedMVPActor:
     """Speed-only Modified Voltage Potential conflict resolution (see the module docstring)."""
 
     obs_format: str | None = None
+    snapshot_fields: tuple[str, ...] = (*KINEMATIC_FIELDS, "trk", "cas", "selspd")
     # Its actions 0/1/2 are decelerate / hold / accelerate: on fixed speed targets (reach_destination's
     # 30/60/90 kt) its "hold" would select 60 kt, so such a use case is refused.
     needs: ClassVar[Needs] = Needs(any_of=("speed",), speed_actions=SPEED_ROLES)
@@ -75,17 +98,20 @@ class SpeedMVPActor:
         self.config = config or SpeedMVPConfig()
         self._cruise: dict[str, float] = {}  # flight-plan CAS [m/s] noted before any advisory
         self._advised: set[str] = set()
-        self._episode: tuple[int | None, int] | None = None
+        self._episode: np.random.Generator | None = None  # the current episode's action generator
 
     def set_weights(self, weights: Any) -> None:
         pass
 
-    def speed_changes(self, core: EpisodeCore) -> np.ndarray:
-        """Per traffic slot: summed MVP speed change along track [m/s] (NaN: no conflict)."""
+    def check_usecase(self, usecase: Any) -> None:
+        """Its actions 0/1/2 are decelerate / hold / accelerate: refuse a use case without that speed layout."""
+        if usecase is not None:
+            check_fits(self.needs, usecase, "baseline mvp_speed")
+
+    def speed_changes(self, snap: TrafficSnapshot) -> np.ndarray:
+        """Per snapshot row: summed MVP speed change along track [m/s] (NaN: no conflict)."""
         c = self.config
-        sim = core.sim
-        assert sim is not None
-        s = traffic_snapshot(sim)
+        s = conflict_geometry(snap)
         n = len(s.ids)
         out = np.full(n, np.nan)
         if n < 2:
@@ -96,7 +122,7 @@ class SpeedMVPActor:
         conf, tcpa, _, _, _, los = statebased(s.lat, s.lon, s.alt, s.u, s.v, s.w, pi, pj,
                                                  c.rpz_m, c.hpz_m, c.lookahead_s)
         sel = np.flatnonzero(conf | los)
-        trk = np.radians(sim.traffic.trk)
+        trk = np.radians(snap.trk)
         ex, ey = np.sin(trk), np.cos(trk)
         for k in sel:
             i, j = int(pi[k]), int(pj[k])
@@ -119,36 +145,34 @@ class SpeedMVPActor:
                 out[a] = dva if math.isnan(out[a]) else out[a] + dva
         return out
 
-    def act(self, result: StepResult, core: EpisodeCore, rng: np.random.Generator,
+    def act(self, result: StepResult, snapshot: TrafficSnapshot | None, rng: np.random.Generator,
             explore: dict[str, Any]) -> ActOutput:
-        sim = core.sim
-        assert sim is not None
-        key = (core.seed, id(sim))
-        if key != self._episode:  # a new episode: forget the previous aircraft
-            if core.usecase is not None:  # its actions 0/1/2 are decelerate / hold / accelerate
-                check_fits(self.needs, core.usecase, "baseline mvp_speed")
-            self._episode, self._cruise, self._advised = key, {}, set()
-        t = sim.traffic
-        view = sim.view
+        if snapshot is None:
+            raise ValueError(f"baseline mvp_speed reads a traffic snapshot of {', '.join(self.snapshot_fields)}")
+        if rng is not self._episode:  # a new episode (each has its own generator): forget the previous aircraft
+            self._episode, self._cruise, self._advised = rng, {}, set()
+        snap = snapshot
+        row = {a: i for i, a in enumerate(snap.ids)}
         band = self.config.resume_band_kts * KTS
         act_band = self.config.act_band_kts * KTS
-        dv = self.speed_changes(core)
+        dv = self.speed_changes(snap)
+        selspd, cas_now = snap.selspd, snap.cas
         actions = np.full(len(result.agents), HOLD, dtype=np.int64)
         advise = np.zeros(len(result.agents), dtype=bool)
         alive = set(result.alive)
         for k, a in enumerate(result.agents):
-            i = t.find(a)
+            i = row.get(a)
             if i is None or a not in alive:
                 continue
             if a not in self._cruise:
-                self._cruise[a] = float(view.selspd[i])
+                self._cruise[a] = float(selspd[i])
             if not math.isnan(dv[i]):
                 # Track the MVP resolution speed with the discrete advisories.
                 actions[k] = ACCELERATE if dv[i] > act_band else DECELERATE if dv[i] < -act_band else HOLD
                 advise[k] = True
                 self._advised.add(a)
             elif a in self._advised:
-                cas, cruise = float(view.cas[i]), self._cruise[a]
+                cas, cruise = float(cas_now[i]), self._cruise[a]
                 actions[k] = ACCELERATE if cas < cruise - band else DECELERATE if cas > cruise + band else HOLD
                 advise[k] = True
         return ActOutput(actions, advise=advise)

@@ -23,7 +23,7 @@ from __future__ import annotations
 
 import logging
 from dataclasses import asdict, dataclass
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import torch
@@ -42,7 +42,10 @@ from rlbridge.agents.core import (
 )
 from rlbridge.agents.rollout import ActOutput, EpisodeBatch
 from rlbridge.agents.static_ppo import StaticPPO
-from rlbridge.core import EpisodeCore, StepResult
+from rlbridge.core import StepResult
+
+if TYPE_CHECKING:
+    from aamsim.snapshots import TrafficSnapshot
 
 log = logging.getLogger("rlbridge.d2mava")
 
@@ -192,6 +195,7 @@ class D2MAVAActor:
     """The acting half, run in rollout workers: one batched forward pass per decision step."""
 
     obs_format = "dict"
+    snapshot_fields: tuple[str, ...] = ()  # the observations are all it reads
 
     def __init__(self, config: dict[str, Any], dims: dict[str, Any]):
         self.config = D2MAVAConfig(**config)
@@ -202,11 +206,11 @@ class D2MAVAActor:
     def set_weights(self, weights: dict[str, np.ndarray]) -> None:
         load_numpy_state(self.model, weights)
 
-    def act(self, result: StepResult, core: EpisodeCore, rng: np.random.Generator,
+    def act(self, result: StepResult, snapshot: TrafficSnapshot | None, rng: np.random.Generator,
             explore: dict[str, Any]) -> ActOutput:
-        return self.act_many([result], [core], [rng], explore)[0]
+        return self.act_many([result], [snapshot], [rng], explore)[0]
 
-    def act_many(self, results: list[StepResult], cores: list[EpisodeCore], rngs: list[np.random.Generator],
+    def act_many(self, results: list[StepResult], snapshots: list[Any], rngs: list[np.random.Generator],
                  explore: dict[str, Any]) -> list[ActOutput]:
         """One forward pass over the aircraft of every episode; each episode samples with its own generator."""
         parts = [r.obs.parts for r in results]

@@ -42,8 +42,8 @@ import numpy as np
 from aamsim.resolution import DAAParams, DetectAndAvoid, SpeedBands
 from aamsim.units import KTS
 from rlbridge.agents.daa_manoeuvre import ManoeuvreDAA
-from rlbridge.agents.rollout import ActOutput
-from rlbridge.core import EpisodeCore, StepResult
+from rlbridge.agents.rollout import ActOutput, EpisodeAccess
+from rlbridge.core import StepResult
 from rlbridge.usecases.protocol import ADVISORY_KINDS, UseCaseBase
 from rlbridge.usecases.spec import Needs, check_fits, spec_of
 
@@ -66,6 +66,8 @@ class DAAActor:
     """Speed-only detect and avoid on a use case's discrete speed actions (see the module docstring)."""
 
     obs_format: str | None = None
+    snapshot_fields: tuple[str, ...] = ()
+    reads_simulation = True  # aamsim's services in process (rlbridge.agents.rollout.EpisodeAccess)
     # Speed actions of either layout (it steers with their targets), or heading / altitude actions.
     needs: ClassVar[Needs] = Needs(any_of=ADVISORY_KINDS)
 
@@ -80,14 +82,18 @@ class DAAActor:
     def set_weights(self, weights: Any) -> None:
         pass
 
-    def act(self, result: StepResult, core: EpisodeCore, rng: np.random.Generator,
+    def check_usecase(self, usecase: Any) -> None:
+        """Refuse a use case with neither speed nor heading / altitude actions, naming its kinds."""
+        if usecase is not None:
+            check_fits(self.needs, usecase, "baseline daa")
+
+    def act(self, result: StepResult, core: EpisodeAccess, rng: np.random.Generator,
             explore: dict[str, Any]) -> ActOutput:
         sim = core.sim
         assert sim is not None
         usecase = core.usecase
         key = (core.seed, id(sim))
         if key != self._episode:  # a new episode: forget the previous aircraft
-            check_fits(self.needs, usecase, "baseline daa")
             self._episode, self._held, self._own = key, {}, {}
             self._manoeuvre = ManoeuvreDAA(self.daa)
         if "speed" not in spec_of(usecase).action_kinds:
@@ -172,7 +178,7 @@ class DAAActor:
                 actions[rows[r]], advise[rows[r]] = a, True
         return ActOutput(actions, advise=advise)
 
-    def _act_manoeuvres(self, result: StepResult, core: EpisodeCore) -> ActOutput:
+    def _act_manoeuvres(self, result: StepResult, core: EpisodeAccess) -> ActOutput:
         """Heading and altitude advisories (rlbridge.agents.daa_manoeuvre)."""
         sim = core.sim
         assert sim is not None

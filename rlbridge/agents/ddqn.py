@@ -39,7 +39,7 @@ to ``replay_size`` rows, so small runs never allocate the paper's 5,000,000 rows
 from __future__ import annotations
 
 from dataclasses import asdict, dataclass
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import torch
@@ -50,7 +50,10 @@ from rlbridge.agents.core import LinearSchedule, ddqn_target, dqn_target
 from rlbridge.agents.d2mava import load_numpy_state, to_numpy_state
 from rlbridge.agents.device_replay import DeviceReplay, ring_rows
 from rlbridge.agents.rollout import ActOutput, EpisodeBatch
-from rlbridge.core import EpisodeCore, StepResult
+from rlbridge.core import StepResult
+
+if TYPE_CHECKING:
+    from aamsim.snapshots import TrafficSnapshot
 
 SCHEDULES = ("rllib", "per_transition")
 
@@ -202,6 +205,7 @@ class DDQNActor:
     """Epsilon-greedy action selection with the shared Q-network (one forward pass per step)."""
 
     obs_format = "flat"
+    snapshot_fields: tuple[str, ...] = ()  # the observations are all it reads
 
     def __init__(self, config: dict[str, Any], dims: dict[str, Any]):
         self.config = DDQNConfig(**config)
@@ -211,11 +215,11 @@ class DDQNActor:
     def set_weights(self, weights: dict[str, np.ndarray]) -> None:
         load_numpy_state(self.q, weights)
 
-    def act(self, result: StepResult, core: EpisodeCore, rng: np.random.Generator,
+    def act(self, result: StepResult, snapshot: TrafficSnapshot | None, rng: np.random.Generator,
             explore: dict[str, Any]) -> ActOutput:
-        return self.act_many([result], [core], [rng], explore)[0]
+        return self.act_many([result], [snapshot], [rng], explore)[0]
 
-    def act_many(self, results: list[StepResult], cores: list[EpisodeCore], rngs: list[np.random.Generator],
+    def act_many(self, results: list[StepResult], snapshots: list[Any], rngs: list[np.random.Generator],
                  explore: dict[str, Any]) -> list[ActOutput]:
         """One forward pass over the aircraft of every episode; each episode explores with its own generator."""
         flats = [r.obs.flat for r in results]

@@ -24,8 +24,8 @@ from aamsim.resolution.mvp import MVPSettings
 from aamsim.resolution.mvp_detect import detect
 from aamsim.resolution.mvp_service import mvp_commands
 from rlbridge.agents.manoeuvres import MANOEUVRE_KINDS, action_targets
-from rlbridge.agents.rollout import ActOutput
-from rlbridge.core import EpisodeCore, StepResult
+from rlbridge.agents.rollout import ActOutput, EpisodeAccess
+from rlbridge.core import StepResult
 from rlbridge.usecases.spec import Needs, check_fits
 
 
@@ -42,6 +42,8 @@ class MVPActor:
     """Heading and altitude MVP on a use case's discrete advisories (see the module docstring)."""
 
     obs_format: str | None = None
+    snapshot_fields: tuple[str, ...] = ()
+    reads_simulation = True  # aamsim's services in process (rlbridge.agents.rollout.EpisodeAccess)
     needs: ClassVar[Needs] = Needs(any_of=MANOEUVRE_KINDS)  # heading or altitude actions
 
     def __init__(self, config: MVPConfig | None = None):
@@ -53,13 +55,17 @@ class MVPActor:
     def set_weights(self, weights: Any) -> None:
         pass
 
-    def act(self, result: StepResult, core: EpisodeCore, rng: np.random.Generator,
+    def check_usecase(self, usecase: Any) -> None:
+        """Refuse a use case with neither heading nor altitude actions, naming its kinds."""
+        if usecase is not None:
+            check_fits(self.needs, usecase, "baseline mvp")
+
+    def act(self, result: StepResult, core: EpisodeAccess, rng: np.random.Generator,
             explore: dict[str, Any]) -> ActOutput:
         sim, usecase = core.sim, core.usecase
         assert sim is not None
         key = (core.seed, id(sim))
         if key != self._episode:
-            check_fits(self.needs, usecase, "baseline mvp")
             self._episode, self._advised = key, set()
         view = sim.view
         alive = set(result.alive)

@@ -16,8 +16,8 @@ from typing import Any, ClassVar, cast
 
 import numpy as np
 
-from rlbridge.agents.rollout import ActOutput
-from rlbridge.core import EpisodeCore, StepResult
+from rlbridge.agents.rollout import ActOutput, EpisodeAccess
+from rlbridge.core import StepResult
 from rlbridge.usecases.protocol import DepartureSlots
 from rlbridge.usecases.spec import Needs, check_fits
 
@@ -48,28 +48,34 @@ def fcfs_action(conflicts: np.ndarray, action_mask: np.ndarray, filed_layer: int
     return best[1] if best is not None else 0
 
 
-def _planner(core: EpisodeCore, needs: Needs, who: str) -> Any:
-    uc = core.usecase
-    check_fits(needs, uc, who)  # it emits departure slots, so it has departure_planner
-    return cast(DepartureSlots, uc).departure_planner()
+def _planner(core: EpisodeAccess) -> Any:
+    # check_usecase refused a use case without departure slots, so it has departure_planner
+    return cast(DepartureSlots, core.usecase).departure_planner()
 
 
 class _PlannerBaseline:
     """A rule acting for the planner agent only (the hierarchical use case's aircraft get nothing)."""
 
     obs_format: str | None = None
+    snapshot_fields: tuple[str, ...] = ()
+    reads_simulation = True  # aamsim's services in process (rlbridge.agents.rollout.EpisodeAccess)
     needs: ClassVar[Needs] = Needs(any_of=("departure_slot",))  # a planner agent choosing departure slots
     kind: ClassVar[str] = ""
 
     def set_weights(self, weights: Any) -> None:
         pass
 
+    def check_usecase(self, usecase: Any) -> None:
+        """Refuse a use case whose actions are not departure slots (no planner agent), naming its kinds."""
+        if usecase is not None:
+            check_fits(self.needs, usecase, f"baseline {self.kind}")
+
     def choose(self, planner: Any) -> int:
         raise NotImplementedError
 
-    def act(self, result: StepResult, core: EpisodeCore, rng: np.random.Generator,
+    def act(self, result: StepResult, core: EpisodeAccess, rng: np.random.Generator,
             explore: dict[str, Any]) -> ActOutput:
-        planner = _planner(core, self.needs, f"baseline {self.kind}")
+        planner = _planner(core)
         decider = planner.decider() if hasattr(planner, "decider") else PLANNER  # a planner per vertiport: its own
         mine = np.array([a == decider for a in result.agents], bool)
         actions = np.array([self.choose(planner) if m else 0 for m in mine], np.int64)

@@ -1,11 +1,15 @@
-"""Episode collection from :class:`~rlbridge.core.EpisodeCore` with batched inference.
+"""Episode collection on any episode backend with batched inference.
 
-A :class:`RolloutWorker` owns one episode engine and one *actor* (the acting half of an
-algorithm, or a baseline). Every decision step it calls the actor once on the
+A :class:`RolloutWorker` owns one episode backend (:mod:`rlbridge.backends`: aamsim in
+process, a simulation server over ZeroMQ, or BlueSky) and one *actor* (the acting half of
+an algorithm, or a baseline). Every decision step it calls the actor once on the
 observations of all agents reported by the environment (a single batched forward pass,
-no per-agent network calls) and steps the simulation with the actions of the agents that
-continue. The same class runs in-process (``workers=0``) and as a Ray actor
-(``ray.remote(RolloutWorker)``).
+no per-agent network calls) and steps the episode with the actions of the agents that
+continue. An actor sees the episode as a step result plus, when it asks for traffic fields
+(``snapshot_fields``), a frozen :class:`~aamsim.snapshots.TrafficSnapshot` of them, which
+every backend provides (over ZeroMQ it crosses the wire bit for bit): never the
+simulation, so the same actor runs on every backend. The same class runs in-process
+(``workers=0``) and as a Ray actor (``ray.remote(RolloutWorker)``).
 
 Trajectories come back as an :class:`EpisodeBatch` of numpy arrays. Every observation the
 environment returned is stored once, as one *row* (``M`` rows); a transition ``t`` (``T`` of
@@ -21,14 +25,20 @@ import hashlib
 import time
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
-from typing import Any, Protocol
+from typing import TYPE_CHECKING, Any, Protocol
 
 import numpy as np
 
-from rlbridge.core import EpisodeCore, StepResult
+from aamsim.scenarios import resolve_scenario
+from rlbridge.backends import BACKENDS, EpisodeBackend, make_backend
+from rlbridge.core import StepResult
+from rlbridge.policies import make_usecase_with_policies
 from rlbridge.usecases.registry import Observations
 from rlbridge.vector.engine import VectorEngine
 
+if TYPE_CHECKING:
+    from aamsim.snapshots import TrafficSnapshot
+    from rlbridge.core import EpisodeCore
 
 @dataclass
 class ActOutput:
@@ -41,14 +51,53 @@ class ActOutput:
 
 
 class Actor(Protocol):
-    """The acting half of an algorithm or a baseline, run inside a worker."""
+    """The acting half of an algorithm or a baseline, run inside a worker (docs/algorithms.md).
+
+    ``act`` reads the step result, the traffic snapshot of ``snapshot_fields`` (None when the
+    actor asks for no field: the observations are all it reads) and ``rng``, the episode's
+    action generator: every episode gets its own, so an actor that keeps state per episode
+    starts afresh when it sees a new generator. Optional members: ``act_many`` (several
+    episodes in one call, :func:`act_batched`) and ``check_usecase(usecase)`` (raise when the
+    use case's actions do not fit the actor; called before its first episode).
+    """
 
     obs_format: str | None  # "flat" / "dict" required from the use case (None: any)
+    snapshot_fields: tuple[str, ...]  # traffic fields read each decision (aamsim.traffic.view.PUBLIC_FLOATS)
 
     def set_weights(self, weights: Any) -> None: ...
 
-    def act(self, result: StepResult, core: EpisodeCore, rng: np.random.Generator,
+    def act(self, result: StepResult, snapshot: TrafficSnapshot | None, rng: np.random.Generator,
             explore: dict[str, Any]) -> ActOutput: ...
+
+
+class EpisodeAccess(Protocol):
+    """What a simulation-bound baseline (``reads_simulation = True``) reads instead of a snapshot.
+
+    Only the detect-and-avoid, heading/altitude MVP and planner baselines are still bound to the
+    in-process simulation (they call aamsim's DAA, MVP and reservation services); they run
+    where the simulation runs (backends ``local`` and ``bluesky``, frozen layers inside a use
+    case) and are refused over ZeroMQ.
+    """
+
+    sim: Any  # aamsim.Simulation
+    seed: int | None
+    usecase: Any
+
+
+IN_PROCESS_BACKENDS = ("local", "bluesky")
+
+
+def reads_simulation(actor: Any) -> bool:
+    """Whether ``actor`` acts on the in-process simulation (:class:`EpisodeAccess`) rather than a snapshot."""
+    return bool(getattr(actor, "reads_simulation", False))
+
+
+def policy_input(actor: Any, episode: Any) -> Any:
+    """What ``actor.act`` reads besides the step result: a snapshot of its fields, None, or the episode itself."""
+    if reads_simulation(actor):
+        return episode
+    fields = tuple(getattr(actor, "snapshot_fields", ()))
+    return episode.snapshot(fields) if fields else None
 
 
 @dataclass
@@ -132,12 +181,12 @@ def to_observations(arrays: dict[str, np.ndarray]) -> Observations:
     return Observations(parts=arrays)
 
 
-ROLLOUT_BACKENDS = ("local", "bluesky")
+ROLLOUT_BACKENDS = BACKENDS
 
 
 @dataclass(frozen=True)
 class EnvSpec:
-    """Everything a worker needs to build its episode engine (plain data: it crosses processes)."""
+    """Everything a worker needs to build its episode backend (plain data: it crosses processes)."""
 
     scenario: str  # a path (absolute for remote workers) or a shipped scenario name
     usecase: str = "corridor_sa"
@@ -145,32 +194,36 @@ class EnvSpec:
     time_limit_s: float | None = None  # None: the engine's default (last command + 2 h)
     dt: float = 0.05  # simulation step [s]
     metrics: tuple[str, ...] = ("safety", "operational")  # metric groups of each episode
-    # Where the episodes run: "local" (aamsim) or "bluesky" (BlueSky flies the aircraft,
-    # rlbridge.backends.bluesky); the actors see an EpisodeCore either way.
+    # Where the episodes run (rlbridge.backends): "local" (aamsim in this process), "zmq" (a simulation
+    # server at ``address``) or "bluesky" (BlueSky flies the aircraft); the actors see step results and
+    # traffic snapshots on each.
     backend: str = "local"
+    address: str | None = None  # the server of backend "zmq" ("tcp://host:port")
+    timeout_s: float = 30.0  # backend "zmq": the longest wait for one reply [s]
 
     def __post_init__(self) -> None:
         if self.backend not in ROLLOUT_BACKENDS:
-            raise ValueError(f"backend {self.backend!r}: rollouts run on {', '.join(map(repr, ROLLOUT_BACKENDS))} "
-                             "(the baselines and policies read the episode's simulation in process)")
+            raise ValueError(f"backend {self.backend!r}: rollouts run on {', '.join(map(repr, ROLLOUT_BACKENDS))}")
+        if self.backend == "zmq" and not self.address:
+            raise ValueError('backend "zmq" needs the address of a simulation server (address="tcp://host:port", '
+                             "from `aamsim serve`)")
 
-    def make(self, obs_format: str | None = None) -> EpisodeCore:
+    def make(self, obs_format: str | None = None) -> EpisodeBackend:
+        """The episode backend, with the use case's observations in ``obs_format`` (None: its default)."""
         from rlbridge.agents import has_obs_format
 
         params = dict(self.params)
         # A use case without the parameter has one observation (flat): DDQN's format, nothing to choose.
         if obs_format is not None and has_obs_format(self.usecase):
             params["obs_format"] = obs_format
-        if self.backend == "bluesky":
-            from rlbridge.backends.bluesky import BlueSkyEpisode
-
-            return BlueSkyEpisode(self.scenario, self.usecase, params, time_limit_s=self.time_limit_s, dt=self.dt)
-        return EpisodeCore(self.scenario, self.usecase, params, time_limit_s=self.time_limit_s, dt=self.dt)
+        return make_backend(self.scenario, self.usecase, params, self.backend, self.address, self.time_limit_s,
+                            self.dt, self.timeout_s)
 
     def make_engine(self, episodes: int, obs_format: str | None = None) -> VectorEngine:
         """``episodes`` episode engines stepped together in one world set (backend ``local`` only)."""
         if self.backend != "local":
-            raise ValueError("BlueSky runs one episode per process: lockstep episodes need backend=local")
+            raise ValueError(f"lockstep episodes step in one world set of this process: they need backend=local, "
+                             f"not {self.backend!r} (run one episode at a time there: lockstep=False)")
         params = dict(self.params)
         if obs_format is not None:
             params["obs_format"] = obs_format
@@ -178,10 +231,10 @@ class EnvSpec:
 
 
 class RolloutWorker:
-    """One simulation per observation format + named actors; collects whole episodes.
+    """One episode backend per observation format + named actors; collects whole episodes.
 
     Args:
-        env: how to build the episode engine.
+        env: how to build the episode backend.
         actors: name -> actor spec (what :func:`rlbridge.agents.make_actor` builds), e.g.
             ``{"policy": learner.actor_spec(...), "unequipped": {"kind": "unequipped"}}``.
         torch_threads: intra-op threads of the worker's PyTorch (1 is fastest on few cores).
@@ -196,13 +249,25 @@ class RolloutWorker:
             torch.set_num_threads(torch_threads)
         self.env = env
         self.actors: dict[str, Actor] = {name: make_actor(spec) for name, spec in actors.items()}
-        self._cores: dict[str | None, EpisodeCore] = {}
+        if env.backend not in IN_PROCESS_BACKENDS:
+            bound = [name for name, a in self.actors.items() if reads_simulation(a)]
+            if bound:
+                raise ValueError(f"actor(s) {', '.join(bound)} read the simulation in process: they run on backend "
+                                 f"{' or '.join(map(repr, IN_PROCESS_BACKENDS))}, not {env.backend!r}")
+        self._cores: dict[str | None, EpisodeBackend] = {}
         self._engines: dict[tuple[str | None, int], VectorEngine] = {}  # lockstep episodes, by format and number
+        self._checked: set[str] = set()  # actors whose fit to the use case was checked
         first = self._core_for(next(iter(self.actors.values())) if self.actors else None)
-        self.scenario_name = Path(first.path).stem
-        self.scenario_sha256 = hashlib.sha256(first.text.encode("utf-8")).hexdigest()
+        path = getattr(first, "path", None) or resolve_scenario(env.scenario)  # a server resolves its own copy
+        text = getattr(first, "text", None)
+        if text is None and path is not None:
+            text = Path(path).read_text(encoding="utf-8", errors="replace")
+        self.scenario_name = Path(path or env.scenario).stem
+        # "" where the scenario is known to the server only (backend zmq).
+        self.scenario_sha256 = hashlib.sha256(text.encode("utf-8")).hexdigest() if text is not None else ""
 
-    def _core_for(self, actor: Actor | None) -> EpisodeCore:
+    def _core_for(self, actor: Actor | None) -> EpisodeBackend:
+        """The episode backend in ``actor``'s observation format (made once)."""
         fmt = None if actor is None else actor.obs_format
         if fmt not in self._cores:
             if self.env.backend == "bluesky":  # BlueSky is process-global: one episode engine at a time
@@ -211,6 +276,16 @@ class RolloutWorker:
                 self._cores.clear()
             self._cores[fmt] = self.env.make(fmt)
         return self._cores[fmt]
+
+    def _check(self, name: str) -> None:
+        """Refuse an actor whose actions do not fit the use case (its ``check_usecase``), once per actor."""
+        if name in self._checked:
+            return
+        check = getattr(self.actors[name], "check_usecase", None)
+        if check is not None:
+            usecase = getattr(self._core_for(self.actors[name]), "usecase", None)
+            check(usecase if usecase is not None else make_usecase_with_policies(self.env.usecase, **self.env.params))
+        self._checked.add(name)
 
     def set_weights(self, weights: Any, actor: str = "policy") -> None:
         self.actors[actor].set_weights(weights)
@@ -246,9 +321,11 @@ class RolloutWorker:
         the simulations step together (:class:`~rlbridge.vector.engine.VectorEngine`: one kernel
         call per batch for all of them). An episode that ends stops; the others go on.
         """
+        self._check(actor)
         act = self.actors[actor]
         t0 = time.perf_counter()
         engine = self._engine_for(act, len(seeds)) if len(seeds) > 1 else None
+        cores: list[Any]
         if engine is not None:
             cores = engine.cores
             started = engine.reset(dict(enumerate(seeds)))
@@ -260,8 +337,8 @@ class RolloutWorker:
         active = list(range(len(runs)))
         while active:
             asking = [runs[k] for k in active if runs[k].wants_actor()]
-            outs = act_batched(act, [r.result for r in asking], [r.core for r in asking], [r.rng for r in asking],
-                               explore) if asking else []
+            outs = act_batched(act, [r.result for r in asking], [policy_input(act, r.core) for r in asking],
+                               [r.rng for r in asking], explore) if asking else []
             answer = dict(zip(map(id, asking), outs))
             steps = {}
             for k in active:
@@ -282,16 +359,20 @@ class RolloutWorker:
         return self._engines[key]
 
 
-def act_batched(actor: Actor, results: list[StepResult], cores: list[EpisodeCore], rngs: list[np.random.Generator],
+def act_batched(actor: Actor, results: list[StepResult], snapshots: list[Any], rngs: list[np.random.Generator],
                 explore: dict[str, Any]) -> list[ActOutput]:
-    """One :class:`ActOutput` per episode; one forward pass for all when the actor has ``act_many``."""
+    """One :class:`ActOutput` per episode; one forward pass for all when the actor has ``act_many``.
+
+    ``snapshots``: each episode's :func:`policy_input` (a traffic snapshot, None, or the episode
+    for a simulation-bound baseline).
+    """
     many = getattr(actor, "act_many", None)
     if many is not None and len(results) > 1:
-        return list(many(results, cores, rngs, explore))
-    return [actor.act(r, c, g, explore) for r, c, g in zip(results, cores, rngs)]
+        return list(many(results, snapshots, rngs, explore))
+    return [actor.act(r, c, g, explore) for r, c, g in zip(results, snapshots, rngs)]
 
 
-def time_limit_counts(core: EpisodeCore, result: StepResult) -> dict[str, int | None]:
+def time_limit_counts(core: EpisodeBackend | EpisodeCore, result: StepResult) -> dict[str, int | None]:
     """Aircraft still flying when the time limit cut the episode, and of them those hovering.
 
     ``parked_at_time_limit`` counts the aircraft cut by the limit with a ground speed under the
@@ -315,7 +396,7 @@ def time_limit_counts(core: EpisodeCore, result: StepResult) -> dict[str, int | 
 class _EpisodeRun:
     """One episode being played: its engine, generator, recorder and counters."""
 
-    def __init__(self, worker: RolloutWorker, core: EpisodeCore, seed: int, record: bool, result: StepResult,
+    def __init__(self, worker: RolloutWorker, core: Any, seed: int, record: bool, result: StepResult,
                  t0: float):
         self.worker, self.core, self.seed = worker, core, seed
         self.rng = np.random.default_rng(np.random.SeedSequence([seed, 0x5EED]))

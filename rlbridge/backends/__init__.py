@@ -17,6 +17,7 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any, Protocol
 
+from aamsim.snapshots import TrafficSnapshot
 from rlbridge.core import EpisodeCore, StepResult
 
 BACKENDS = ("local", "zmq", "bluesky")
@@ -37,6 +38,10 @@ class EpisodeBackend(Protocol):
     def stack(self, text: str) -> list[str]: ...
 
     def traffic_state(self) -> dict[str, Any]: ...
+
+    def snapshot(self, fields: tuple[str, ...] = ...) -> TrafficSnapshot:
+        """A frozen copy of the traffic now (what a policy reads: rlbridge.agents.rollout.Actor)."""
+        ...
 
     def close(self) -> None: ...
 

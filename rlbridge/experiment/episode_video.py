@@ -18,6 +18,7 @@ from aamsim.metrics import write_conflicts_csv
 from aamsim.output.flights import write_flights
 from aamsim.output.recorder import TrajectoryRecorder
 from rlbridge.agents.rollout import EnvSpec, RolloutWorker
+from rlbridge.core import EpisodeCore
 
 RECORD_PERIOD_S = 1.0  # trajectory samples, as `aamsim run` writes them by default
 
@@ -32,6 +33,8 @@ def record_episode(env: EnvSpec, actor: str, spec: dict[str, Any], weights: Any,
     if weights is not None:
         worker.set_weights(weights, actor)
     core = worker._core_for(worker.actors[actor])
+    if not isinstance(core, EpisodeCore):  # backend local: the recorder attaches to aamsim's simulation
+        raise TypeError(f"video=true records an aamsim episode, not a {type(core).__name__}")
     recorders: list[TrajectoryRecorder] = []
 
     def attach(sim: Any) -> None:

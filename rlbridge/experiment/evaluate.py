@@ -42,7 +42,8 @@ from rlbridge.agents import BASELINE_KINDS
 from rlbridge.agents.rollout import EnvSpec, EpisodeStats
 from rlbridge.experiment.train import find_checkpoint, load_checkpoint, resolve_scenario_path
 from rlbridge.experiment.workers import make_pool
-from rlbridge.usecases.registry import make_usecase, usecase_spec
+from rlbridge.policies import make_usecase_with_policies
+from rlbridge.usecases.registry import usecase_spec
 
 log = logging.getLogger("aamgym.evaluate")
 
@@ -58,7 +59,7 @@ def baseline_label(name: str, env: EnvSpec) -> str:
     """A baseline's label in reports; ``daa`` says which advisories it gives on the use case."""
     if name == "daa":
         # The instance's spec: the hierarchical use case's aircraft actions depend on its ``train``.
-        kinds = make_usecase(env.usecase, **env.params).spec.action_kinds
+        kinds = make_usecase_with_policies(env.usecase, **env.params).spec.action_kinds
         if "speed" not in kinds:
             return f"DAA {'/'.join(kinds)} (DO-365/DAIDALUS)"
     return BASELINE_LABELS.get(name, name)
@@ -140,7 +141,7 @@ def evaluation_baselines(cfg: DictConfig, env: EnvSpec) -> list[str]:
     each must be one its spec lists and must fit it (rlbridge.agents.check_baseline_fits)."""
     from rlbridge.agents import BASELINE_KINDS, check_baseline_fits
 
-    usecase = make_usecase(env.usecase, **env.params)
+    usecase = make_usecase_with_policies(env.usecase, **env.params)
     applies = usecase.spec.baselines
     names = [str(b) for b in cfg.baselines] if cfg.baselines is not None else list(applies)
     for b in names:

@@ -43,10 +43,10 @@ COLUMNS = (
 
 def usecase_contenders(usecase: str) -> tuple[str, list[str], list[str]]:
     """(reference baseline, other baselines, shipped pretrained policies) of a use case."""
+    from rlbridge.policies import make_usecase_with_policies
     from rlbridge.pretrained import available, load
-    from rlbridge.usecases.registry import make_usecase
 
-    own = list(make_usecase(usecase).spec.baselines)
+    own = list(make_usecase_with_policies(usecase).spec.baselines)
     reference = "no_planning" if "no_planning" in own else "unequipped"
     others = [b for b in own if b != reference]
     learned = [n for n in available() if load(n).usecase == usecase]

@@ -30,7 +30,7 @@ import numpy as np
 
 from aamsim.stack.parser import TimedCommand
 from rlbridge.usecases.corridor import CorridorSA
-from rlbridge.usecases.frozen import NO_POLICY, FrozenPolicy, SimHandle, frozen_policy
+from rlbridge.usecases.frozen import NO_POLICY, FrozenPolicy, PolicySource, SimHandle, frozen_policy
 from rlbridge.usecases.protocol import Feedback, Observations, UseCaseBase, check_advisory_kinds, make_params
 from rlbridge.usecases.spec import UseCaseSpec
 from rlbridge.usecases.strategic import PLANNER, PLANNING_METRICS, StrategicPlanning
@@ -73,22 +73,23 @@ class Hierarchical(UseCaseBase):
     # Both levels draw the paper's altitude noise by default; fixed traffic switches both off.
     fixed_traffic: ClassVar[dict[str, Any]] = {"planning": {"alt_noise_ft": 0.0}, "corridor": {"alt_noise_ft": 0.0}}
 
-    def __init__(self, **params: Any):
+    def __init__(self, policies: PolicySource | None = None, **params: Any):
+        """``policies``: builds the frozen planner and tactical layer (rlbridge.usecases.frozen)."""
         self.params: HierarchicalParams = make_params(HierarchicalParams, params)
         p = self.params
         fmt = {"obs_format": p.obs_format} if p.obs_format else {}
         self.planner_policy: FrozenPolicy | None = None
         self.corridor: CorridorSA | None = None
         if p.train == "planner":
-            self.planning = StrategicPlanning(**{**p.planning, "tactical": p.tactical, **fmt})
+            self.planning = StrategicPlanning(policies, **{**p.planning, "tactical": p.tactical, **fmt})
             self.standing_agents = (PLANNER,)
             self.info_fields = dict(self.planning.info_fields)
         else:
-            policy = frozen_policy(p.planner, "planner", (NO_POLICY, *PLANNER_BASELINES))
+            policy = frozen_policy(p.planner, "planner", (NO_POLICY, *PLANNER_BASELINES), policies)
             if policy.usecase not in (None, "strategic_planning"):
                 raise ValueError(f"planner {p.planner!r} was trained on {policy.usecase}, not strategic_planning")
             trained = {k: v for k, v in policy.usecase_params.items() if k != "tactical"}
-            self.planning = StrategicPlanning(**{**trained, **p.planning,
+            self.planning = StrategicPlanning(policies, **{**trained, **p.planning,
                                                  "obs_format": policy.obs_format or "dict"})
             self.planner_policy = policy
             self.corridor = CorridorSA(**{**p.corridor, **fmt})

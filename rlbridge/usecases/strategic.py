@@ -36,6 +36,7 @@ from aamsim.conflicts import SeparationVolume, conflicts_of
 from aamsim.metrics import NotDeparted, metrics_of
 from aamsim.stack.parser import TimedCommand
 from aamsim.units import FT
+from rlbridge.usecases.frozen import PolicySource
 from rlbridge.usecases.protocol import Feedback, Observations, UseCaseBase, make_params
 from rlbridge.usecases.reservation import Frame, Intent, IntentTable, probe_intents
 from rlbridge.usecases.schedule import DepartureRequest, Schedule, split_schedule
@@ -177,7 +178,8 @@ class StrategicPlanning(UseCaseBase):
     info_fields = {"delay_s": np.float64, "unplaced": np.bool_, "intent_conflicts": np.int64,  # noqa: RUF012
                    "nmac": np.int64, "lowc": np.int64}
 
-    def __init__(self, **params: Any):
+    def __init__(self, policies: PolicySource | None = None, **params: Any):
+        """``policies``: builds the frozen tactical layer named by ``tactical`` (rlbridge.usecases.frozen)."""
         if "layers_ft" in params:
             params["layers_ft"] = tuple(float(x) for x in params["layers_ft"])
         self.params: StrategicParams = make_params(StrategicParams, params)
@@ -201,7 +203,7 @@ class StrategicPlanning(UseCaseBase):
         dim = int(gym.spaces.flatdim(self.dict_space))
         self._obs_space: gym.Space = self.dict_space if p.obs_format == "dict" else box(dim)
         self._act_space: gym.spaces.Discrete = gym.spaces.Discrete(self.n_actions)
-        self.tactical = TacticalLayer(p.tactical, p.tactical_interval_s)
+        self.tactical = TacticalLayer(p.tactical, p.tactical_interval_s, policies=policies)
         self._plans: dict[tuple[str, float], PlanData] = {}
         self.plan: PlanData | None = None
         self.ep: Episode | None = None

@@ -4,8 +4,8 @@ The planner use cases fly their flights "unequipped, or with a tactical
 layer": every ``interval_s`` the layer observes every aircraft as the
 corridor use case does (``corridor_sa``: its observation, speed advisories
 and advisory records) and applies the actions of a frozen policy
-(:mod:`rlbridge.usecases.frozen`): ``unequipped`` (none), a speed-advisory
-baseline (``mvp_speed``; ``daa`` once the baseline registry has it) or a
+(:mod:`rlbridge.usecases.frozen`, built by the injected policy source):
+``unequipped`` (none), a speed-advisory baseline (``mvp_speed``, ``daa``) or a
 trained corridor policy (a training run directory or checkpoint).
 """
 
@@ -15,7 +15,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from rlbridge.usecases.frozen import NO_POLICY, FrozenPolicy, SimHandle, frozen_policy, known_baselines
+from rlbridge.usecases.frozen import NO_POLICY, FrozenPolicy, PolicySource, SimHandle, frozen_policy
 
 if TYPE_CHECKING:
     from aamsim import Simulation
@@ -25,20 +25,22 @@ PLANNER_BASELINES = ("no_planning", "fcfs")
 MANOEUVRE_BASELINES = ("mvp",)
 
 
-def tactical_baselines() -> tuple[str, ...]:
+def tactical_baselines(policies: PolicySource | None) -> tuple[str, ...]:
     """The baselines that give aircraft speed advisories (a tactical layer, the corridor use cases)."""
-    return tuple(b for b in known_baselines() if b not in PLANNER_BASELINES + MANOEUVRE_BASELINES)
+    known = policies.baselines() if policies is not None else (NO_POLICY,)
+    return tuple(b for b in known if b not in PLANNER_BASELINES + MANOEUVRE_BASELINES)
 
 
 class TacticalLayer:
     """Speed advisories every ``interval_s`` from a frozen policy (module docstring)."""
 
-    def __init__(self, ref: str, interval_s: float = 10.0, corridor_params: dict[str, Any] | None = None):
+    def __init__(self, ref: str, interval_s: float = 10.0, corridor_params: dict[str, Any] | None = None,
+                 policies: PolicySource | None = None):
         if not interval_s > 0:
             raise ValueError("tactical_interval_s must be positive")
         self.ref = ref
         self.interval_s = interval_s
-        self.policy: FrozenPolicy = frozen_policy(ref, "tactical layer", tactical_baselines())
+        self.policy: FrozenPolicy = frozen_policy(ref, "tactical layer", tactical_baselines(policies), policies)
         if self.policy.usecase not in (None, "corridor_sa"):
             raise ValueError(f"tactical layer {ref!r} was trained on {self.policy.usecase}, not corridor_sa")
         params = {k: v for k, v in (corridor_params or self.policy.usecase_params).items()

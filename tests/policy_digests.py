@@ -1,0 +1,78 @@
+"""Digests of whole episodes played by each policy kind (tests/test_policy_snapshots.py).
+
+An episode's digest covers every decision (actions, advisory rows, observations,
+rewards) and its metrics, so two runs with equal digests made the same decisions.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+DATA = Path(__file__).parent / "data"
+
+# (name, scenario, use case, use-case parameters, actor spec, explore, seeds)
+CASES: list[tuple[str, str, str, dict[str, Any], dict[str, Any], dict[str, Any], tuple[int, ...]]] = [
+    ("unequipped", "three_way.scn", "corridor_sa", {}, {"kind": "unequipped"}, {}, (0, 1)),
+    ("mvp_speed", "three_way.scn", "corridor_sa", {}, {"kind": "mvp_speed"}, {}, (0, 1)),
+    ("mvp_speed_encounters", "daa_encounters.scn", "corridor_sa", {"alt_noise_ft": 0.0}, {"kind": "mvp_speed"}, {},
+     (0,)),
+    ("daa", "daa_encounters.scn", "corridor_sa", {"alt_noise_ft": 0.0}, {"kind": "daa"}, {}, (0,)),
+    ("daa_reach", "tiny_conflict.scn", "reach_destination", {}, {"kind": "daa"}, {}, (0,)),
+    ("mvp_turns", "daa_turns.scn", "heading_altitude_sa", {}, {"kind": "mvp"}, {}, (0,)),
+    ("daa_turns", "daa_turns.scn", "heading_altitude_sa", {}, {"kind": "daa"}, {}, (0,)),
+    ("fcfs", "strategic_cross.scn", "strategic_planning", {}, {"kind": "fcfs"}, {}, (0,)),
+    ("fcfs_tactical_mvp", "strategic_cross.scn", "strategic_planning", {"tactical": "mvp_speed"}, {"kind": "fcfs"},
+     {}, (0,)),
+    ("hier_planner_fcfs", "strategic_cross.scn", "hierarchical", {"train": "tactical", "planner": "fcfs"},
+     {"kind": "mvp_speed"}, {}, (0,)),
+]
+
+
+def batch_digest(batch: Any) -> str:
+    """sha256 of an episode's decisions, observations, rewards and metrics (wall time left out)."""
+    h = hashlib.sha256()
+    for name in ("obs_idx", "next_idx", "actions", "logp", "rewards", "terminated", "truncated", "agent", "values"):
+        h.update(name.encode())
+        h.update(np.ascontiguousarray(getattr(batch, name)).tobytes())
+    for key in sorted(batch.obs):
+        h.update(key.encode())
+        h.update(np.ascontiguousarray(batch.obs[key]).tobytes())
+    stats = batch.stats.to_dict()
+    stats.pop("wall_s")
+    h.update(json.dumps(stats, sort_keys=True, default=str).encode())
+    return h.hexdigest()
+
+
+def learner_spec(kind: str, usecase: str, params: dict[str, Any]) -> tuple[dict[str, Any], Any]:
+    """A learner's actor spec and weights as freshly initialised with seed 0 (deterministic)."""
+    from rlbridge.agents import make_learner, usecase_dims
+
+    learner = make_learner(kind, {}, usecase_dims(usecase, params), seed=0)
+    return learner.actor_spec(kind), learner.weights()
+
+
+def run_case(case: tuple[Any, ...]) -> list[str]:
+    """Play the case's seeds one after another with a fresh worker; one digest per episode."""
+    from rlbridge.agents.rollout import EnvSpec, RolloutWorker
+
+    _, scenario, usecase, params, spec, explore, seeds = case
+    worker = RolloutWorker(EnvSpec(str(DATA / scenario), usecase, params, time_limit_s=900.0),
+                           {"policy": spec})
+    return [batch_digest(b) for b in worker.collect(list(seeds), explore=explore)]
+
+
+if __name__ == "__main__":  # print the digests (to record them in tests/test_policy_snapshots.py)
+    out = {case[0]: run_case(case) for case in CASES}
+    for kind, explore in (("dqn", {"epsilon": 0.3}), ("d2mava", {})):
+        from rlbridge.agents.rollout import EnvSpec, RolloutWorker
+
+        spec, weights = learner_spec(kind, "corridor_sa", {})
+        worker = RolloutWorker(EnvSpec(str(DATA / "three_way.scn"), "corridor_sa", {}, time_limit_s=900.0),
+                               {"policy": spec})
+        out[kind] = [batch_digest(b) for b in worker.collect([0, 1], weights=weights, explore=explore)]
+    print(json.dumps(out, indent=1))

@@ -1,0 +1,201 @@
+"""Policies act on step results and traffic snapshots, on every episode backend (docs/algorithms.md).
+
+The baselines and the learned actors once read the in-process simulation (``core.sim``);
+they now read a :class:`aamsim.snapshots.TrafficSnapshot` of the fields they name, which
+crosses the wire, so rollouts and training run over ZeroMQ too. Their decisions did not change:
+the digests below were recorded with the code before the change (commit 7cf23f0, where
+policies read the simulation) by ``python tests/policy_digests.py``.
+"""
+
+from __future__ import annotations
+
+import shutil
+
+import numpy as np
+import pytest
+from bridge_util import spawn_server, stop_process, thread_server
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from hypothesis.extra.numpy import arrays
+
+from aamsim.snapshots import TrafficSnapshot
+from rlbridge.protocol import ProtocolError, decode, encode, request
+from rlbridge.wire import snapshot_from_payload, snapshot_to_payload
+from tests.policy_digests import CASES, DATA, batch_digest, learner_spec, run_case
+
+# Recorded before the change (see the module docstring): one digest per episode.
+EXPECTED: dict[str, list[str]] = {
+    "unequipped": ["300940453a5551291a6a94b440ba17c480a23c11f679077e71ab4306a804c3a2", "ab31f7f7dcb8bf6884d6f746ea8127b9b663173954a3461ae78fe101d938fda9"],
+    "mvp_speed": ["f02400aa3002da9dc9a93c74283c40fb9bdd7c3fb1ae6e131532410d45ed894c", "70085d7c230de9a624446ea9b381c8f659fdefd28046e08c9ec25a837d3aa920"],
+    "mvp_speed_encounters": ["148bfb058b019f7da915b85a9a940bbe66cc8a036389337e4cb9e2fa1650f795"],
+    "daa": ["9a79edda4d9a2fa3a71093de1e0ad99e70e43b8dea8f8c19d80eea422f211f64"],
+    "daa_reach": ["c0b3665a828f9fc65153c3f4543f24f307ef78b19045fae357b89f3aad591b8c"],
+    "mvp_turns": ["22166c1291de97aed23a6e9e90148507fac14666c50c2aa40cfe7416c00529b2"],
+    "daa_turns": ["4e1496acebc913072eb7b80a3b05d2b96ab4319f4ef9d8d618c10feffa997272"],
+    "fcfs": ["7ad00f5c81d009e776a8ab25ea1f7fab5ee19a9e844a662c99fe2618879acf8b"],
+    "fcfs_tactical_mvp": ["c6a4476195ce8ae232eef099c8afff6ac34636307ae5105caf098735e16efa65"],
+    "hier_planner_fcfs": ["f98d22831b944b1d5116303343c5045c9334a7e19ff1c3bc3f31a22884dbcd8a"],
+    "dqn": ["f585d1281c4ddbcffaaf19b4f31166a2c023d58b9fd7957f6b0e67683b721d99", "c0035bbc82c4392a3a9211562dcd909996679b11942a785beb45cecb23ccb149"],
+    "d2mava": ["d18d6d50f94f05f3c54bff7ba29096049238c9f8ddfe514bea295e1ed26f235d", "e0045d03366d852730ac7670d69602c86ba81a71ed3c62e5074fca6fa167a993"],
+}
+
+
+@pytest.mark.parametrize("case", CASES, ids=[c[0] for c in CASES])
+def test_baselines_decide_as_when_they_read_the_simulation(case):
+    assert run_case(case) == EXPECTED[case[0]]
+
+
+@pytest.mark.parametrize(("kind", "explore"), [("dqn", {"epsilon": 0.3}), ("d2mava", {})])
+def test_learned_actors_decide_as_when_they_were_given_the_episode(kind, explore):
+    from rlbridge.agents.rollout import EnvSpec, RolloutWorker
+
+    spec, weights = learner_spec(kind, "corridor_sa", {})
+    worker = RolloutWorker(EnvSpec(str(DATA / "three_way.scn"), "corridor_sa", {}, time_limit_s=900.0),
+                           {"policy": spec})
+    assert [batch_digest(b) for b in worker.collect([0, 1], weights=weights, explore=explore)] == EXPECTED[kind]
+
+
+FIELDS = ("lat", "lon", "alt", "hdg", "trk", "tas", "cas", "gs", "vs", "gseast", "gsnorth", "selspd")
+
+
+@st.composite
+def snapshots(draw):
+    n = draw(st.integers(0, 6))
+    fields = tuple(draw(st.lists(st.sampled_from(FIELDS), unique=True, max_size=5)))
+    ids = tuple(draw(st.lists(st.text(min_size=1, max_size=8), min_size=n, max_size=n)))
+    values = draw(arrays(np.float64, (len(fields), n)))  # any float64, NaN and infinities included
+    simt = draw(st.floats(allow_nan=False, allow_infinity=False))
+    return TrafficSnapshot(simt, ids, fields, values)
+
+
+@given(snap=snapshots())
+@settings(max_examples=60, deadline=None)
+def test_a_snapshot_crosses_the_wire_bit_for_bit(snap):
+    frames = encode({"v": 1, **snapshot_to_payload(snap)})
+    back = snapshot_from_payload(decode([bytes(f) for f in frames]))
+    assert (back.simt, back.ids, back.fields) == (snap.simt, snap.ids, snap.fields)
+    assert back.values.shape == snap.values.shape and back.values.tobytes() == snap.values.tobytes()
+    assert not back.values.flags.writeable
+
+
+@pytest.mark.parametrize(("payload", "fragment"), [
+    ({"simt": 0.0, "ids": ["A"], "fields": ["lat"], "lat": np.zeros(2)}, "'lat' must be a known traffic field"),
+    ({"simt": 0.0, "ids": ["A"], "fields": ["lat"], "lat": np.zeros(1, np.float32)}, "float64 array of 1"),
+    ({"simt": 0.0, "ids": ["A"], "fields": ["wind"], "wind": np.zeros(1)}, "'wind' must be a known traffic"),
+    ({"simt": 0.0, "ids": [1], "fields": []}, "'ids' must be a list of strings"),
+    ({"simt": "0", "ids": [], "fields": []}, "'simt' must be a number"),
+])
+def test_bad_snapshot_replies_raise_protocol_error_naming_the_field(payload, fragment):
+    with pytest.raises(ProtocolError, match=fragment):
+        snapshot_from_payload(payload)
+
+
+def test_the_server_sends_the_fields_asked_for_and_refuses_unknown_ones(tmp_path):
+    import zmq
+    from bridge_util import raw_socket, write_scenario
+
+    write_scenario(tmp_path)
+    with thread_server(scenario_roots=(tmp_path,)) as server, \
+            raw_socket(server.endpoint, zmq.REQ, timeout_ms=600_000) as sock:
+        def ask(op, msg_id, **fields):
+            sock.send_multipart(request(op, msg_id, **fields))
+            return decode(sock.recv_multipart())
+
+        assert ask("open", 1, scenario="conflicts.scn")["ok"]
+        ask("reset", 2, seed=0)
+        got = snapshot_from_payload(ask("state", 3, fields=["gseast", "selspd"]))
+        assert got.fields == ("gseast", "selspd") and got.ids == ("A1", "B1")
+        assert got.selspd.tolist() == pytest.approx([100 * 0.514444] * 2, rel=1e-3)  # CRE ... 100 kt
+        assert got.gseast[0] > 40.0 and abs(got.gseast[1]) < 1.0  # A1 flies east, B1 north
+        bad = ask("state", 4, fields=["wind"])
+        assert bad["code"] == "protocol" and "unknown traffic field(s) 'wind'" in bad["error"]
+        assert ask("state", 5)["ids"] == ["A1", "B1"]  # still serving; the reply without fields unchanged
+
+
+def test_simulation_bound_baselines_are_refused_over_zeromq_naming_the_backends():
+    from rlbridge.agents.rollout import EnvSpec, RolloutWorker
+
+    env = EnvSpec(str(DATA / "three_way.scn"), backend="zmq", address="tcp://127.0.0.1:1")
+    with pytest.raises(ValueError, match="actor\\(s\\) policy read the simulation in process: they run on backend "
+                                         "'local' or 'bluesky', not 'zmq'"):
+        RolloutWorker(env, {"policy": {"kind": "daa"}})
+    with pytest.raises(ValueError, match='backend "zmq" needs the address'):
+        EnvSpec(str(DATA / "three_way.scn"), backend="zmq")
+
+
+def test_a_worker_refuses_a_baseline_whose_actions_do_not_fit_the_use_case():
+    from rlbridge.agents.rollout import EnvSpec, RolloutWorker
+    from rlbridge.usecases.spec import CapabilityError
+
+    worker = RolloutWorker(EnvSpec(str(DATA / "daa_turns.scn"), "heading_altitude_sa", {}, time_limit_s=60.0),
+                           {"policy": {"kind": "mvp_speed"}})
+    with pytest.raises(CapabilityError, match=r"baseline mvp_speed does not fit use case heading_altitude_sa: it "
+                                              r"needs speed actions \(its action kinds: heading, altitude\)"):
+        worker.collect([0])
+
+
+def _train(env, iterations: int = 2):
+    """A few D2MAV-A iterations as the training loop runs them: collect with the weights, update."""
+    from rlbridge.agents import make_learner, usecase_dims
+    from rlbridge.agents.rollout import RolloutWorker
+
+    learner = make_learner("d2mava", {}, usecase_dims(env.usecase, env.params), seed=0)
+    worker = RolloutWorker(env, {"policy": learner.actor_spec("d2mava")})
+    trace = []
+    collected = env_steps = 0
+    for it in range(iterations):
+        batches = worker.collect([2 * it, 2 * it + 1], weights=learner.weights(),
+                                 explore=learner.explore(collected, env_steps))
+        collected += sum(b.stats.transitions for b in batches)
+        env_steps += sum(b.stats.env_steps for b in batches)
+        losses = learner.update(batches)
+        trace.append(([b.stats.transitions for b in batches], [b.stats.reward_total for b in batches],
+                      [b.actions.tolist() for b in batches], sorted(losses.items())))
+    return trace
+
+
+def test_rollouts_and_training_over_zeromq_match_in_process(tmp_path, monkeypatch):
+    from rlbridge.agents.rollout import EnvSpec, RolloutWorker
+
+    shutil.copy(DATA / "three_way.scn", tmp_path / "three_way.scn")
+    monkeypatch.chdir(tmp_path)  # the worker and the server read the same file (its name and sha256)
+    proc, endpoint = spawn_server("--log-level", "ERROR", cwd=tmp_path)
+    try:
+        local = EnvSpec("three_way.scn", "corridor_sa", {}, time_limit_s=900.0)
+        remote = EnvSpec("three_way.scn", "corridor_sa", {}, time_limit_s=900.0, backend="zmq", address=endpoint,
+                         timeout_s=600.0)
+        # mvp_speed reads a snapshot each decision: over the wire, the same decisions as in process.
+        here = RolloutWorker(local, {"policy": {"kind": "mvp_speed"}}).collect([0])[0]
+        there = RolloutWorker(remote, {"policy": {"kind": "mvp_speed"}}).collect([0])[0]
+        assert here.stats.aircraft == there.stats.aircraft == 3
+        for name in ("actions", "rewards", "obs_idx", "next_idx", "terminated", "truncated"):
+            assert getattr(here, name).tobytes() == getattr(there, name).tobytes(), name
+        assert here.stats.metrics["safety"] == there.stats.metrics["safety"]
+        assert here.stats.scenario_sha256 == there.stats.scenario_sha256 != ""
+        assert (here.actions != 1).any()  # it did advise (not only "hold")
+        # Two training iterations: the same aircraft-states, rewards, actions and losses.
+        assert _train(remote) == _train(local)
+    finally:
+        stop_process(proc)
+
+
+def test_the_documented_policy_acts_on_snapshots_as_written():
+    import re
+
+    from rlbridge.agents.rollout import policy_input
+    from rlbridge.core import EpisodeCore
+
+    text = (DATA.parents[1] / "docs" / "algorithms.md").read_text()
+    code = re.search(r"## Writing a policy.*?```python\n(.*?)```", text, re.DOTALL).group(1)
+    namespace: dict = {}
+    exec(compile(code, "algorithms.md", "exec"), namespace)  # noqa: S102 - the documented example, run as written
+    actor = namespace["SlowDownWhenClose"]()
+    core = EpisodeCore(str(DATA / "three_way.scn"), "corridor_sa", {}, time_limit_s=900.0)
+    actor.check_usecase(core.usecase)
+    result, advised = core.reset(0), 0
+    while not result.done:
+        out = actor.act(result, policy_input(actor, core), np.random.default_rng(0), {})
+        acts = {a: int(x) for a, x, g in zip(result.agents, out.actions, out.advise) if g and a in result.alive}
+        advised += len(acts)
+        result = core.step(acts)
+    assert advised > 0  # the three aircraft meet: within 2 km of each other for a while
