@@ -121,7 +121,8 @@ class BlueSkyEpisode(EpisodeCore):
         with contextlib.redirect_stdout(io.StringIO()):
             bs.sim.reset()
             bs.sim.simdt = self.dt
-            lines = bs.stack.simstack.readscn(str(self.path))
+            # Absolute: BlueSky reads a relative path from its own scenario folder, not the working directory.
+            lines = bs.stack.simstack.readscn(str(Path(self.path).resolve()))
             bs.stack.set_scendata([t for t, _ in lines], [c for _, c in lines])
         # Before the conflict check (priority 10) at each of its instants.
         sim.hooks.post_step.add(self._sync, interval_s=lambda: sim.settings.cd_interval_s, name="bluesky.sync",
