@@ -216,7 +216,7 @@ def test_a_heading_use_case_trains_alike_in_process_over_zeromq_and_on_bluesky(t
     monkeypatch.chdir(tmp_path)
     proc, endpoint = spawn_server("--log-level", "ERROR", cwd=tmp_path)
     try:
-        spec = dict(scenario="three_way.scn", usecase="heading_altitude_sa", params={}, time_limit_s=900.0)
+        spec = {"scenario": "three_way.scn", "usecase": "heading_altitude_sa", "params": {}, "time_limit_s": 900.0}
         local = _train(EnvSpec(**spec))
         assert _train(EnvSpec(**spec, backend="zmq", address=endpoint, timeout_s=600.0)) == local
     finally:
