@@ -13,7 +13,7 @@ from gymnasium.vector import AutoresetMode
 import rlbridge
 import rlbridge.core
 from aamsim.threads import available_cores
-from rlbridge.usecases.registry import make_usecase
+from rlbridge.policies import make_usecase_with_policies
 from rlbridge.vector import AamParallelVectorEnv, AamVectorEnv
 
 # Short flights among each other, departures over a minute: episodes end (arrival, time limit) within a
@@ -143,9 +143,9 @@ def test_bad_input_is_one_clear_error_each(scn, monkeypatch):
 
     def second_differs(name, **params):
         made.append(name)
-        return make_usecase(name, **(dict(params, n_intruders=3) if len(made) == 2 else params))
+        return make_usecase_with_policies(name, **(dict(params, n_intruders=3) if len(made) == 2 else params))
 
-    monkeypatch.setattr(rlbridge.core, "make_usecase", second_differs)
+    monkeypatch.setattr(rlbridge.core, "make_usecase_with_policies", second_differs)
     with pytest.raises(ValueError, match=r"sub-environment 1 \(scenario .*short.scn\) has Box"):
         AamVectorEnv(2, scenario=[scn, scn])
 
