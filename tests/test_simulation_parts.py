@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import inspect
-import sys
 
 import pytest
 
@@ -101,37 +100,7 @@ def _runtime_import_graph(package: str, *, type_checking: bool):
     return grimp.build_graph(package, exclude_type_checking_imports=not type_checking)
 
 
-def test_no_import_cycle_inside_aamsim():
-    graph = _runtime_import_graph("aamsim", type_checking=False)
-    sys.setrecursionlimit(max(sys.getrecursionlimit(), 10_000))
-    index: dict[str, int] = {}
-    low: dict[str, int] = {}
-    stack: list[str] = []
-    cycles: list[list[str]] = []
-
-    def visit(module: str) -> None:  # Tarjan's strongly connected components
-        index[module] = low[module] = len(index)
-        stack.append(module)
-        for imported in graph.find_modules_directly_imported_by(module):
-            if imported not in index:
-                visit(imported)
-                low[module] = min(low[module], low[imported])
-            elif imported in stack:
-                low[module] = min(low[module], index[imported])
-        if low[module] == index[module]:
-            component = []
-            while True:
-                member = stack.pop()
-                component.append(member)
-                if member == module:
-                    break
-            if len(component) > 1:
-                cycles.append(sorted(component))
-
-    for module in sorted(graph.modules):
-        if module not in index:
-            visit(module)
-    assert cycles == []
+# No import cycle inside aamsim, type-only imports included: tests/test_import_graph.py.
 
 
 def test_the_stack_never_names_the_simulation_class():
