@@ -68,7 +68,7 @@ class StudyPlan:
     train_scenario: str = "nyc_train_100"
     eval_scenarios: list[str] = field(default_factory=lambda: ["nyc_train_100", "nyc_eval_678"])
     episodes: int = 100  # evaluation episodes per policy and scenario
-    baselines: list[str] = field(default_factory=lambda: ["mvp_speed"])
+    baselines: list[str] = field(default_factory=lambda: ["mvp_speed", "daa"])  # the issue: MVP and DAA beside unequipped
     actions: list[str] = field(default_factory=lambda: ["greedy", "sampled"])
     workers: int | str = 1  # or "auto": the cores the learner leaves (train.resolve_workers)
     mode: str = "overlap"
