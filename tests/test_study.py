@@ -208,6 +208,18 @@ def test_baseline_episodes_are_played_once_per_study_and_ddqn_sampled_means_epsi
         assert (tmp_path / "work" / e / "episodes/unequipped/seed-0000/summary.json").read_text() == \
             (tmp_path / "work" / index["evaluations"][0] / "episodes/unequipped/seed-0000/summary.json").read_text()
     assert len(list(next(d for d in cache.iterdir() if d.name.startswith("unequipped")).glob("seed-*.json"))) == 2
+    # Each finished evaluation is exported for committing: its summary, episode table and configuration,
+    # naming no path of this machine, and the summary's figures are the work directory's.
+    for e in index["evaluations"]:
+        exported = tmp_path / "out" / "evaluations" / Path(e).relative_to("eval")
+        assert sorted(p.name for p in exported.iterdir()) == ["episodes.csv", "evaluation.json",
+                                                              "resolved_config.yaml"]
+        for f in exported.iterdir():
+            assert str(tmp_path) not in f.read_text(), f
+        assert exported.joinpath("episodes.csv").read_text() == (tmp_path / "work" / e / "episodes.csv").read_text()
+        ours, theirs = (json.loads(p.read_text()) for p in (exported / "evaluation.json",
+                                                             tmp_path / "work" / e / "evaluation.json"))
+        assert ours["policies"] == theirs["policies"] and ours["checkpoint"] != theirs["checkpoint"]
 
 
 def test_the_reference_scores_table_has_every_use_case_its_baselines_and_intervals(tmp_path):

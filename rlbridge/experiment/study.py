@@ -205,6 +205,7 @@ def run_study(plan: StudyPlan, work: Path, out: Path, stages: tuple[str, ...] = 
                                    baseline_cache=work / "baselines")
                 if (ev / "evaluation.json").exists():
                     eval_dirs.append(ev)
+                    export_evaluation(work, ev, out / "evaluations" / ev.relative_to(work / "eval"))
     out.mkdir(parents=True, exist_ok=True)
     if "report" in stages and eval_dirs:
         make_report(eval_dirs, train_dirs, out, plan.smooth, departures(plan))
@@ -239,6 +240,31 @@ def export_run(work: Path, run: Path, dest: Path) -> None:
     export_policy(run / "checkpoints" / "best.pt", dest)
 
 
+def export_evaluation(work: Path, ev: Path, dest: Path) -> None:
+    """A finished evaluation as files to commit: its summary (``evaluation.json``), its episode table
+    (``episodes.csv``, every policy's episodes on the same seeds) and its configuration, with the
+    machine's paths written relative to the study. The per-episode folders (logs, trajectories) stay in
+    the work directory: the report reads only these three files."""
+    if (dest / "evaluation.json").exists():
+        return
+    dest.mkdir(parents=True, exist_ok=True)
+    for name in ("episodes.csv", "resolved_config.yaml", "evaluation.json"):  # evaluation.json last: the marker
+        if (ev / name).exists():
+            (dest / name).write_text(relative_to_study(work, (ev / name).read_text()))
+
+
+def relative_to_study(work: Path, text: str) -> str:
+    """``text`` with this machine's paths (the study's work directory, the current directory, the home)
+    written relative to the study, so that committed files name no path of the machine they were made on."""
+    import os
+
+    roots = sorted({str(work.resolve()), str(work), str(Path.cwd().resolve()), os.path.expanduser("~")},
+                   key=len, reverse=True)
+    for root in roots:
+        text = text.replace(root + os.sep, "").replace(root, ".")
+    return text
+
+
 def departures(plan: StudyPlan) -> list[str]:
     """What this study does differently from the paper (named under every table that shows its results)."""
     if str(plan.workers) == "auto":
@@ -269,17 +295,10 @@ def departures(plan: StudyPlan) -> list[str]:
 
 def copy_configs(work: Path, dirs: list[Path], dest: Path) -> None:
     """Each run's resolved configuration, with the machine's paths written relative to the study."""
-    import os
-
-    roots = sorted({str(work.resolve()), str(work), str(Path.cwd().resolve()), os.path.expanduser("~")},
-                   key=len, reverse=True)
     for d in dirs:
         target = dest / d.relative_to(work) / "resolved_config.yaml"
         target.parent.mkdir(parents=True, exist_ok=True)
-        text = (d / "resolved_config.yaml").read_text()
-        for root in roots:
-            text = text.replace(root + os.sep, "").replace(root, ".")
-        target.write_text(text)
+        target.write_text(relative_to_study(work, (d / "resolved_config.yaml").read_text()))
 
 
 def paper_tables_md() -> str:
