@@ -482,7 +482,8 @@ class EpisodeCore:
         """A frozen copy of the traffic now (the fields' SI arrays): what a policy reads besides its observations."""
         if self.sim is None:
             raise RuntimeError("snapshot() before reset()")
-        return take_snapshot(self.sim, fields)
+        # With the separation standard now: the baselines' protected zones follow the simulation's.
+        return take_snapshot(self.sim, fields, self.sim.separation_standard)
 
     def close(self) -> None:
         self.sim = None

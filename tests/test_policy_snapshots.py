@@ -18,6 +18,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
 
+from aamsim import SeparationStandard
 from aamsim.snapshots import TrafficSnapshot
 from rlbridge.protocol import ProtocolError, decode, encode, request
 from rlbridge.wire import snapshot_from_payload, snapshot_to_payload
@@ -65,7 +66,11 @@ def snapshots(draw):
     ids = tuple(draw(st.lists(st.text(min_size=1, max_size=8), min_size=n, max_size=n)))
     values = draw(arrays(np.float64, (len(fields), n)))  # any float64, NaN and infinities included
     simt = draw(st.floats(allow_nan=False, allow_infinity=False))
-    return TrafficSnapshot(simt, ids, fields, values)
+    distance = st.floats(min_value=1e-3, max_value=1e5, allow_nan=False)
+    separation = draw(st.none() | st.builds(
+        lambda n, nv, lo, lov, ns, ls: SeparationStandard(n, n if ns else nv, lo, lo if ls else lov, ns, ls),
+        distance, distance, distance, distance, st.booleans(), st.booleans()))
+    return TrafficSnapshot(simt, ids, fields, values, separation)
 
 
 @given(snap=snapshots())
@@ -73,7 +78,7 @@ def snapshots(draw):
 def test_a_snapshot_crosses_the_wire_bit_for_bit(snap):
     frames = encode({"v": 1, **snapshot_to_payload(snap)})
     back = snapshot_from_payload(decode([bytes(f) for f in frames]))
-    assert (back.simt, back.ids, back.fields) == (snap.simt, snap.ids, snap.fields)
+    assert (back.simt, back.ids, back.fields, back.separation) == (snap.simt, snap.ids, snap.fields, snap.separation)
     assert back.values.shape == snap.values.shape and back.values.tobytes() == snap.values.tobytes()
     assert not back.values.flags.writeable
 
@@ -84,6 +89,13 @@ def test_a_snapshot_crosses_the_wire_bit_for_bit(snap):
     ({"simt": 0.0, "ids": ["A"], "fields": ["wind"], "wind": np.zeros(1)}, "'wind' must be a known traffic"),
     ({"simt": 0.0, "ids": [1], "fields": []}, "'ids' must be a list of strings"),
     ({"simt": "0", "ids": [], "fields": []}, "'simt' must be a number"),
+    ({"simt": 0.0, "ids": [], "fields": [], "separation": {"nmac_horizontal_m": 150.0}}, "'separation' must be a map"),
+    ({"simt": 0.0, "ids": [], "fields": [], "separation": {
+        "nmac_horizontal_m": 150.0, "nmac_vertical_m": 150.0, "lowc_horizontal_m": -1.0, "lowc_vertical_m": -1.0,
+        "nmac_sphere": True, "lowc_sphere": True}}, "lowc_horizontal_m must be a distance above 0 m"),
+    ({"simt": 0.0, "ids": [], "fields": [], "separation": {
+        "nmac_horizontal_m": 150.0, "nmac_vertical_m": 150.0, "lowc_horizontal_m": 450.0, "lowc_vertical_m": 450.0,
+        "nmac_sphere": 1, "lowc_sphere": True}}, "nmac_sphere must be a bool"),
 ])
 def test_bad_snapshot_replies_raise_protocol_error_naming_the_field(payload, fragment):
     with pytest.raises(ProtocolError, match=fragment):

@@ -23,6 +23,7 @@ import numpy as np
 from aamsim.resolution.mvp import MVPSettings
 from aamsim.resolution.mvp_detect import detect
 from aamsim.resolution.mvp_service import mvp_commands
+from rlbridge.agents.baselines import protected_zone
 from rlbridge.agents.manoeuvres import MANOEUVRE_KINDS, action_targets
 from rlbridge.agents.rollout import ActOutput, EpisodeAccess
 from rlbridge.core import StepResult
@@ -34,8 +35,10 @@ class MVPConfig:
     """Parameters of the heading / altitude MVP baseline (distances m, times s)."""
 
     lookahead_s: float = 120.0  # conflict detection look-ahead (as mvp_speed)
-    rpz_m: float = 450.0  # protected zone radius (the use case's LoWC distance)
-    hpz_m: float = 150.0  # vertical half-height (the NMAC distance; corridor layers are 213 m apart)
+    # Protected zone radius [m]; None: the LoWC distance of the simulation's separation standard.
+    rpz_m: float | None = None
+    # Vertical half-height [m]; None: the standard's NMAC distance (corridor layers are 213 m apart).
+    hpz_m: float | None = None
 
 
 class MVPActor:
@@ -75,9 +78,10 @@ class MVPActor:
         if not rows:
             return ActOutput(actions, advise=advise)
         c = self.config
-        conf = detect(sim, c.rpz_m, c.hpz_m, c.lookahead_s)
+        rpz_m, hpz_m = protected_zone(c.rpz_m, c.hpz_m, sim.separation_standard)
+        conf = detect(sim, rpz_m, hpz_m, c.lookahead_s)
         coop = ~np.asarray(view.noncooperative, dtype=bool)[conf.own]
-        trk, _gs, _vs, alt = mvp_commands(sim, conf, coop, self.settings, c.rpz_m, c.hpz_m, c.lookahead_s)
+        trk, _gs, _vs, alt = mvp_commands(sim, conf, coop, self.settings, rpz_m, hpz_m, c.lookahead_s)
         in_conflict = np.zeros(view.n, dtype=bool)
         in_conflict[conf.own[coop]] = True
         names = [result.agents[k] for k in rows]
