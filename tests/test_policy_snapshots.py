@@ -241,3 +241,25 @@ def test_a_heading_use_case_trains_alike_in_process_over_zeromq_and_on_bluesky(t
         assert r_bs == pytest.approx(r, rel=1e-6)
         assert dict(l_bs) == pytest.approx(dict(losses), rel=1e-3, abs=1e-6)
     assert [t for trace in local for t in trace[0]] == [87, 107, 46, 70]  # aircraft transitions per episode
+
+
+def test_heading_mvp_decides_alike_in_process_and_over_zeromq(tmp_path, monkeypatch):
+    """``mvp`` acts on the step result's action targets and a snapshot: over a real ``aamsim serve`` it
+    makes the decisions it makes in process (the ``mvp_turns`` digest above is the in-process episode)."""
+    from rlbridge.agents.rollout import EnvSpec, RolloutWorker
+
+    shutil.copy(DATA / "daa_turns.scn", tmp_path / "daa_turns.scn")
+    monkeypatch.chdir(tmp_path)
+    proc, endpoint = spawn_server("--log-level", "ERROR", cwd=tmp_path)
+    try:
+        spec = {"scenario": "daa_turns.scn", "usecase": "heading_altitude_sa", "params": {}, "time_limit_s": 900.0}
+        here = RolloutWorker(EnvSpec(**spec), {"policy": {"kind": "mvp"}}).collect([0])[0]
+        there = RolloutWorker(EnvSpec(**spec, backend="zmq", address=endpoint, timeout_s=600.0),
+                              {"policy": {"kind": "mvp"}}).collect([0])[0]
+    finally:
+        stop_process(proc)
+    assert batch_digest(here) == EXPECTED["mvp_turns"][0]
+    for name in ("actions", "rewards", "obs_idx", "next_idx", "terminated", "truncated"):
+        assert getattr(here, name).tobytes() == getattr(there, name).tobytes(), name
+    assert here.stats.metrics["safety"] == there.stats.metrics["safety"]
+    assert here.stats.nmac_events == there.stats.nmac_events
