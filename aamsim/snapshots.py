@@ -21,6 +21,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from aamsim.conflicts.separation import SeparationStandard
 from aamsim.traffic.view import PUBLIC_FLOATS
 
 if TYPE_CHECKING:
@@ -33,18 +34,23 @@ SNAPSHOT_FIELDS = ("lat", "lon", "alt", "hdg", "trk", "tas", "cas", "gs", "vs")
 
 @dataclass(frozen=True)
 class TrafficSnapshot:
-    """The traffic at ``simt``: ``ids`` and one read-only array per field of ``fields`` (SI units)."""
+    """The traffic at ``simt``: ``ids`` and one read-only array per field of ``fields`` (SI units).
+
+    ``separation``: the simulation's separation standard at ``simt`` (``sim.separation_standard``),
+    which the baselines measure their protected zones against; None when the taker did not add it.
+    """
 
     simt: float
     ids: tuple[str, ...]
     fields: tuple[str, ...]
     values: np.ndarray  # (len(fields), len(ids)), read-only
+    separation: SeparationStandard | None = None
 
     def __len__(self) -> int:
         return len(self.ids)
 
     def __getattr__(self, name: str) -> np.ndarray:
-        if name.startswith("_") or name in ("fields", "values"):  # during copy/unpickle, before the fields exist
+        if name.startswith("_") or name in ("fields", "values", "separation"):  # during copy/unpickle, before the fields exist
             raise AttributeError(name)
         try:
             row = self.fields.index(name)
@@ -65,15 +71,16 @@ class TrafficSnapshot:
         return out
 
 
-def take_snapshot(sim: SimulationCore, fields: tuple[str, ...] = SNAPSHOT_FIELDS) -> TrafficSnapshot:
-    """A frozen copy of the traffic now."""
+def take_snapshot(sim: SimulationCore, fields: tuple[str, ...] = SNAPSHOT_FIELDS,
+                  separation: SeparationStandard | None = None) -> TrafficSnapshot:
+    """A frozen copy of the traffic now (with ``separation``, the standard it is read against, when given)."""
     unknown = [x for x in fields if x not in PUBLIC_FLOATS]
     if unknown:
         raise ValueError(f"unknown traffic field(s) {', '.join(unknown)}; known: {', '.join(PUBLIC_FLOATS)}")
     view = sim.view
     values = view.rows(fields)  # a new array: the copy that freezes the state
     values.flags.writeable = False
-    return TrafficSnapshot(sim.simt, view.ids, tuple(fields), values)
+    return TrafficSnapshot(sim.simt, view.ids, tuple(fields), values, separation)
 
 
 class SnapshotStream:

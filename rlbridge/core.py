@@ -41,6 +41,7 @@ from aamsim.stack.tokens import next_arg
 from rlbridge.policies import make_usecase_with_policies
 from rlbridge.usecases.protocol import Feedback, Observations, UseCase, check_feedback, empty_info
 from rlbridge.usecases.spec import UseCaseSpec, spec_of
+from rlbridge.usecases.targets import action_target_info
 
 TRAFFIC_STATE_FIELDS = ("lat", "lon", "alt", "tas", "gs", "trk", "vs")
 DEFAULT_EXTRA_TIME_S = 7200.0  # default episode limit: last scheduled command + 2 h
@@ -310,8 +311,9 @@ class EpisodeCore:
         n = len(reported)
         done = self._scenario_over() and not self.agents
         return StepResult(reported, obs, np.zeros(n), np.zeros(n, bool), np.zeros(n, bool),
-                          list(self.agents), self.sim.simt, done, agent_info=empty_info(self.usecase.info_fields, n),
-                          discovered=self._take_discovered())
+                          list(self.agents), self.sim.simt, done,
+                          info=action_target_info(self.usecase, self.sim, self.agents),
+                          agent_info=empty_info(self.usecase.info_fields, n), discovered=self._take_discovered())
 
     def step_steps(self, actions: dict[str, Any]) -> Steps:
         """:meth:`step` as the sim times to run the simulation to, then its result."""
@@ -382,7 +384,8 @@ class EpisodeCore:
         self.agents = [] if truncate else list(now_alive)
         self._reported = set(self._watched(self.agents))
         return StepResult(reported, obs, rewards, terminated, truncated, list(self.agents), sim.simt, over,
-                          agent_info=info, discovered=self._take_discovered())
+                          info=action_target_info(self.usecase, sim, self.agents), agent_info=info,
+                          discovered=self._take_discovered())
 
     def _conform(self, obs: Observations) -> Observations:
         """The use case's observation arrays in its space's dtypes (no copy when they already are)."""
@@ -482,7 +485,8 @@ class EpisodeCore:
         """A frozen copy of the traffic now (the fields' SI arrays): what a policy reads besides its observations."""
         if self.sim is None:
             raise RuntimeError("snapshot() before reset()")
-        return take_snapshot(self.sim, fields)
+        # With the separation standard now: the baselines' protected zones follow the simulation's.
+        return take_snapshot(self.sim, fields, self.sim.separation_standard)
 
     def close(self) -> None:
         self.sim = None

@@ -8,10 +8,12 @@ bit for bit).
 
 from __future__ import annotations
 
+from dataclasses import fields as dataclass_fields
 from typing import Any
 
 import numpy as np
 
+from aamsim.conflicts.separation import SeparationStandard
 from aamsim.snapshots import TrafficSnapshot
 from aamsim.traffic.view import PUBLIC_FLOATS
 from rlbridge.core import StepResult
@@ -137,7 +139,30 @@ def snapshot_to_payload(snap: TrafficSnapshot) -> dict[str, Any]:
     out: dict[str, Any] = {"simt": float(snap.simt), "ids": list(snap.ids), "fields": list(snap.fields)}
     for k, name in enumerate(snap.fields):
         out[name] = np.ascontiguousarray(snap.values[k], dtype=np.float64)
+    if snap.separation is not None:
+        out["separation"] = {name: (bool if name.endswith("_sphere") else float)(getattr(snap.separation, name))
+                             for name in SEPARATION_KEYS}
     return out
+
+
+SEPARATION_KEYS = tuple(f.name for f in dataclass_fields(SeparationStandard))
+
+
+def _separation(value: Any) -> SeparationStandard | None:
+    """The optional ``separation`` of a ``state`` reply: the six fields of a separation standard."""
+    if value is None:
+        return None
+    if not isinstance(value, dict) or set(value) != set(SEPARATION_KEYS):
+        raise ProtocolError(f"reply field 'separation' must be a map with the keys {', '.join(SEPARATION_KEYS)}")
+    for name in SEPARATION_KEYS:
+        want = bool if name.endswith("_sphere") else float
+        if type(value[name]) is not want:
+            raise ProtocolError(f"reply field 'separation': {name} must be a {want.__name__}, "
+                                f"not {type(value[name]).__name__}")
+    try:
+        return SeparationStandard(**value)
+    except ValueError as exc:
+        raise ProtocolError(f"reply field 'separation': {exc}") from None
 
 
 def snapshot_from_payload(payload: dict[str, Any]) -> TrafficSnapshot:
@@ -158,4 +183,4 @@ def snapshot_from_payload(payload: dict[str, Any]) -> TrafficSnapshot:
         rows.append(arr)
     values = np.stack(rows) if rows else np.zeros((0, n))
     values.flags.writeable = False
-    return TrafficSnapshot(simt, tuple(ids), tuple(fields), values)
+    return TrafficSnapshot(simt, tuple(ids), tuple(fields), values, _separation(payload.get("separation")))

@@ -168,3 +168,37 @@ def test_a_field_added_to_a_dataclass_is_checked_with_no_other_edit():
     assert check_mapping({"updates_per_step": 0.25, "lr": 1e-4}, extended) == []
     assert check_mapping({"updates_per_step": "many"}, extended) == ["updates_per_step=many: expected a number"]
     assert check_mapping({"updates_per_step": 0.25}, DDQNConfig)[0].startswith("updates_per_step: unknown key")
+
+
+# ---- aamgym train on a simulation server (issue 29) ---------------------------------------------------
+
+
+def test_train_with_backend_zmq_refuses_a_bad_address_naming_it(tmp_path):
+    proc = aamgym("train", "backend=zmq", "address=localhost:5555", f"scenario={TINY}", "workers=0",
+                  f"out_dir={tmp_path / 'runs'}", cwd=tmp_path)
+    assert proc.returncode == 2
+    expected = ("aamgym train: error: address=localhost:5555: backend=zmq needs the simulation server's address, "
+                "tcp://host:port (as `aamsim serve` prints it)")
+    assert proc.stderr.strip().splitlines() == [expected]
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_train_runs_over_a_real_simulation_server(tmp_path):
+    import shutil
+
+    from bridge_util import spawn_server, stop_process
+
+    shutil.copy(TINY, tmp_path / "tiny_conflict.scn")
+    proc, endpoint = spawn_server("--log-level", "ERROR", cwd=tmp_path)
+    try:
+        run = aamgym("train", "backend=zmq", f"address={endpoint}", "scenario=tiny_conflict.scn", "workers=0",
+                     "train.iterations=2", "train.baseline_episodes=1", "env.time_limit_s=300", "timeout_s=600",
+                     f"hydra.run.dir={tmp_path / 'run'}", cwd=tmp_path)
+    finally:
+        stop_process(proc)
+    assert run.returncode == 0, run.stderr[-3000:]
+    config = (tmp_path / "run" / "resolved_config.yaml").read_text()
+    assert "backend: zmq" in config and f"address: {endpoint}" in config
+    assert (tmp_path / "run" / "checkpoints" / "last.pt").is_file()
+    curve = (tmp_path / "run" / "learning_curve.csv").read_text().strip().splitlines()
+    assert len(curve) == 3  # a header and two iterations

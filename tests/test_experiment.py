@@ -70,7 +70,7 @@ def test_defaults_are_the_papers_tables():
     assert old.label == "DDQN (1 step per 4 transitions)"
     u = cfg.usecase.params
     assert (u.nmac_m, u.lowc_m, u.n_wpt, u.n_intruders, u.d_max_m, u.alpha, u.delta, u.psi, u.omega) == \
-        (150.0, 450.0, 2, 30, 3000.0, 1.0, 0.0003, 0.001, 0.001)
+        (None, None, 2, 30, 3000.0, 1.0, 0.0003, 0.001, 0.001)  # None: the simulation's separation standard
 
 
 def test_config_overrides_reach_the_algorithm_and_use_case(tmp_path):

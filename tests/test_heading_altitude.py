@@ -20,6 +20,7 @@ import rlbridge
 from aamsim.geo import qdrdist
 from aamsim.units import FT, R_EARTH
 from rlbridge.agents import make_actor
+from rlbridge.agents.rollout import policy_input
 from rlbridge.core import EpisodeCore
 from rlbridge.usecases.protocol import AdvisoryKindError
 from rlbridge.usecases.spec import CapabilityError
@@ -117,10 +118,13 @@ def test_advisory_kinds_are_declared_and_the_others_refused():
 def run_episode(kind: str, seed: int = 0) -> dict:
     core = engine()
     actor = make_actor({"kind": kind})
+    check = getattr(actor, "check_usecase", None)
+    if check is not None:
+        check(core.usecase)
     rng = np.random.default_rng(0)
     result = core.reset(seed)
     while not result.done:
-        out = actor.act(result, core, rng, {})
+        out = actor.act(result, policy_input(actor, core), rng, {})
         advise = np.ones(len(result.agents), bool) if out.advise is None else out.advise
         acts = {} if out.actions is None else {a: int(x) for a, x, g in zip(result.agents, out.actions, advise)
                                                if g and a in result.alive}

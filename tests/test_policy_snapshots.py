@@ -18,6 +18,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
 
+from aamsim import SeparationStandard
 from aamsim.snapshots import TrafficSnapshot
 from rlbridge.protocol import ProtocolError, decode, encode, request
 from rlbridge.wire import snapshot_from_payload, snapshot_to_payload
@@ -65,7 +66,11 @@ def snapshots(draw):
     ids = tuple(draw(st.lists(st.text(min_size=1, max_size=8), min_size=n, max_size=n)))
     values = draw(arrays(np.float64, (len(fields), n)))  # any float64, NaN and infinities included
     simt = draw(st.floats(allow_nan=False, allow_infinity=False))
-    return TrafficSnapshot(simt, ids, fields, values)
+    distance = st.floats(min_value=1e-3, max_value=1e5, allow_nan=False)
+    separation = draw(st.none() | st.builds(
+        lambda n, nv, lo, lov, ns, ls: SeparationStandard(n, n if ns else nv, lo, lo if ls else lov, ns, ls),
+        distance, distance, distance, distance, st.booleans(), st.booleans()))
+    return TrafficSnapshot(simt, ids, fields, values, separation)
 
 
 @given(snap=snapshots())
@@ -73,7 +78,7 @@ def snapshots(draw):
 def test_a_snapshot_crosses_the_wire_bit_for_bit(snap):
     frames = encode({"v": 1, **snapshot_to_payload(snap)})
     back = snapshot_from_payload(decode([bytes(f) for f in frames]))
-    assert (back.simt, back.ids, back.fields) == (snap.simt, snap.ids, snap.fields)
+    assert (back.simt, back.ids, back.fields, back.separation) == (snap.simt, snap.ids, snap.fields, snap.separation)
     assert back.values.shape == snap.values.shape and back.values.tobytes() == snap.values.tobytes()
     assert not back.values.flags.writeable
 
@@ -84,6 +89,13 @@ def test_a_snapshot_crosses_the_wire_bit_for_bit(snap):
     ({"simt": 0.0, "ids": ["A"], "fields": ["wind"], "wind": np.zeros(1)}, "'wind' must be a known traffic"),
     ({"simt": 0.0, "ids": [1], "fields": []}, "'ids' must be a list of strings"),
     ({"simt": "0", "ids": [], "fields": []}, "'simt' must be a number"),
+    ({"simt": 0.0, "ids": [], "fields": [], "separation": {"nmac_horizontal_m": 150.0}}, "'separation' must be a map"),
+    ({"simt": 0.0, "ids": [], "fields": [], "separation": {
+        "nmac_horizontal_m": 150.0, "nmac_vertical_m": 150.0, "lowc_horizontal_m": -1.0, "lowc_vertical_m": -1.0,
+        "nmac_sphere": True, "lowc_sphere": True}}, "lowc_horizontal_m must be a distance above 0 m"),
+    ({"simt": 0.0, "ids": [], "fields": [], "separation": {
+        "nmac_horizontal_m": 150.0, "nmac_vertical_m": 150.0, "lowc_horizontal_m": 450.0, "lowc_vertical_m": 450.0,
+        "nmac_sphere": 1, "lowc_sphere": True}}, "nmac_sphere must be a bool"),
 ])
 def test_bad_snapshot_replies_raise_protocol_error_naming_the_field(payload, fragment):
     with pytest.raises(ProtocolError, match=fragment):
@@ -229,3 +241,25 @@ def test_a_heading_use_case_trains_alike_in_process_over_zeromq_and_on_bluesky(t
         assert r_bs == pytest.approx(r, rel=1e-6)
         assert dict(l_bs) == pytest.approx(dict(losses), rel=1e-3, abs=1e-6)
     assert [t for trace in local for t in trace[0]] == [87, 107, 46, 70]  # aircraft transitions per episode
+
+
+def test_heading_mvp_decides_alike_in_process_and_over_zeromq(tmp_path, monkeypatch):
+    """``mvp`` acts on the step result's action targets and a snapshot: over a real ``aamsim serve`` it
+    makes the decisions it makes in process (the ``mvp_turns`` digest above is the in-process episode)."""
+    from rlbridge.agents.rollout import EnvSpec, RolloutWorker
+
+    shutil.copy(DATA / "daa_turns.scn", tmp_path / "daa_turns.scn")
+    monkeypatch.chdir(tmp_path)
+    proc, endpoint = spawn_server("--log-level", "ERROR", cwd=tmp_path)
+    try:
+        spec = {"scenario": "daa_turns.scn", "usecase": "heading_altitude_sa", "params": {}, "time_limit_s": 900.0}
+        here = RolloutWorker(EnvSpec(**spec), {"policy": {"kind": "mvp"}}).collect([0])[0]
+        there = RolloutWorker(EnvSpec(**spec, backend="zmq", address=endpoint, timeout_s=600.0),
+                              {"policy": {"kind": "mvp"}}).collect([0])[0]
+    finally:
+        stop_process(proc)
+    assert batch_digest(here) == EXPECTED["mvp_turns"][0]
+    for name in ("actions", "rewards", "obs_idx", "next_idx", "terminated", "truncated"):
+        assert getattr(here, name).tobytes() == getattr(there, name).tobytes(), name
+    assert here.stats.metrics["safety"] == there.stats.metrics["safety"]
+    assert here.stats.nmac_events == there.stats.nmac_events

@@ -22,10 +22,11 @@ here is by creation time, then slot.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from aamsim.conflicts.service import TrafficSnapshot as ConflictGeometry
 from aamsim.conflicts.service import search_pairs, traffic_snapshot
 from aamsim.units import NM, R_EARTH  # R_EARTH: also the radius of BlueSky's compiled geo
 
@@ -51,8 +52,13 @@ class DirectedConflicts:
 
 def bluesky_order(sim: SimulationCore) -> np.ndarray:
     """Per slot, its rank in BlueSky's aircraft order (creation time, then slot)."""
-    n = sim.view.n
-    order = np.lexsort((np.arange(n), np.asarray(sim.view.created_s)))
+    return creation_rank(np.asarray(sim.view.created_s))
+
+
+def creation_rank(created_s: np.ndarray) -> np.ndarray:
+    """Per row, its rank in BlueSky's aircraft order: creation time [s], then row."""
+    n = created_s.shape[0]
+    order = np.lexsort((np.arange(n), np.asarray(created_s)))
     rank = np.empty(n, dtype=np.int64)
     rank[order] = np.arange(n)
     return rank
@@ -60,16 +66,24 @@ def bluesky_order(sim: SimulationCore) -> np.ndarray:
 
 def detect(sim: SimulationCore, rpz_m: float, hpz_m: float, dtlook_s: float) -> DirectedConflicts:
     """BlueSky's STATEBASED conflict pairs, both sides of each pair tested, as its resolution receives them."""
-    view = sim.view
-    n = view.n
+    if sim.view.n < 2:
+        return detect_on(sim.view, None, rpz_m, hpz_m, dtlook_s)
+    return detect_on(sim.view, traffic_snapshot(sim), rpz_m, hpz_m, dtlook_s)  # type: ignore[arg-type]
+
+
+def detect_on(view: Any, s: ConflictGeometry | None, rpz_m: float, hpz_m: float,
+              dtlook_s: float) -> DirectedConflicts:
+    """:func:`detect` on any traffic state: ``view`` has the arrays ``lat lon alt trk gs vs created_s`` and
+    ``ids`` (a :class:`~aamsim.traffic.view.TrafficView` or a :class:`~aamsim.snapshots.TrafficSnapshot`),
+    ``s`` is its conflict geometry (None with fewer than two aircraft)."""
+    n = len(view.ids)
     empty_i = np.empty(0, dtype=np.int64)
     empty_f = np.empty(0)
-    if n < 2:
+    if n < 2 or s is None:
         return DirectedConflicts(empty_i, empty_i, empty_f, empty_f, empty_f, empty_f)
-    s = traffic_snapshot(sim)  # type: ignore[arg-type]
     # The mirrored side sees the pair's past: search over the look-ahead both ways.
     pa, pb = search_pairs(s, np.full(n, -dtlook_s), np.full(n, dtlook_s), rpz_m)
-    rank = bluesky_order(sim)
+    rank = creation_rank(np.asarray(view.created_s))
     first = rank[pa] < rank[pb]
     i = np.where(first, pa, pb)  # earlier aircraft
     j = np.where(first, pb, pa)

@@ -203,7 +203,15 @@ def mvp_commands(sim: SimulationCore, conf: DirectedConflicts, keep: np.ndarray,
     """MVP's track [deg], ground speed, vertical speed [m/s] and altitude [m] for every aircraft, from the
     directed conflicts ``conf`` (rows ``keep``; BlueSky's cycle, :class:`MVPService`). ``no_reso``: aircraft
     nobody avoids, ``reso_off``: aircraft that avoid nobody (per slot; default none)."""
-    view = sim.view
+    return mvp_commands_on(sim.view, conf, keep, settings, rpz_m, hpz_m, dtlook_s, no_reso, reso_off)
+
+
+def mvp_commands_on(view: Any, conf: DirectedConflicts, keep: np.ndarray, settings: MVPSettings, rpz_m: float,
+                    hpz_m: float, dtlook_s: float, no_reso: np.ndarray | None = None,
+                    reso_off: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`mvp_commands` on any traffic state: ``view`` has ``ids`` and the arrays of :class:`OwnState`
+    (a :class:`~aamsim.traffic.view.TrafficView` or a :class:`~aamsim.snapshots.TrafficSnapshot`)."""
+    n = len(view.ids)
     own, intr = conf.own[keep], conf.intr[keep]
     qdr = np.radians(conf.qdr_deg[keep])
     dist = conf.dist_m[keep]
@@ -212,8 +220,8 @@ def mvp_commands(sim: SimulationCore, conf: DirectedConflicts, keep: np.ndarray,
     vel = np.column_stack([view.gseast, view.gsnorth, view.vs])
     g = PairGeometry(own, intr, drel, vel[intr] - vel[own], conf.tcpa_s[keep], conf.tlos_s[keep])
     push, tsol = mvp_pairs(g, rpz_m * settings.factor_h, hpz_m * settings.factor_v, dtlook_s)
-    none = np.zeros(view.n, dtype=bool)
-    dv, tsolv = combine(view.n, g, push, tsol, settings, np.asarray(view.vs),
+    none = np.zeros(n, dtype=bool)
+    dv, tsolv = combine(n, g, push, tsol, settings, np.asarray(view.vs),
                         none if no_reso is None else no_reso, none if reso_off is None else reso_off)
     s = OwnState(view.gseast, view.gsnorth, view.vs, view.trk, view.gs, view.alt, view.selalt, view.ap_vs,
                  view.vmin, view.vmax, view.vsmin, view.vsmax)

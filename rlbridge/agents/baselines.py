@@ -27,6 +27,7 @@ import numpy as np
 
 from aamsim.conflicts.grid import snapshot_arrays
 from aamsim.conflicts.pairs import statebased
+from aamsim.conflicts.separation import PAPER_STANDARD, SeparationStandard
 from aamsim.conflicts.service import TrafficSnapshot as ConflictGeometry
 from aamsim.conflicts.service import search_pairs
 from aamsim.snapshots import TrafficSnapshot
@@ -53,6 +54,18 @@ def conflict_geometry(snap: TrafficSnapshot) -> ConflictGeometry:
     return ConflictGeometry(list(snap.ids), lat, lon, alt, u, v, w, x, y, err, tuple(frame))  # type: ignore[arg-type]
 
 
+def protected_zone(rpz_m: float | None, hpz_m: float | None,
+                   standard: SeparationStandard | None) -> tuple[float, float]:
+    """A baseline's protected zone: radius and vertical half-height [m].
+
+    A value of None takes the separation standard's: its LoWC distance as the radius and its NMAC
+    vertical extent as the half-height (``standard`` None: the paper's, 450 m and 150 m).
+    """
+    std = standard if standard is not None else PAPER_STANDARD
+    return (float(rpz_m) if rpz_m is not None else std.lowc_horizontal_m,
+            float(hpz_m) if hpz_m is not None else std.nmac_vertical_m)
+
+
 class UnequippedActor:
     """No advisories: the aircraft fly their flight plans (the paper's baseline)."""
 
@@ -73,13 +86,16 @@ class SpeedMVPConfig:
     """Parameters of the speed-only MVP baseline (distances in m, times in s, speeds in kt)."""
 
     lookahead_s: float = 120.0  # conflict detection look-ahead
-    rpz_m: float = 450.0  # protected zone radius (the use case's LoWC distance)
-    # Vertical half-height of the protected zone. Not the LoWC sphere's 450 m: corridor layers
+    # Protected zone radius [m]; None: the LoWC distance of the snapshot's separation standard (the
+    # simulation's; the paper's 450 m).
+    rpz_m: float | None = None
+    # Vertical half-height of the protected zone; None: the NMAC distance of the separation standard (its
+    # vertical extent; the paper's 150 m). Not the LoWC sphere's 450 m: corridor layers
     # are 700 ft (213 m) apart, and a speed change cannot separate two flights crossing in
     # different layers; reacting to them stalls whole corridors (3 seeds of nyc_train_100:
     # hpz 450 m -> 20 NMAC per episode and aircraft still flying at the time limit; 150 m -> 6.3;
     # unequipped 14.3).
-    hpz_m: float = 150.0
+    hpz_m: float | None = None
     margin: float = 1.1  # MVP resolves to margin * rpz at the closest point of approach
     act_band_kts: float = 2.0  # speed changes smaller than this are a hold
     resume_band_kts: float = 8.0  # hold once within this band of the flight-plan speed
@@ -111,16 +127,17 @@ class SpeedMVPActor:
     def speed_changes(self, snap: TrafficSnapshot) -> np.ndarray:
         """Per snapshot row: summed MVP speed change along track [m/s] (NaN: no conflict)."""
         c = self.config
+        rpz_m, hpz_m = protected_zone(c.rpz_m, c.hpz_m, snap.separation)
         s = conflict_geometry(snap)
         n = len(s.ids)
         out = np.full(n, np.nan)
         if n < 2:
             return out
-        pi, pj = search_pairs(s, np.zeros(n), np.full(n, c.lookahead_s), c.rpz_m)
+        pi, pj = search_pairs(s, np.zeros(n), np.full(n, c.lookahead_s), rpz_m)
         if pi.size == 0:
             return out
         conf, tcpa, _, _, _, los = statebased(s.lat, s.lon, s.alt, s.u, s.v, s.w, pi, pj,
-                                                 c.rpz_m, c.hpz_m, c.lookahead_s)
+                                                 rpz_m, hpz_m, c.lookahead_s)
         sel = np.flatnonzero(conf | los)
         trk = np.radians(snap.trk)
         ex, ey = np.sin(trk), np.cos(trk)
@@ -137,7 +154,7 @@ class SpeedMVPActor:
                 # no direction; sequence the pair instead, the lower traffic slot yields.
                 cx, cy, dist = ex[i], ey[i], 0.0
             # MVP: each aircraft moves its CPA away from the other to margin * rpz.
-            push = (c.margin * c.rpz_m - dist) / t
+            push = (c.margin * rpz_m - dist) / t
             norm = math.hypot(cx, cy) or 1.0
             ux, uy = cx / norm, cy / norm  # unit vector from i towards j at CPA
             for a, sign in ((i, -1.0), (j, 1.0)):

@@ -19,8 +19,9 @@ import numpy as np
 from aamsim.conflicts.axis_bands import manoeuvre_intervals
 from aamsim.resolution.daa import DAAParams, isotropic_pairs
 from rlbridge.usecases.spec import spec_of
+from rlbridge.usecases.targets import MANOEUVRE_KINDS as TARGET_KINDS
 
-MANOEUVRE_KINDS = ("heading", "altitude")
+MANOEUVRE_KINDS = TARGET_KINDS  # the kinds whose action targets the step results publish
 
 
 @dataclass(frozen=True)

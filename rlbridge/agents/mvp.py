@@ -21,12 +21,14 @@ from typing import Any, ClassVar
 import numpy as np
 
 from aamsim.resolution.mvp import MVPSettings
-from aamsim.resolution.mvp_detect import detect
-from aamsim.resolution.mvp_service import mvp_commands
-from rlbridge.agents.manoeuvres import MANOEUVRE_KINDS, action_targets
-from rlbridge.agents.rollout import ActOutput, EpisodeAccess
+from aamsim.resolution.mvp_detect import detect_on
+from aamsim.resolution.mvp_service import mvp_commands_on
+from aamsim.snapshots import TrafficSnapshot
+from rlbridge.agents.baselines import KINEMATIC_FIELDS, conflict_geometry, protected_zone
+from rlbridge.agents.rollout import ActOutput
 from rlbridge.core import StepResult
 from rlbridge.usecases.spec import Needs, check_fits
+from rlbridge.usecases.targets import MANOEUVRE_KINDS, TARGETS_KEY
 
 
 @dataclass(frozen=True)
@@ -34,66 +36,95 @@ class MVPConfig:
     """Parameters of the heading / altitude MVP baseline (distances m, times s)."""
 
     lookahead_s: float = 120.0  # conflict detection look-ahead (as mvp_speed)
-    rpz_m: float = 450.0  # protected zone radius (the use case's LoWC distance)
-    hpz_m: float = 150.0  # vertical half-height (the NMAC distance; corridor layers are 213 m apart)
+    # Protected zone radius [m]; None: the LoWC distance of the simulation's separation standard.
+    rpz_m: float | None = None
+    # Vertical half-height [m]; None: the standard's NMAC distance (corridor layers are 213 m apart).
+    hpz_m: float | None = None
 
 
 class MVPActor:
-    """Heading and altitude MVP on a use case's discrete advisories (see the module docstring)."""
+    """Heading and altitude MVP on a use case's discrete advisories (see the module docstring).
+
+    It acts on the step result (the targets of each action, ``info["action_targets"]``:
+    :mod:`rlbridge.usecases.targets`) and a traffic snapshot, so it runs on every backend.
+    """
 
     obs_format: str | None = None
-    snapshot_fields: tuple[str, ...] = ()
-    reads_simulation = True  # aamsim's services in process (rlbridge.agents.rollout.EpisodeAccess)
+    snapshot_fields: tuple[str, ...] = (*KINEMATIC_FIELDS, "trk", "gs", "created_s", "selalt", "ap_vs", "vmin",
+                                        "vmax", "vsmin", "vsmax")
     needs: ClassVar[Needs] = Needs(any_of=MANOEUVRE_KINDS)  # heading or altitude actions
 
     def __init__(self, config: MVPConfig | None = None):
         self.config = config or MVPConfig()
         self.settings = MVPSettings(horizontal=False)  # heading, speed and vertical: no restriction
         self._advised: set[str] = set()
-        self._episode: tuple[int | None, int] | None = None
+        self._episode: np.random.Generator | None = None  # the current episode's action generator
+        self._resume: int | None = None  # the use case's resume action (check_usecase)
 
     def set_weights(self, weights: Any) -> None:
         pass
 
     def check_usecase(self, usecase: Any) -> None:
-        """Refuse a use case with neither heading nor altitude actions, naming its kinds."""
+        """Refuse a use case with neither heading nor altitude actions, naming its kinds; note its resume action."""
         if usecase is not None:
             check_fits(self.needs, usecase, "baseline mvp")
+            resume = getattr(usecase, "resume_action", None)
+            if resume is None:
+                raise TypeError(f"use case {usecase.name} has heading/altitude actions but names no resume_action")
+            self._resume = int(resume)
 
-    def act(self, result: StepResult, core: EpisodeAccess, rng: np.random.Generator,
+    def act(self, result: StepResult, snapshot: TrafficSnapshot | None, rng: np.random.Generator,
             explore: dict[str, Any]) -> ActOutput:
-        sim, usecase = core.sim, core.usecase
-        assert sim is not None
-        key = (core.seed, id(sim))
-        if key != self._episode:
-            self._episode, self._advised = key, set()
-        view = sim.view
+        if snapshot is None:
+            raise ValueError(f"baseline mvp reads a traffic snapshot of {', '.join(self.snapshot_fields)}")
+        if self._resume is None:
+            raise RuntimeError("baseline mvp acts after check_usecase(usecase) (its resume action)")
+        if rng is not self._episode:  # a new episode (each has its own generator): forget the previous aircraft
+            self._episode, self._advised = rng, set()
+        snap = snapshot
+        row = {a: i for i, a in enumerate(snap.ids)}
         alive = set(result.alive)
-        rows = [k for k, a in enumerate(result.agents) if a in alive and a in view]
+        rows = [k for k, a in enumerate(result.agents) if a in alive and a in row]
         actions = np.zeros(len(result.agents), dtype=np.int64)
         advise = np.zeros(len(result.agents), dtype=bool)
         if not rows:
             return ActOutput(actions, advise=advise)
+        published = result.info.get(TARGETS_KEY)
+        if published is None:
+            raise ValueError(f"baseline mvp reads the action targets of the step result (info[{TARGETS_KEY!r}]), "
+                             "which the episode engine adds for use cases with heading or altitude actions")
         c = self.config
-        conf = detect(sim, c.rpz_m, c.hpz_m, c.lookahead_s)
-        coop = ~np.asarray(view.noncooperative, dtype=bool)[conf.own]
-        trk, _gs, _vs, alt = mvp_commands(sim, conf, coop, self.settings, c.rpz_m, c.hpz_m, c.lookahead_s)
-        in_conflict = np.zeros(view.n, dtype=bool)
-        in_conflict[conf.own[coop]] = True
-        names = [result.agents[k] for k in rows]
-        slots = np.array([view.slot(a) for a in names], dtype=np.int64)
-        targets = action_targets(usecase, sim, slots)
-        for q, (k, acid, i) in enumerate(zip(rows, names, slots.tolist())):
+        rpz_m, hpz_m = protected_zone(c.rpz_m, c.hpz_m, snap.separation)
+        conf = detect_on(snap, conflict_geometry(snap) if len(snap.ids) > 1 else None, rpz_m, hpz_m, c.lookahead_s)
+        # Every pair from both sides: the rows of a non-cooperative ownship change only that aircraft's
+        # commands, and it is never an agent.
+        keep = np.ones(conf.own.shape[0], dtype=bool)
+        trk, _gs, _vs, alt = mvp_commands_on(snap, conf, keep, self.settings, rpz_m, hpz_m, c.lookahead_s)
+        in_conflict = np.zeros(len(snap.ids), dtype=bool)
+        in_conflict[conf.own] = True
+        target_row = {a: q for q, a in enumerate(published["agents"])}
+        now_trk, now_alt = snap.trk, snap.selalt
+        for k in rows:
+            acid = result.agents[k]
+            i, q = row[acid], target_row[acid]
             if in_conflict[i]:
-                turn = np.abs((targets.trk[q] - trk[i] + 180.0) % 360.0 - 180.0)
-                dz = np.abs(targets.alt[q] - alt[i])
-                span_t = float(np.ptp(targets.trk[q])) or 1.0
-                span_z = float(np.ptp(targets.alt[q])) or 1.0
+                t_trk = published["heading"][q] if "heading" in published else np.full(
+                    self._n_actions(published), float(now_trk[i]))
+                t_alt = published["altitude"][q] if "altitude" in published else np.full(
+                    self._n_actions(published), float(now_alt[i]))
+                turn = np.abs((t_trk - trk[i] + 180.0) % 360.0 - 180.0)
+                dz = np.abs(t_alt - alt[i])
+                span_t = float(np.ptp(t_trk)) or 1.0
+                span_z = float(np.ptp(t_alt)) or 1.0
                 cost = turn / span_t + dz / span_z
                 actions[k] = int(np.lexsort((np.arange(cost.size), cost))[0])
                 advise[k] = True
                 self._advised.add(acid)
             elif acid in self._advised:
                 self._advised.discard(acid)
-                actions[k], advise[k] = targets.resume, True
+                actions[k], advise[k] = self._resume, True
         return ActOutput(actions, advise=advise)
+
+    @staticmethod
+    def _n_actions(published: dict[str, Any]) -> int:
+        return int(next(v for k, v in published.items() if k != "agents").shape[1])

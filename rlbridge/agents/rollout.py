@@ -73,8 +73,8 @@ class Actor(Protocol):
 class EpisodeAccess(Protocol):
     """What a simulation-bound baseline (``reads_simulation = True``) reads instead of a snapshot.
 
-    Only the detect-and-avoid, heading/altitude MVP and planner baselines are still bound to the
-    in-process simulation (they call aamsim's DAA, MVP and reservation services); they run
+    Only the detect-and-avoid and planner baselines are still bound to the
+    in-process simulation (they call aamsim's DAA and reservation services); they run
     where the simulation runs (backends ``local`` and ``bluesky``, frozen layers inside a use
     case) and are refused over ZeroMQ.
     """

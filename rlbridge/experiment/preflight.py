@@ -217,12 +217,21 @@ def needs(config_name: str, cfg: dict[str, Any]) -> list[str]:
             problems.append(f"run={cfg['run']}: no such training run or checkpoint file")
         if cfg.get("baseline") is not None and cfg.get("scenario") is None:
             problems.append("scenario: a baseline evaluation needs one (e.g. scenario=nyc_train_100)")
+    if config_name == "config" and cfg.get("backend") == "zmq":
+        from rlbridge.experiment.train import ZMQ_ADDRESS
+
+        address = cfg.get("address")
+        if not address or not ZMQ_ADDRESS.fullmatch(str(address)):
+            problems.append(f"address={address}: backend=zmq needs the simulation server's address, "
+                            "tcp://host:port (as `aamsim serve` prints it)")
     workers = cfg.get("workers") or 0
     wanted = [("batch", "Ray workers (workers > 0)", ("ray",), workers == "auto" or int(workers) > 0,
                "or workers=0: one in-process worker")]
     if config_name == "evaluate":
         wanted += [("video", "video=true (MP4 videos)", ("imageio_ffmpeg",), bool(cfg.get("video")), ""),
                    ("bluesky", "backend=bluesky", ("bluesky",), cfg.get("backend") == "bluesky", "")]
+    if config_name == "config":
+        wanted += [("bluesky", "backend=bluesky", ("bluesky",), cfg.get("backend") == "bluesky", "")]
     for extra, feature, modules, used, hint in wanted:
         if used:
             try:

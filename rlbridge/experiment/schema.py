@@ -88,6 +88,9 @@ class TrainConfig:
     usecase: UsecaseSection
     scenario: str = "nyc_train_100"
     workers: int | Literal["auto"] = 2
+    backend: Literal["local", "zmq", "bluesky"] = "local"
+    address: str | None = None  # backend=zmq: tcp://host:port
+    timeout_s: float = 30.0  # backend=zmq: the longest wait for one reply [s]
     seed: int = 0
     device: str = "cpu"
     out_dir: str = "runs"

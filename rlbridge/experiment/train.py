@@ -25,6 +25,7 @@ import csv
 import json
 import logging
 import os
+import re
 import shutil
 import time
 from collections import OrderedDict
@@ -118,12 +119,28 @@ def resolve_scenario_path(name: str) -> str:
     return str(Path(path).resolve())
 
 
+ZMQ_ADDRESS = re.compile(r"(tcp://[^\s:/]+|tcp://\[[0-9a-fA-F:]+\]):\d{1,5}|ipc://\S+")
+
+
 def env_spec_from(cfg: DictConfig, scenario: str | None = None, **params: Any) -> EnvSpec:
+    """The episodes of a run: ``cfg``'s scenario, use case and parameters on its backend (``backend``,
+    ``address``: ``backend=zmq address=tcp://host:port`` plays them on a simulation server)."""
     up = dict(OmegaConf.to_container(cfg.usecase.params, resolve=True))  # type: ignore[arg-type]
     up.update(params)
-    return EnvSpec(resolve_scenario_path(scenario or cfg.scenario), str(cfg.usecase.name), up,
+    backend = str(cfg.get("backend") or "local")
+    address = cfg.get("address")
+    if backend == "zmq":
+        if not address or not ZMQ_ADDRESS.fullmatch(str(address)):
+            raise ValueError(f"backend=zmq needs address=tcp://host:port, the simulation server's address as "
+                             f"`aamsim serve` prints it; got address={address!r}")
+        # The server resolves the scenario name in its own scenario folders.
+        name = str(scenario or cfg.scenario)
+    else:
+        name = resolve_scenario_path(scenario or cfg.scenario)
+    return EnvSpec(name, str(cfg.usecase.name), up,
                    None if cfg.env.time_limit_s is None else float(cfg.env.time_limit_s), float(cfg.env.dt),
-                   tuple(cfg.metrics))
+                   tuple(cfg.metrics), backend=backend, address=None if address is None else str(address),
+                   timeout_s=float(cfg.get("timeout_s") or 30.0))
 
 
 def find_checkpoint(path: str | Path, which: str = "last") -> Path:

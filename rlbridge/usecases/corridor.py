@@ -25,11 +25,12 @@ from typing import TYPE_CHECKING, Any, ClassVar
 import gymnasium as gym
 import numpy as np
 
-from aamsim.conflicts import SeparationVolume, conflicts_of, pairs_within
+from aamsim.conflicts import conflicts_of, pairs_within
 from aamsim.metrics import record_advisories
 from aamsim.units import KTS, R_EARTH
 from rlbridge.observe import corridor_features, nearest_neighbours
 from rlbridge.usecases.protocol import Feedback, Observations, UseCaseBase, make_params, start_overlay
+from rlbridge.usecases.separation import apply_separation, check_distances, nmac_distance
 from rlbridge.usecases.spec import SPEED_ROLES, UseCaseSpec
 from rlbridge.usecases.variation import NYC_LANES_FT, PAPER_ALT_NOISE_FT, add_altitude_noise
 
@@ -45,8 +46,8 @@ ACTION_NAMES = ("decelerate", "hold", "accelerate")
 class CorridorParams:
     """Use-case parameters; defaults are the paper's (Table: use-case hyper-parameters)."""
 
-    nmac_m: float = 150.0
-    lowc_m: float = 450.0
+    nmac_m: float | None = None  # None: the simulation's separation standard (rlbridge.usecases.separation)
+    lowc_m: float | None = None  # None: the simulation's separation standard
     speed_low_kts: float = 0.0  # "Desired speeds [0, Maintain, 150] knots"
     speed_high_kts: float = 150.0
     n_wpt: int = 2
@@ -107,7 +108,8 @@ class CorridorParams:
             raise ValueError("variant 'v1' needs a positive hover_cost")
         if self.frame not in ("paper", "track"):
             raise ValueError(f"frame must be 'paper' or 'track', not {self.frame!r}")
-        for name in ("nmac_m", "lowc_m", "d_max_m", "decision_interval_s", "intruder_range_m"):
+        check_distances(self, "nmac_m", "lowc_m")
+        for name in ("d_max_m", "decision_interval_s", "intruder_range_m"):
             if not getattr(self, name) > 0:
                 raise ValueError(f"{name} must be positive")
         if self.n_wpt < 0 or self.n_intruders < 0:
@@ -168,8 +170,7 @@ class CorridorSA(UseCaseBase):
     # -------------------------------------------------------------- lifecycle
     def attach(self, sim: Simulation) -> None:
         p = self.params
-        service = conflicts_of(sim)
-        service.volumes = (SeparationVolume("nmac", p.nmac_m), SeparationVolume("lowc", p.lowc_m))
+        apply_separation(sim, p.nmac_m, p.lowc_m)
         add_altitude_noise(sim, p.alt_noise_ft, p.alt_noise_lanes_ft, "corridor.alt_noise")
         start_overlay(sim, p.overlay, p.overlay_offset, p.overlay_area)
 
@@ -293,7 +294,7 @@ class CorridorSA(UseCaseBase):
             for k, a in enumerate(agents):
                 if a in interval_nmac_min_m:
                     d[k] = min(d[k], interval_nmac_min_m[a])
-        r_sh = np.where(d < p.nmac_m, -p.nmac_penalty, np.where(d < p.d_max_m, -p.alpha + p.delta * d, 0.0))
+        r_sh = np.where(d < nmac_distance(sim), -p.nmac_penalty, np.where(d < p.d_max_m, -p.alpha + p.delta * d, 0.0))
         psi = -p.psi
         get = actions.get
         r_a = np.array([0.0 if get(a, HOLD) == HOLD else psi for a in agents], dtype=np.float64)

@@ -27,6 +27,7 @@ import numpy as np
 
 from aamsim.snapshots import take_snapshot
 from rlbridge.usecases.protocol import Observations
+from rlbridge.usecases.targets import action_target_info
 
 if TYPE_CHECKING:
     from aamsim import Simulation
@@ -73,7 +74,7 @@ class FrozenPolicy:
 
         n = len(agents)
         result = StepResult(agents, obs, np.zeros(n), np.zeros(n, bool), np.zeros(n, bool), list(agents),
-                            handle.sim.simt, False)
+                            handle.sim.simt, False, info=action_target_info(handle.usecase, handle.sim, agents))
         if handle.usecase is not self._checked:
             check = getattr(self.actor, "check_usecase", None)
             if check is not None:
@@ -83,7 +84,7 @@ class FrozenPolicy:
             seen: Any = handle
         else:
             fields = tuple(getattr(self.actor, "snapshot_fields", ()))
-            seen = take_snapshot(handle.sim, fields) if fields else None
+            seen = take_snapshot(handle.sim, fields, handle.sim.separation_standard) if fields else None
         out = self.actor.act(result, seen, rng, self.explore)
         if out.actions is None:
             return None

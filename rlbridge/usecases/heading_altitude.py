@@ -43,12 +43,13 @@ from typing import TYPE_CHECKING, Any, ClassVar
 import gymnasium as gym
 import numpy as np
 
-from aamsim.conflicts import SeparationVolume, conflicts_of, pairs_within
+from aamsim.conflicts import conflicts_of, pairs_within
 from aamsim.metrics import record_advisory
 from aamsim.units import FPM, FT, R_EARTH
 from rlbridge.observe import nearest_neighbours
 from rlbridge.usecases.protocol import Feedback, Observations, UseCaseBase, make_params
 from rlbridge.usecases.rejoin import RouteKeeper, east_north_m
+from rlbridge.usecases.separation import apply_separation, check_distances, nmac_distance
 from rlbridge.usecases.spec import UseCaseSpec
 from rlbridge.usecases.variation import NYC_LANES_FT, PAPER_ALT_NOISE_FT, add_altitude_noise
 
@@ -62,8 +63,8 @@ OWN_DIM, INTRUDER_DIM = 8, 7
 class HeadingAltitudeParams:
     """Use-case parameters (distances m, times s; the offsets in deg and ft)."""
 
-    nmac_m: float = 150.0
-    lowc_m: float = 450.0
+    nmac_m: float | None = None  # None: the simulation's separation standard (rlbridge.usecases.separation)
+    lowc_m: float | None = None  # None: the simulation's separation standard
     d_max_m: float = 3000.0  # the separation reward acts within this distance
     alpha: float = 1.0
     delta: float = 0.0003
@@ -106,7 +107,8 @@ class HeadingAltitudeParams:
             raise ValueError("heading_offsets_deg must lie strictly between -180 and 180")
         if self.obs_format not in ("flat", "dict"):
             raise ValueError(f"obs_format must be 'flat' or 'dict', not {self.obs_format!r}")
-        for name in ("nmac_m", "lowc_m", "d_max_m", "decision_interval_s", "intruder_range_m", "climb_rate_fpm",
+        check_distances(self, "nmac_m", "lowc_m")
+        for name in ("d_max_m", "decision_interval_s", "intruder_range_m", "climb_rate_fpm",
                      "arrival_m"):
             if not getattr(self, name) > 0:
                 raise ValueError(f"{name} must be positive")
@@ -184,7 +186,7 @@ class HeadingAltitudeSA(UseCaseBase):
     # -------------------------------------------------------------- lifecycle
     def attach(self, sim: Simulation) -> None:
         p = self.params
-        conflicts_of(sim).volumes = (SeparationVolume("nmac", p.nmac_m), SeparationVolume("lowc", p.lowc_m))
+        apply_separation(sim, p.nmac_m, p.lowc_m)
         self.ep = _Episode({}, {}, {}, set(), set(), {}, RouteKeeper(p.arrival_m))
         add_altitude_noise(sim, p.alt_noise_ft, p.alt_noise_lanes_ft, "heading_altitude.alt_noise")
         sim.hooks.created.add(self._on_created, name="heading_altitude.created")
@@ -361,7 +363,7 @@ class HeadingAltitudeSA(UseCaseBase):
                 if a in nmac_min:
                     d[k] = min(d[k], nmac_min[a])
         dalt = np.asarray(sim.view.alt[slots], dtype=np.float64) - own
-        r_sh = np.where(d < p.nmac_m, -p.nmac_penalty, np.where(d < p.d_max_m, -p.alpha + p.delta * d, 0.0))
+        r_sh = np.where(d < nmac_distance(sim), -p.nmac_penalty, np.where(d < p.d_max_m, -p.alpha + p.delta * d, 0.0))
         r_a = np.array([0.0 if int(actions.get(a, self.resume_action)) == self.resume_action else -p.psi
                         for a in agents])
         rewards = r_sh + r_a - p.xtrack_cost_per_km * np.abs(xtrack) / 1000.0 \

@@ -25,6 +25,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from aamsim.conflicts.separation import PAPER_STANDARD
 from aamsim.units import R_EARTH as R_EARTH_M
 from rlbridge.usecases.schedule import DepartureRequest, Schedule
 
@@ -157,7 +158,7 @@ class IntentTable:
 
     frame: Frame
     grid_s: float = 5.0
-    separation_m: float = 450.0
+    separation_m: float = field(default_factory=lambda: PAPER_STANDARD.lowc_horizontal_m)  # the paper's LoWC
     reserved: list[Reservation] = field(default_factory=list)
     _local: dict[int, tuple[Intent, np.ndarray, np.ndarray]] = field(default_factory=dict)
 

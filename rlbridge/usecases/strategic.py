@@ -32,7 +32,7 @@ from typing import TYPE_CHECKING, Any, ClassVar
 import gymnasium as gym
 import numpy as np
 
-from aamsim.conflicts import SeparationVolume, conflicts_of
+from aamsim.conflicts import conflicts_of
 from aamsim.metrics import NotDeparted, metrics_of
 from aamsim.stack.parser import TimedCommand
 from aamsim.units import FT
@@ -40,6 +40,7 @@ from rlbridge.usecases.frozen import PolicySource
 from rlbridge.usecases.protocol import Feedback, Observations, UseCaseBase, make_params
 from rlbridge.usecases.reservation import Frame, Intent, IntentTable, probe_intents
 from rlbridge.usecases.schedule import DepartureRequest, Schedule, split_schedule
+from rlbridge.usecases.separation import apply_separation, check_distances, lowc_distance
 from rlbridge.usecases.spec import UseCaseSpec
 from rlbridge.usecases.tactical import TacticalLayer
 from rlbridge.usecases.variation import PAPER_ALT_NOISE_FT, add_altitude_noise
@@ -71,7 +72,8 @@ class StrategicParams:
     layers_ft: tuple[float, ...] = (500.0, 1200.0, 1900.0)  # the network's layers (docs/nyc-network.md); () = none
     allow_reject: bool = True  # an extra action: do not depart (the request is unplaced)
     horizon_s: float | None = None  # latest departure [s of sim time]; None: no limit
-    separation_m: float = 450.0  # intent conflict: 3-D distance below this (the paper's LoWC)
+    # Intent conflict: 3-D distance below this [m]; None: the simulation's LoWC distance (the paper's 450 m).
+    separation_m: float | None = None
     intent_grid_s: float = 5.0  # time grid of the intents (slot_s must be a multiple)
     n_planned: int = 16  # planned flights in the observation (closest in departure time)
     queue_window_s: float = 600.0  # vertiport queues count departures/arrivals within this
@@ -87,8 +89,8 @@ class StrategicParams:
     intent_conflict_penalty: float = 0.1  # per planned flight the accepted intent conflicts with
     nmac_penalty: float = 1.0  # per NMAC event opened since the last decision
     lowc_penalty: float = 0.1  # per LoWC event opened since the last decision
-    nmac_m: float = 150.0
-    lowc_m: float = 450.0
+    nmac_m: float | None = None  # None: the simulation's separation standard (rlbridge.usecases.separation)
+    lowc_m: float | None = None  # None: the simulation's separation standard
     scale_pos_m: float = 10000.0
     # The paper's altitude noise (uniform +-100 ft about the flight's layer), drawn per episode seed when
     # the flight takes off (rlbridge.usecases.variation): the planner's intents are probed at the filed
@@ -103,8 +105,8 @@ class StrategicParams:
             raise ValueError(f"obs_format must be 'dict' or 'flat', not {self.obs_format!r}")
         if self.planners not in PLANNER_MODES:
             raise ValueError(f"planners must be one of {', '.join(PLANNER_MODES)}, not {self.planners!r}")
-        for name in ("slot_s", "separation_m", "intent_grid_s", "queue_window_s", "nmac_m", "lowc_m",
-                     "scale_pos_m"):
+        check_distances(self, "separation_m", "nmac_m", "lowc_m")
+        for name in ("slot_s", "intent_grid_s", "queue_window_s", "scale_pos_m"):
             if not getattr(self, name) > 0:
                 raise ValueError(f"{name} must be positive")
         if self.max_delay_slots < 0 or self.n_planned < 1:
@@ -226,7 +228,7 @@ class StrategicPlanning(UseCaseBase):
     # -------------------------------------------------------------- lifecycle
     def attach(self, sim: Simulation) -> None:
         p = self.params
-        conflicts_of(sim).volumes = (SeparationVolume("nmac", p.nmac_m), SeparationVolume("lowc", p.lowc_m))
+        apply_separation(sim, p.nmac_m, p.lowc_m)
         sim.hooks.created.add(self._on_created, name="strategic.layer")
         add_altitude_noise(sim, p.alt_noise_ft, p.layers_ft, "strategic.alt_noise")
         self.tactical.attach(sim, sim.seed)
@@ -236,6 +238,11 @@ class StrategicPlanning(UseCaseBase):
         if self.params.planners == "vertiport":
             names = dict.fromkeys(request_planner(r) for r in split_schedule(commands, is_command).requests)
             self.standing_agents = tuple(names) or (PLANNER,)
+
+    def separation_m(self, sim: Simulation) -> float:
+        """The intent-conflict distance [m]: the parameter, or the simulation's LoWC distance."""
+        p = self.params
+        return float(p.separation_m) if p.separation_m is not None else lowc_distance(sim)
 
     def departure_planner(self) -> StrategicPlanning:
         """The planner that decides departure slots (a ``departure_slot`` use case's member): itself."""
@@ -254,7 +261,7 @@ class StrategicPlanning(UseCaseBase):
         if key not in self._plans:
             self._plans[key] = self._make_plan(sim, commands)
         self.plan = self._plans[key]
-        self.ep = ep = Episode(IntentTable(self.plan.frame, self.params.intent_grid_s, self.params.separation_m))
+        self.ep = ep = Episode(IntentTable(self.plan.frame, self.params.intent_grid_s, self.separation_m(sim)))
         plan = self.plan
         # The flights held on the ground count in the episode's metrics (completed + unfinished + not
         # departed = scheduled; their delay runs to the end of the episode).
@@ -439,7 +446,7 @@ class StrategicPlanning(UseCaseBase):
         intent = self.plan.intents[req.key]
         conf, closest = self.candidate_table()
         parts["conflicts"] = conf.astype(np.float32)
-        parts["closest"] = np.minimum(closest / p.separation_m, 10.0).astype(np.float32)
+        parts["closest"] = np.minimum(closest / self.ep.table.separation_m, 10.0).astype(np.float32)
         ox, oy, dx, dy = self.plan.ends[req.key]
         s = p.scale_pos_m
         filed = self.plan.filed_layer[req.key]
