@@ -100,9 +100,9 @@ def test_smoke_study_runs_the_whole_pipeline(tmp_path):
         names = {r["Algorithm"].split(" — ")[0] for r in table}
         sampled = {"D2MAV-A No Shared Layers, sampled actions", "D2MAV-A Shared Layers, sampled actions",
                    "DDQN (RLlib update ratio), epsilon-greedy 0.05"}  # a value-based policy's "sampled" evaluation is named as what it is
-        assert names == labels | sampled | {"MVP speed-only (rule-based)"}
+        assert names == labels | sampled | {"MVP speed-only (rule-based)", "DAA speed-only (DO-365/DAIDALUS)"}
         for r in table:  # two training seeds x two evaluation episodes per learned row
-            expected = "(n=2)" if r["Algorithm"].startswith("MVP") else "(n=4)"
+            expected = "(n=2)" if r["Algorithm"].startswith(("MVP", "DAA")) else "(n=4)"
             assert expected in r["Risk Ratio - tiny_conflict"]
             assert r["parked at time limit - tiny_conflict"] != "n/a"
     training = rows(out / "training.csv")
