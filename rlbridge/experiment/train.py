@@ -41,6 +41,8 @@ from rlbridge.agents.capture import check_device
 from rlbridge.agents.core import episode_seed, rolling_mean
 from rlbridge.agents.rollout import EnvSpec, EpisodeBatch, EpisodeStats
 from rlbridge.experiment.workers import make_pool
+from rlbridge.usecases.registry import usecase_spec
+from rlbridge.usecases.spec import SEPARATION_CURVE, CurveColumn
 
 log = logging.getLogger("aamgym.train")
 
@@ -48,9 +50,17 @@ CHECKPOINT_FORMAT = 1
 TRAIN_MODES = ("serial", "overlap")
 LEARNER_STATS = ("policy_loss", "value_loss", "entropy", "approx_kl", "clip_fraction", "explained_variance",
                  "td_loss", "epsilon", "gradient_steps")
-CURVE_COLUMNS = ("iteration", "wall_s", "sim_s", "episodes", "reward_mean", "reward_std", "episode_rewards",
-                 "nmac_per_aircraft", "lowc_per_aircraft", "episode_nmac_per_aircraft", "aircraft_states",
-                 "aircraft_states_total", "states_per_s", "rollout_s", "update_s") + LEARNER_STATS
+# learning_curve.csv: these, the use case's own columns (UseCaseSpec.curve), then CURVE_TAIL.
+CURVE_HEAD = ("iteration", "wall_s", "sim_s", "episodes", "reward_mean", "reward_std", "episode_rewards")
+CURVE_TAIL = ("aircraft_states", "aircraft_states_total", "states_per_s", "rollout_s", "update_s") + LEARNER_STATS
+
+
+def curve_columns(curve: tuple[CurveColumn, ...] = SEPARATION_CURVE) -> tuple[str, ...]:
+    """The header of a learning curve whose use case declares ``curve`` (default: the separation rates)."""
+    return CURVE_HEAD + tuple(c.name for c in curve) + CURVE_TAIL
+
+
+CURVE_COLUMNS = curve_columns()  # the corridor's (and every use case's that declares no curve of its own)
 
 
 @dataclass
@@ -202,11 +212,15 @@ def save_checkpoint(path: Path, learner: Any, state: TrainState, meta: dict[str,
     tmp.replace(path)
 
 
-def summarize_episodes(stats: list[EpisodeStats]) -> dict[str, Any]:
+def summarize_episodes(stats: list[EpisodeStats], curve: tuple[CurveColumn, ...] = SEPARATION_CURVE
+                       ) -> dict[str, Any]:
+    """The iteration's (or the baseline's) means: reward per aircraft, the use case's ``curve`` columns
+    (those of each episode left out), aircraft-states, environment steps, simulated and wall seconds."""
     rewards = np.array([s.reward_per_aircraft for s in stats])
+    means = {c.name: float(np.mean([c.value(s.metrics, s.aircraft) for s in stats]))
+             for c in curve if not c.each_episode}
     return {"episodes": len(stats), "reward_mean": float(rewards.mean()), "reward_std": float(rewards.std()),
-            "nmac_per_aircraft": float(np.mean([s.nmac_events / max(s.aircraft, 1) for s in stats])),
-            "lowc_per_aircraft": float(np.mean([s.lowc_events / max(s.aircraft, 1) for s in stats])),
+            **means,
             "aircraft_states": int(sum(s.transitions for s in stats)),
             "env_steps": int(sum(s.env_steps for s in stats)),
             "sim_s": float(sum(s.sim_s for s in stats)), "wall_s": float(sum(s.wall_s for s in stats))}
@@ -216,27 +230,53 @@ def _fmt(x: float) -> str:
     return f"{x:.6g}"
 
 
-class CurveWriter:
-    """Appends rows to learning_curve.csv (the header once)."""
+def _curve_text(means: dict[str, Any], curve: tuple[CurveColumn, ...], sep: str = ", ") -> str:
+    """The use case's mean curve columns for a log line (``, nmac_per_aircraft 0.0100, ...``)."""
+    return "".join(f"{sep}{c.name} {means[c.name]:.4f}" for c in curve if not c.each_episode)
 
-    def __init__(self, path: Path):
+
+def curve_row_values(stats: list[EpisodeStats], curve: tuple[CurveColumn, ...], means: dict[str, Any]
+                     ) -> dict[str, str]:
+    """The use case's curve columns of one iteration: the means of ``means`` (:func:`summarize_episodes`)
+    and each episode's values, ``;``-separated."""
+    return {c.name: ";".join(_fmt(c.value(s.metrics, s.aircraft)) for s in stats) if c.each_episode
+            else _fmt(means[c.name]) for c in curve}
+
+
+def _header(path: Path) -> list[str] | None:
+    with open(path, newline="") as fh:
+        return next(csv.reader(fh), None)
+
+
+class CurveWriter:
+    """Appends rows to learning_curve.csv (the header once).
+
+    A file that exists keeps its own header (a run resumed, or a curve written before its use case
+    declared its own columns): rows are written under it, unknown columns left out.
+    """
+
+    def __init__(self, path: Path, columns: tuple[str, ...] = CURVE_COLUMNS):
         self.path = path
-        if not path.exists():
+        header = _header(path) if path.exists() else None
+        if not header:
             with open(path, "w", newline="") as fh:
-                csv.writer(fh).writerow(CURVE_COLUMNS)
+                csv.writer(fh).writerow(columns)
+        self.columns = tuple(header) if header else columns
 
     def write(self, row: dict[str, Any]) -> None:
         with open(self.path, "a", newline="") as fh:
-            csv.DictWriter(fh, CURVE_COLUMNS, restval="", extrasaction="ignore").writerow(row)
+            csv.DictWriter(fh, self.columns, restval="", extrasaction="ignore").writerow(row)
 
 
 def copy_curve(src: Path, dst: Path, upto: int) -> None:
-    """The rows of a previous run's curve up to iteration ``upto`` (resumed runs)."""
+    """The rows of a previous run's curve up to iteration ``upto`` (resumed runs), under its header."""
     if not src.exists():
         return
     with open(src, newline="") as fh:
-        rows = [r for r in csv.DictReader(fh) if int(r["iteration"]) <= upto]
-    writer = CurveWriter(dst)
+        reader = csv.DictReader(fh)
+        rows = [r for r in reader if int(r["iteration"]) <= upto]
+        columns = tuple(reader.fieldnames or CURVE_COLUMNS)
+    writer = CurveWriter(dst, columns)
     for r in rows:
         writer.write(r)
 
@@ -250,10 +290,12 @@ def discard_after(run_dir: Path, iteration: int) -> None:
     curve = run_dir / "learning_curve.csv"
     if curve.exists():
         with open(curve, newline="") as fh:
-            rows = [r for r in csv.DictReader(fh) if int(r["iteration"]) <= iteration]
+            reader = csv.DictReader(fh)
+            rows = [r for r in reader if int(r["iteration"]) <= iteration]
+            columns = list(reader.fieldnames or CURVE_COLUMNS)
         tmp = curve.with_suffix(".tmp")
         with open(tmp, "w", newline="") as fh:
-            writer = csv.DictWriter(fh, CURVE_COLUMNS, restval="", extrasaction="ignore")
+            writer = csv.DictWriter(fh, columns, restval="", extrasaction="ignore")
             writer.writeheader()
             writer.writerows(rows)
         tmp.replace(curve)
@@ -347,7 +389,8 @@ def run_training(cfg: DictConfig, run_dir: str | Path) -> dict[str, Any]:
     budget = tc.get("aircraft_states")  # stop once this many aircraft-states were collected (equal budgets)
     if max_iter is None and hours is None and budget is None:
         max_iter = 100
-    curve = CurveWriter(run_dir / "learning_curve.csv")
+    columns = usecase_spec(env.usecase).curve
+    curve = CurveWriter(run_dir / "learning_curve.csv", curve_columns(columns))
     actors = {"policy": learner.actor_spec(str(algo.kind)), "unequipped": {"kind": "unequipped"}}
     log.info("training %s on %s with %s, device %s; output in %s", algo.name, Path(env.scenario).name,
              f"{n_workers} Ray workers" if n_workers else "an in-process worker", device, run_dir)
@@ -360,11 +403,11 @@ def run_training(cfg: DictConfig, run_dir: str | Path) -> dict[str, Any]:
             seeds = [episode_seed(int(cfg.seed), 0, k % slots, k // slots) for k in range(int(tc.baseline_episodes))]
             lists = [seeds[w::slots] for w in range(slots)]
             base = [s for part in pool.collect(lists, "unequipped", record=False) for s in part]
-            base_summary = summarize_episodes(base)
+            base_summary = summarize_episodes(base, columns)
             (run_dir / "baseline.json").write_text(json.dumps({"policy": "unequipped", **base_summary,
                                                                 "seeds": seeds}, indent=2) + "\n")
-            log.info("unequipped baseline: reward/aircraft %.4f, NMAC/aircraft %.4f over %d episodes",
-                     base_summary["reward_mean"], base_summary["nmac_per_aircraft"], len(base))
+            log.info("unequipped baseline: reward/aircraft %.4f%s over %d episodes", base_summary["reward_mean"],
+                     _curve_text(base_summary, columns), len(base))
         t_train = time.perf_counter()  # throughput clock: iterations only (not Ray start-up nor baseline)
 
         def may_start(done_iterations: int, collected: int) -> str | None:
@@ -391,7 +434,7 @@ def run_training(cfg: DictConfig, run_dir: str | Path) -> dict[str, Any]:
             results = pool.wait(pending)
             batches: list[EpisodeBatch] = [b for part in results for b in part]
             t1 = time.perf_counter()
-            ep = summarize_episodes([b.stats for b in batches])
+            ep = summarize_episodes([b.stats for b in batches], columns)
             pending = None
             if overlap:
                 # The workers play the next iteration with the weights before this update while the
@@ -414,10 +457,7 @@ def run_training(cfg: DictConfig, run_dir: str | Path) -> dict[str, Any]:
                    "episodes": len(batches), "reward_mean": _fmt(ep["reward_mean"]),
                    "reward_std": _fmt(ep["reward_std"]),
                    "episode_rewards": ";".join(_fmt(b.stats.reward_per_aircraft) for b in batches),
-                   "nmac_per_aircraft": _fmt(ep["nmac_per_aircraft"]),
-                   "lowc_per_aircraft": _fmt(ep["lowc_per_aircraft"]),
-                   "episode_nmac_per_aircraft": ";".join(_fmt(b.stats.nmac_events / max(b.stats.aircraft, 1))
-                                                         for b in batches),
+                   **curve_row_values([b.stats for b in batches], columns, ep),
                    "aircraft_states": ep["aircraft_states"], "aircraft_states_total": state.transitions,
                    "states_per_s": _fmt(ep["aircraft_states"] / max(t2 - t0, 1e-9)), "rollout_s": _fmt(t1 - t0),
                    "update_s": _fmt(t2 - t1)}
@@ -430,9 +470,9 @@ def run_training(cfg: DictConfig, run_dir: str | Path) -> dict[str, Any]:
             if improved:
                 state.best, state.best_iteration = roll, it
                 save_checkpoint(ckpt_dir / "best.pt", learner, state, {**meta, **extra})
-            log.info("it %d | episodes %d | reward/ac %.4f | NMAC/ac %.4f | LoWC/ac %.4f | states %d | %.0f states/s"
+            log.info("it %d | episodes %d | reward/ac %.4f%s | states %d | %.0f states/s"
                      " | rollout %.1fs update %.1fs | rolling(%d) %.4f%s", it, state.episodes, ep["reward_mean"],
-                     ep["nmac_per_aircraft"], ep["lowc_per_aircraft"], ep["aircraft_states"],
+                     _curve_text(ep, columns, " | "), ep["aircraft_states"],
                      ep["aircraft_states"] / max(t2 - t0, 1e-9), t1 - t0, t2 - t1, window, roll,
                      " *best*" if improved else "")
             if int(tc.checkpoint_every) > 0 and it % int(tc.checkpoint_every) == 0:
