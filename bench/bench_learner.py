@@ -53,21 +53,19 @@ BATCH_FIELDS = ("values", "obs_idx", "next_idx", "actions", "logp", "rewards", "
 
 def paper_env(scenario: str) -> Any:
     """The training environment of ``aamgym train scenario=<scenario>`` (the paper's use case)."""
-    from hydra import compose, initialize_config_module
-
+    from rlbridge.experiment.configstore import compose_config
     from rlbridge.experiment.train import env_spec_from
 
-    with initialize_config_module("rlbridge.conf", version_base="1.3"):
-        return env_spec_from(compose("config", overrides=[f"scenario={scenario}"]))
+    return env_spec_from(compose_config("config", overrides=[f"scenario={scenario}"]))
 
 
 def algorithm(name: str) -> tuple[str, dict[str, Any], str]:
     """(kind, params, label) of ``rlbridge/conf/algorithm/<name>.yaml``."""
-    from hydra import compose, initialize_config_module
     from omegaconf import OmegaConf
 
-    with initialize_config_module("rlbridge.conf", version_base="1.3"):
-        algo = compose("config", overrides=[f"algorithm={name}"]).algorithm
+    from rlbridge.experiment.configstore import compose_config
+
+    algo = compose_config("config", overrides=[f"algorithm={name}"]).algorithm
     params = dict(OmegaConf.to_container(algo.params, resolve=True))  # type: ignore[arg-type]
     return str(algo.kind), params, str(algo.label)
 

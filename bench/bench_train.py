@@ -77,14 +77,12 @@ def steady_rate(run: Path) -> float:
 
 def run_one(algorithm: str, path: str, iterations: int, scenario: str, out: Path, extra: list[str]) -> dict[str, Any]:
     """One training run of ``iterations`` iterations; its training summary plus the load around it."""
-    from hydra import compose, initialize_config_module
-
+    from rlbridge.experiment.configstore import compose_config
     from rlbridge.experiment.train import run_training
 
     overrides = [f"algorithm={algorithm}", f"scenario={scenario}", f"train.iterations={iterations}",
                  "train.baseline_episodes=0", "train.checkpoint_every=0", "seed=0", *path_overrides(path, algorithm), *extra]
-    with initialize_config_module("rlbridge.conf", version_base="1.3"):
-        cfg = compose("config", overrides=overrides)
+    cfg = compose_config("config", overrides=overrides)
     load0 = os.getloadavg()
     t0 = time.perf_counter()
     run = out / f"{algorithm}_{path}"

@@ -14,7 +14,6 @@ BlueSky itself (``backend="bluesky"``, :mod:`rlbridge.backends`).
 
 from __future__ import annotations
 
-import functools
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
@@ -71,6 +70,8 @@ class AamParallelEnv(ParallelEnv):
         self._seed_rng = np.random.default_rng()
         self.last_result: StepResult | None = None
         self._renderer: EnvRenderer | None = None
+        self._observation_spaces: dict[str, gym.Space] = {}
+        self._action_spaces: dict[str, gym.Space] = {}
         if self.render_mode is not None:
             text = getattr(self.core, "text", None)
             if text is None:
@@ -78,13 +79,17 @@ class AamParallelEnv(ParallelEnv):
                 text = path.read_text(encoding="utf-8", errors="replace") if path is not None else ""
             self._renderer = EnvRenderer(self.core, text, self.render_mode, render_size, viewer_port)
 
-    @functools.cache
+    # Each agent's spaces are built on first use and kept on the instance (the same object on every
+    # call); a functools.cache on the method, keyed by self, kept every env ever made alive.
     def observation_space(self, agent: str) -> gym.Space:
-        return self._usecase.observation_space()
+        if agent not in self._observation_spaces:
+            self._observation_spaces[agent] = self._usecase.observation_space()
+        return self._observation_spaces[agent]
 
-    @functools.cache
     def action_space(self, agent: str) -> gym.Space:
-        return self._usecase.action_space()
+        if agent not in self._action_spaces:
+            self._action_spaces[agent] = self._usecase.action_space()
+        return self._action_spaces[agent]
 
     def reset(self, seed: int | None = None, options: dict[str, Any] | None = None):
         if seed is not None:

@@ -57,8 +57,8 @@ class AamMultiAgentEnv(MultiAgentEnv):
             raise ValueError(f"scenario {scenario} creates no aircraft")
         # Every agent of a use case shares its spaces; agents that join possible_agents later
         # (MCRE, PCALL, SCHEDULE) get them through get_observation_space / get_action_space.
-        self._obs_space: gym.Space = self.env.observation_space(self.possible_agents[0])
-        self._act_space: gym.Space = self.env.action_space(self.possible_agents[0])
+        self._obs_space: gym.Space = self.env.observation_space(str(self.possible_agents[0]))
+        self._act_space: gym.Space = self.env.action_space(str(self.possible_agents[0]))
         self._discrete = isinstance(self._act_space, gym.spaces.Discrete)
         self.observation_spaces = {a: self._obs_space for a in self.possible_agents}
         self.action_spaces = {a: self._act_space for a in self.possible_agents}

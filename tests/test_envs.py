@@ -97,3 +97,20 @@ def test_bad_arguments():
         rlbridge.parallel_env(SCN, backend="carrier-pigeon")
     with pytest.raises(ValueError, match="ego"):
         gymnasium.make(rlbridge.ENV_ID, scenario=SCN, ego="NOPE")
+
+
+def test_a_dropped_env_is_collected():
+    # Regression: functools.cache on observation_space/action_space held every env (self is in the key).
+    import gc
+    import weakref
+
+    env = rlbridge.parallel_env(SCN, time_limit_s=60)
+    env.reset(seed=1)
+    agent = env.agents[0]
+    assert env.observation_space(agent) is env.observation_space(agent)  # cached per instance
+    assert env.action_space(agent) is env.action_space(agent)
+    ref = weakref.ref(env)
+    env.close()
+    del env
+    gc.collect()
+    assert ref() is None

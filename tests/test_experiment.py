@@ -12,9 +12,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 import torch
-from hydra import compose, initialize_config_module
 
 from rlbridge.agents import make_learner, usecase_dims
+from rlbridge.experiment.configstore import compose_config
 from rlbridge.experiment.train import TrainState, find_checkpoint, load_checkpoint, run_training, save_checkpoint
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -25,8 +25,7 @@ QUICK = [f"scenario={TINY}", "workers=0", "env.time_limit_s=600", "usecase.param
 
 
 def compose_train(overrides: list[str]):
-    with initialize_config_module("rlbridge.conf", version_base="1.3"):
-        return compose("config", overrides=QUICK + overrides)
+    return compose_config("config", overrides=QUICK + overrides)
 
 
 def cli(args: list[str], cwd: Path, timeout: float = 300) -> subprocess.CompletedProcess:
@@ -51,9 +50,8 @@ def trained_run(tmp_path_factory) -> Path:
 
 # --------------------------------------------------------------------------- configuration
 def test_defaults_are_the_papers_tables():
-    with initialize_config_module("rlbridge.conf", version_base="1.3"):
-        cfg = compose("config")
-        ddqn = compose("config", overrides=["algorithm=ddqn"])
+    cfg = compose_config("config")
+    ddqn = compose_config("config", overrides=["algorithm=ddqn"])
     assert cfg.algorithm.name == "d2mava_a" and cfg.usecase.name == "corridor_sa"
     p = cfg.algorithm.params
     assert (p.lr, p.batch_size, p.epochs, p.ent_coef, p.clip, p.hidden, p.gamma, p.lam, p.leaky_slope, p.shared) == \
@@ -64,8 +62,7 @@ def test_defaults_are_the_papers_tables():
     # RLlib's DQN as the paper ran it: a step per 4 x 40 environment steps, counts in environment steps.
     assert (q.schedule, q.rollout_fragment_length, q.rllib_num_workers, q.learning_starts) == ("rllib", 4, 40, 1000)
     assert ddqn.algorithm.label == "DDQN (RLlib update ratio)"
-    with initialize_config_module("rlbridge.conf", version_base="1.3"):
-        old = compose("config", overrides=["algorithm=ddqn_per_transition"]).algorithm
+    old = compose_config("config", overrides=["algorithm=ddqn_per_transition"]).algorithm
     assert (old.params.schedule, old.params.train_freq, old.params.learning_starts) == ("per_transition", 4, 10000)
     assert old.label == "DDQN (1 step per 4 transitions)"
     u = cfg.usecase.params
@@ -349,9 +346,8 @@ def test_evaluation_keeps_the_training_runs_time_limit_and_dt_unless_overridden(
     from rlbridge.experiment.evaluate import evaluation_env
 
     trained = EnvSpec(TINY, params={"n_intruders": 4}, time_limit_s=600.0, dt=0.5)
-    with initialize_config_module("rlbridge.conf", version_base="1.3"):
-        default = compose("evaluate", overrides=["run=x"])
-        override = compose("evaluate", overrides=["run=x", "env.time_limit_s=90", "env.dt=0.25"])
+    default = compose_config("evaluate", overrides=["run=x"])
+    override = compose_config("evaluate", overrides=["run=x", "env.time_limit_s=90", "env.dt=0.25"])
     env = evaluation_env(default, trained)
     assert (env.time_limit_s, env.dt, env.scenario) == (600.0, 0.5, TINY)
     assert env.params["n_intruders"] == 4 and env.params["alt_noise_ft"] == 100.0
@@ -370,10 +366,9 @@ def test_d2mava_on_a_flat_observation_is_refused_naming_the_algorithm_that_fits(
 
 def test_ddqn_trains_on_a_use_case_with_one_observation_format(tmp_path):
     # reach_destination has no obs_format parameter: DDQN's flat observation is its only one.
-    with initialize_config_module("rlbridge.conf", version_base="1.3"):
-        cfg = compose("config", overrides=["usecase=reach_destination", "algorithm=ddqn_per_transition",
-                                            f"scenario={TINY}", "workers=0", "train.iterations=2",
-                                            "env.time_limit_s=300", "train.baseline_episodes=1"])
+    cfg = compose_config("config", overrides=["usecase=reach_destination", "algorithm=ddqn_per_transition",
+                                               f"scenario={TINY}", "workers=0", "train.iterations=2",
+                                               "env.time_limit_s=300", "train.baseline_episodes=1"])
     run_training(cfg, tmp_path)
     rows = list(csv.DictReader((tmp_path / "learning_curve.csv").open()))
     assert len(rows) == 2 and int(rows[-1]["aircraft_states_total"]) > 0

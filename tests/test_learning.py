@@ -15,8 +15,8 @@ from __future__ import annotations
 from pathlib import Path
 
 import pytest
-from hydra import compose, initialize_config_module
 
+from rlbridge.experiment.configstore import compose_config
 from rlbridge.experiment.evaluate import run_evaluation
 from rlbridge.experiment.train import run_training
 
@@ -40,11 +40,10 @@ TINY_HYPERPARAMETERS = {
 @pytest.mark.parametrize("algorithm", ["d2mava_a", "ddqn"])
 def test_trained_policy_has_fewer_nmacs_than_unequipped(tmp_path, algorithm, mode):
     # overlap: every iteration is played with the weights one update behind (docs/algorithms.md).
-    with initialize_config_module("rlbridge.conf", version_base="1.3"):
-        cfg = compose("config", overrides=[f"algorithm={algorithm}", f"train.mode={mode}", *COMMON,
-                                           *TINY_HYPERPARAMETERS[algorithm]])
-        ecfg = compose("evaluate", overrides=[f"run={tmp_path / 'train'}", "workers=0", "episodes=5", "seed=1000",
-                                              "env.time_limit_s=600", "baselines=[]"])
+    cfg = compose_config("config", overrides=[f"algorithm={algorithm}", f"train.mode={mode}", *COMMON,
+                                              *TINY_HYPERPARAMETERS[algorithm]])
+    ecfg = compose_config("evaluate", overrides=[f"run={tmp_path / 'train'}", "workers=0", "episodes=5", "seed=1000",
+                                                 "env.time_limit_s=600", "baselines=[]"])
     run_training(cfg, tmp_path / "train")
     ev = run_evaluation(ecfg, tmp_path / "eval")
     learned, base = ev["policies"][algorithm], ev["policies"]["unequipped"]

@@ -6,8 +6,7 @@ import csv
 import json
 from pathlib import Path
 
-from hydra import compose, initialize_config_module
-
+from rlbridge.experiment.configstore import compose_config
 from rlbridge.experiment.evaluate import run_evaluation
 from rlbridge.experiment.report import make_report
 from rlbridge.experiment.train import run_training
@@ -25,10 +24,9 @@ def rows(path: Path) -> list[list[str]]:
 def test_paper_and_v1_evaluations_get_separate_tables(tmp_path):
     evals = []
     for usecase in ("corridor_sa", "corridor_sa_v1"):
-        with initialize_config_module("rlbridge.conf", version_base="1.3"):
-            cfg = compose("config", overrides=[*QUICK, f"usecase={usecase}"])
-            ecfg = compose("evaluate", overrides=[f"run={tmp_path / usecase}", "workers=0", "episodes=2",
-                                                  "baselines=[mvp_speed]"])
+        cfg = compose_config("config", overrides=[*QUICK, f"usecase={usecase}"])
+        ecfg = compose_config("evaluate", overrides=[f"run={tmp_path / usecase}", "workers=0", "episodes=2",
+                                                     "baselines=[mvp_speed]"])
         run_training(cfg, tmp_path / usecase)
         run_evaluation(ecfg, tmp_path / f"eval_{usecase}")
         evals.append(tmp_path / f"eval_{usecase}")

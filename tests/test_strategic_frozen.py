@@ -6,9 +6,9 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
-from hydra import compose, initialize_config_module
 
 from rlbridge.core import EpisodeCore
+from rlbridge.experiment.configstore import compose_config
 from rlbridge.experiment.train import run_training
 
 DATA = Path(__file__).parent / "data"
@@ -19,8 +19,7 @@ QUICK_DDQN = ["workers=0", "algorithm=ddqn", "train.iterations=1", "train.baseli
 
 
 def train(run: Path, overrides: list[str]) -> Path:
-    with initialize_config_module("rlbridge.conf", version_base="1.3"):
-        cfg = compose("config", overrides=QUICK_DDQN + overrides)
+    cfg = compose_config("config", overrides=QUICK_DDQN + overrides)
     run_training(cfg, run)
     return run
 

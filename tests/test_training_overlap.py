@@ -12,12 +12,12 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from hydra import compose, initialize_config_module
 from omegaconf import OmegaConf
 
 from rlbridge.agents import make_learner, usecase_dims
 from rlbridge.agents.core import episode_seed
 from rlbridge.agents.rollout import EnvSpec, RolloutWorker
+from rlbridge.experiment.configstore import compose_config
 from rlbridge.experiment.train import learner_threads, load_checkpoint, run_training
 
 TINY = str(Path(__file__).parent / "data" / "tiny_conflict.scn")
@@ -27,8 +27,7 @@ QUICK = [f"scenario={TINY}", "workers=0", "env.time_limit_s=600", "usecase.param
 
 
 def compose_train(overrides: list[str]):
-    with initialize_config_module("rlbridge.conf", version_base="1.3"):
-        return compose("config", overrides=QUICK + overrides)
+    return compose_config("config", overrides=QUICK + overrides)
 
 
 def episode_rewards(run: Path) -> list[list[float]]:

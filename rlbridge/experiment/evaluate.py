@@ -397,6 +397,10 @@ def hydra_entry() -> None:
     import hydra
     from hydra.core.hydra_config import HydraConfig
 
+    from rlbridge.experiment.configstore import register_configs
+
+    register_configs()
+
     @hydra.main(config_path="../conf", config_name="evaluate", version_base="1.3")
     def _main(cfg: DictConfig) -> None:
         run_evaluation(cfg, HydraConfig.get().runtime.output_dir)

@@ -87,7 +87,8 @@ def check_job(config_name: str, overrides: list[str]) -> list[str]:
     from omegaconf import OmegaConf
     from omegaconf.errors import OmegaConfBaseException
 
-    cfg = compose_leniently(config_name, overrides)
+    refused: dict[str, Any] = {}
+    cfg = compose_leniently(config_name, overrides, refused)
     if isinstance(cfg, str):
         return [cfg]
     try:
@@ -96,29 +97,46 @@ def check_job(config_name: str, overrides: list[str]) -> list[str]:
         container = OmegaConf.to_container(cfg, resolve=False)
     assert isinstance(container, dict)
     plain: dict[str, Any] = {str(k): v for k, v in container.items()}
+    for key, value in refused.items():  # the schema check words what the structured config refused
+        *path, name = key.split(".")
+        node = plain
+        for part in path:
+            node = node.setdefault(part, {})
+        node[name] = value
     problems = check_config(plain, SCHEMAS[config_name], params_classes(plain))
     if problems:
         return problems
     return params_problems(plain) + needs(config_name, plain)
 
 
-def compose_leniently(config_name: str, overrides: list[str]) -> Any:
+def compose_leniently(config_name: str, overrides: list[str], refused: dict[str, Any] | None = None) -> Any:
     """Hydra's composition of the job, or its error in one line.
 
     Hydra refuses to override a key the YAML lacks (``train.foo=1``); such an override is
     composed again as an addition (``+train.foo=1``), so that the schema check names the key
     and lists the keys of its section, the learner's or the use case's dataclass included.
+    A value the parameter dataclass's structured config refuses (``algorithm.params.lr=abc``)
+    is left out of the composition and put in ``refused`` (key: the value as Hydra parsed it),
+    for the schema check to word.
     """
-    from hydra import compose, initialize_config_module
     from hydra.errors import HydraException
     from omegaconf.errors import OmegaConfBaseException
 
+    from rlbridge.experiment.configstore import compose_config
+
     overrides = list(overrides)
-    for _ in range(len(overrides) + 1):
+    for _ in range(2 * len(overrides) + 1):
         try:
-            with initialize_config_module("rlbridge.conf", version_base="1.3"):
-                return compose(config_name, overrides=overrides)
+            return compose_config(config_name, overrides)
         except (HydraException, OmegaConfBaseException) as exc:
+            typed = refused_override(exc, overrides)
+            if typed is not None:
+                index, value = typed
+                field = overrides.pop(index).lstrip("+~").split("=", 1)[0]
+                if refused is None:
+                    return f"{field}={value}: {typed_override_error(exc)}"
+                refused[field] = value
+                continue
             text = str(exc)
             key = text.split("'")[1] if text.startswith("Could not override '") else None
             at = [i for i, o in enumerate(overrides) if key is not None and o.split("=", 1)[0] == key]
@@ -127,6 +145,33 @@ def compose_leniently(config_name: str, overrides: list[str]) -> Any:
             for i in at:
                 overrides[i] = "+" + overrides[i]
     return "; ".join(overrides)  # not reached: each pass turns at least one override into an addition
+
+
+def typed_override_error(exc: BaseException) -> str | None:
+    """What the field's type refused (OmegaConf's words), when a structured config refused an override."""
+    from omegaconf.errors import ValidationError
+
+    cause = exc.__cause__
+    if not isinstance(cause, ValidationError) or not getattr(cause, "full_key", None):
+        return None
+    return str(getattr(cause, "msg", "") or cause).splitlines()[0].strip()
+
+
+def refused_override(exc: BaseException, overrides: list[str]) -> tuple[int, Any] | None:
+    """(index in ``overrides``, parsed value) of the override whose value a structured config refused.
+
+    Hydra says only "Error merging override KEY=VALUE"; its cause (OmegaConf's ``ValidationError``)
+    names the field, e.g. ``algorithm.params.lr`` or ``usecase.params.alt_noise_lanes_ft[1]``.
+    """
+    from hydra.core.override_parser.overrides_parser import OverridesParser
+
+    if typed_override_error(exc) is None:
+        return None
+    full_key = str(getattr(exc.__cause__, "full_key", "")).split("[", 1)[0]
+    for i, text in enumerate(overrides):
+        if text.lstrip("+~").split("=", 1)[0] == full_key:
+            return i, OverridesParser.create().parse_override(text).value()
+    return None
 
 
 def one_line(text: str) -> str:

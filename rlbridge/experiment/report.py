@@ -339,7 +339,7 @@ def load_train_run(d: Path) -> TrainRun:
     curve = {k: np.array([float(r[k]) if r.get(k) not in (None, "") else np.nan for r in rows]) for k in numeric}
 
     def split(col: str) -> list[list[float]]:
-        return [[float(x) for x in r[col].split(";") if x] for r in rows]
+        return [[float(x) for x in (r.get(col) or "").split(";") if x] for r in rows]  # a use case's own curve
 
     summary = json.loads((d / "training_summary.json").read_text()) if (d / "training_summary.json").exists() else None
     baseline = json.loads((d / "baseline.json").read_text()) if (d / "baseline.json").exists() else None

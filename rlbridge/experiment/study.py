@@ -99,10 +99,9 @@ def estimate_hours(plan: StudyPlan, rates: dict[str, float]) -> dict[str, float]
 
 
 def _compose(name: str, overrides: list[str]) -> Any:
-    from hydra import compose, initialize_config_module
+    from rlbridge.experiment.configstore import compose_config
 
-    with initialize_config_module("rlbridge.conf", version_base="1.3"):
-        return compose(name, overrides=overrides)
+    return compose_config(name, overrides)
 
 
 def train_overrides(plan: StudyPlan, usecase: str, algo: str, seed: int) -> list[str]:

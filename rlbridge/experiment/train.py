@@ -42,6 +42,8 @@ from rlbridge.agents.capture import check_device
 from rlbridge.agents.core import episode_seed, rolling_mean
 from rlbridge.agents.rollout import EnvSpec, EpisodeBatch, EpisodeStats
 from rlbridge.experiment.workers import make_pool
+from rlbridge.usecases.registry import usecase_spec
+from rlbridge.usecases.spec import SEPARATION_CURVE, CurveColumn
 
 log = logging.getLogger("aamgym.train")
 
@@ -49,9 +51,17 @@ CHECKPOINT_FORMAT = 1
 TRAIN_MODES = ("serial", "overlap")
 LEARNER_STATS = ("policy_loss", "value_loss", "entropy", "approx_kl", "clip_fraction", "explained_variance",
                  "td_loss", "epsilon", "gradient_steps")
-CURVE_COLUMNS = ("iteration", "wall_s", "sim_s", "episodes", "reward_mean", "reward_std", "episode_rewards",
-                 "nmac_per_aircraft", "lowc_per_aircraft", "episode_nmac_per_aircraft", "aircraft_states",
-                 "aircraft_states_total", "states_per_s", "rollout_s", "update_s") + LEARNER_STATS
+# learning_curve.csv: these, the use case's own columns (UseCaseSpec.curve), then CURVE_TAIL.
+CURVE_HEAD = ("iteration", "wall_s", "sim_s", "episodes", "reward_mean", "reward_std", "episode_rewards")
+CURVE_TAIL = ("aircraft_states", "aircraft_states_total", "states_per_s", "rollout_s", "update_s") + LEARNER_STATS
+
+
+def curve_columns(curve: tuple[CurveColumn, ...] = SEPARATION_CURVE) -> tuple[str, ...]:
+    """The header of a learning curve whose use case declares ``curve`` (default: the separation rates)."""
+    return CURVE_HEAD + tuple(c.name for c in curve) + CURVE_TAIL
+
+
+CURVE_COLUMNS = curve_columns()  # the corridor's (and every use case's that declares no curve of its own)
 
 
 @dataclass
@@ -219,11 +229,15 @@ def save_checkpoint(path: Path, learner: Any, state: TrainState, meta: dict[str,
     tmp.replace(path)
 
 
-def summarize_episodes(stats: list[EpisodeStats]) -> dict[str, Any]:
+def summarize_episodes(stats: list[EpisodeStats], curve: tuple[CurveColumn, ...] = SEPARATION_CURVE
+                       ) -> dict[str, Any]:
+    """The iteration's (or the baseline's) means: reward per aircraft, the use case's ``curve`` columns
+    (those of each episode left out), aircraft-states, environment steps, simulated and wall seconds."""
     rewards = np.array([s.reward_per_aircraft for s in stats])
+    means = {c.name: float(np.mean([c.value(s.metrics, s.aircraft) for s in stats]))
+             for c in curve if not c.each_episode}
     return {"episodes": len(stats), "reward_mean": float(rewards.mean()), "reward_std": float(rewards.std()),
-            "nmac_per_aircraft": float(np.mean([s.nmac_events / max(s.aircraft, 1) for s in stats])),
-            "lowc_per_aircraft": float(np.mean([s.lowc_events / max(s.aircraft, 1) for s in stats])),
+            **means,
             "aircraft_states": int(sum(s.transitions for s in stats)),
             "env_steps": int(sum(s.env_steps for s in stats)),
             "sim_s": float(sum(s.sim_s for s in stats)), "wall_s": float(sum(s.wall_s for s in stats))}
@@ -233,27 +247,53 @@ def _fmt(x: float) -> str:
     return f"{x:.6g}"
 
 
-class CurveWriter:
-    """Appends rows to learning_curve.csv (the header once)."""
+def _curve_text(means: dict[str, Any], curve: tuple[CurveColumn, ...], sep: str = ", ") -> str:
+    """The use case's mean curve columns for a log line (``, nmac_per_aircraft 0.0100, ...``)."""
+    return "".join(f"{sep}{c.name} {means[c.name]:.4f}" for c in curve if not c.each_episode)
 
-    def __init__(self, path: Path):
+
+def curve_row_values(stats: list[EpisodeStats], curve: tuple[CurveColumn, ...], means: dict[str, Any]
+                     ) -> dict[str, str]:
+    """The use case's curve columns of one iteration: the means of ``means`` (:func:`summarize_episodes`)
+    and each episode's values, ``;``-separated."""
+    return {c.name: ";".join(_fmt(c.value(s.metrics, s.aircraft)) for s in stats) if c.each_episode
+            else _fmt(means[c.name]) for c in curve}
+
+
+def _header(path: Path) -> list[str] | None:
+    with open(path, newline="") as fh:
+        return next(csv.reader(fh), None)
+
+
+class CurveWriter:
+    """Appends rows to learning_curve.csv (the header once).
+
+    A file that exists keeps its own header (a run resumed, or a curve written before its use case
+    declared its own columns): rows are written under it, unknown columns left out.
+    """
+
+    def __init__(self, path: Path, columns: tuple[str, ...] = CURVE_COLUMNS):
         self.path = path
-        if not path.exists():
+        header = _header(path) if path.exists() else None
+        if not header:
             with open(path, "w", newline="") as fh:
-                csv.writer(fh).writerow(CURVE_COLUMNS)
+                csv.writer(fh).writerow(columns)
+        self.columns = tuple(header) if header else columns
 
     def write(self, row: dict[str, Any]) -> None:
         with open(self.path, "a", newline="") as fh:
-            csv.DictWriter(fh, CURVE_COLUMNS, restval="", extrasaction="ignore").writerow(row)
+            csv.DictWriter(fh, self.columns, restval="", extrasaction="ignore").writerow(row)
 
 
 def copy_curve(src: Path, dst: Path, upto: int) -> None:
-    """The rows of a previous run's curve up to iteration ``upto`` (resumed runs)."""
+    """The rows of a previous run's curve up to iteration ``upto`` (resumed runs), under its header."""
     if not src.exists():
         return
     with open(src, newline="") as fh:
-        rows = [r for r in csv.DictReader(fh) if int(r["iteration"]) <= upto]
-    writer = CurveWriter(dst)
+        reader = csv.DictReader(fh)
+        rows = [r for r in reader if int(r["iteration"]) <= upto]
+        columns = tuple(reader.fieldnames or CURVE_COLUMNS)
+    writer = CurveWriter(dst, columns)
     for r in rows:
         writer.write(r)
 
@@ -267,10 +307,12 @@ def discard_after(run_dir: Path, iteration: int) -> None:
     curve = run_dir / "learning_curve.csv"
     if curve.exists():
         with open(curve, newline="") as fh:
-            rows = [r for r in csv.DictReader(fh) if int(r["iteration"]) <= iteration]
+            reader = csv.DictReader(fh)
+            rows = [r for r in reader if int(r["iteration"]) <= iteration]
+            columns = list(reader.fieldnames or CURVE_COLUMNS)
         tmp = curve.with_suffix(".tmp")
         with open(tmp, "w", newline="") as fh:
-            writer = csv.DictWriter(fh, CURVE_COLUMNS, restval="", extrasaction="ignore")
+            writer = csv.DictWriter(fh, columns, restval="", extrasaction="ignore")
             writer.writeheader()
             writer.writerows(rows)
         tmp.replace(curve)
@@ -300,8 +342,29 @@ def code_version() -> dict[str, str]:
     return out
 
 
-def run_training(cfg: DictConfig, run_dir: str | Path) -> dict[str, Any]:
-    """Train ``cfg.algorithm`` on ``cfg.scenario``; everything goes to ``run_dir``."""
+@dataclass
+class TrainingRun:
+    """What :func:`build_training` sets up for a run: its configuration, learner, counters and files."""
+
+    cfg: DictConfig
+    run_dir: Path
+    device: str
+    n_workers: int
+    env: EnvSpec
+    learner: Any
+    state: TrainState
+    meta: dict[str, Any]
+    columns: tuple[CurveColumn, ...]  # the use case's learning-curve columns
+    overlap: bool
+    behaviour: Any = None  # overlap: the weights the next iteration is played with (None: the learner's)
+
+    @property
+    def ckpt_dir(self) -> Path:
+        return self.run_dir / "checkpoints"
+
+
+def build_training(cfg: DictConfig, run_dir: str | Path) -> TrainingRun:
+    """Resolve the device and workers, write the resolved configuration, build the learner, resume."""
     device = resolve_device(str(cfg.device))  # a clear error before anything starts
     n_workers = resolve_workers(cfg.workers, device)
     cfg.workers = n_workers  # the run's resolved configuration records the number (workers=auto)
@@ -321,178 +384,237 @@ def run_training(cfg: DictConfig, run_dir: str | Path) -> dict[str, Any]:
         raise ValueError(f"train.static_learner={static!r}: auto, true or false")
     learner = make_learner(str(algo.kind), params, dims, device, int(cfg.seed),
                            None if static == "auto" else static == "true")
-    state = TrainState()
     mode = str(tc.get("mode", "serial"))
     if mode not in TRAIN_MODES:
         raise ValueError(f"train.mode={mode!r}: one of {', '.join(TRAIN_MODES)}")
-    overlap = mode == "overlap"
-    resumed_behaviour: dict[str, np.ndarray] | None = None
     meta: dict[str, Any] = {
         "algorithm": {"name": str(algo.name), "kind": str(algo.kind), "label": str(algo.get("label", algo.name)),
                       "params": params},
         "dims": dims, "env": asdict(env), "seed": int(cfg.seed), "run_dir": str(run_dir.resolve()),
         "config": OmegaConf.to_container(cfg, resolve=True), "code": [code_version()]}
-    ckpt_dir = run_dir / "checkpoints"
+    run = TrainingRun(cfg, run_dir, device, n_workers, env, learner, TrainState(), meta,
+                      usecase_spec(env.usecase).curve, mode == "overlap")
     if tc.resume:
-        src = find_checkpoint(str(tc.resume), "last")
-        ckpt = load_checkpoint(src)
-        if ckpt["algorithm"]["kind"] != algo.kind:
-            raise ValueError(f"cannot resume a {ckpt['algorithm']['kind']} checkpoint as {algo.kind}")
-        learner.load_state_dict(ckpt["learner"])
-        torch.set_rng_state(ckpt["torch_rng"])
-        # Every code version that trained part of this run (a study resumed across commits lists each).
-        meta["code"] = [c for c in ckpt.get("code", []) if c != meta["code"][0]] + meta["code"]
-        state = TrainState(**ckpt["state"])
-        if overlap and "behaviour_weights" in ckpt:  # the weights the next iteration was to be played with
-            resumed_behaviour = {k: v.numpy() for k, v in ckpt["behaviour_weights"].items()}
-        src_run = Path(ckpt["run_dir"])
-        if src_run.resolve() == run_dir.resolve():
-            discard_after(run_dir, state.iteration)
-        else:
-            copy_curve(src_run / "learning_curve.csv", run_dir / "learning_curve.csv", state.iteration)
-            for name in ("baseline.json",):
-                if (src_run / name).exists():
-                    shutil.copy(src_run / name, run_dir / name)
-            if (src_run / "checkpoints" / "best.pt").exists():
-                ckpt_dir.mkdir(exist_ok=True)
-                shutil.copy(src_run / "checkpoints" / "best.pt", ckpt_dir / "best.pt")
-        log.info("resumed from %s at iteration %d (%d aircraft-states)", src, state.iteration, state.transitions)
-    slots = max(n_workers, 1)
-    epw = int(tc.episodes_per_worker)
-    max_iter = tc.iterations
-    hours = tc.hours
-    budget = tc.get("aircraft_states")  # stop once this many aircraft-states were collected (equal budgets)
-    if max_iter is None and hours is None and budget is None:
-        max_iter = 100
-    curve = CurveWriter(run_dir / "learning_curve.csv")
-    actors = {"policy": learner.actor_spec(str(algo.kind)), "unequipped": {"kind": "unequipped"}}
-    log.info("training %s on %s with %s, device %s; output in %s", algo.name, Path(env.scenario).name,
-             f"{n_workers} Ray workers" if n_workers else "an in-process worker", device, run_dir)
-    pool = make_pool(n_workers, env, actors, cfg.ray, 1)  # one PyTorch thread per worker (one CPU each)
-    t_start = time.perf_counter()
+        resume_training(run, str(tc.resume))
+    return run
+
+
+def resume_training(run: TrainingRun, resume: str) -> None:
+    """Continue from the last checkpoint of ``resume``: weights, RNG, counters, and the run's files."""
+    algo = run.cfg.algorithm
+    src = find_checkpoint(resume, "last")
+    ckpt = load_checkpoint(src)
+    if ckpt["algorithm"]["kind"] != algo.kind:
+        raise ValueError(f"cannot resume a {ckpt['algorithm']['kind']} checkpoint as {algo.kind}")
+    run.learner.load_state_dict(ckpt["learner"])
+    torch.set_rng_state(ckpt["torch_rng"])
+    # Every code version that trained part of this run (a study resumed across commits lists each).
+    run.meta["code"] = [c for c in ckpt.get("code", []) if c != run.meta["code"][0]] + run.meta["code"]
+    run.state = state = TrainState(**ckpt["state"])
+    if run.overlap and "behaviour_weights" in ckpt:  # the weights the next iteration was to be played with
+        run.behaviour = {k: v.numpy() for k, v in ckpt["behaviour_weights"].items()}
+    src_run, run_dir = Path(ckpt["run_dir"]), run.run_dir
+    if src_run.resolve() == run_dir.resolve():
+        discard_after(run_dir, state.iteration)
+    else:
+        copy_curve(src_run / "learning_curve.csv", run_dir / "learning_curve.csv", state.iteration)
+        for name in ("baseline.json",):
+            if (src_run / name).exists():
+                shutil.copy(src_run / name, run_dir / name)
+        if (src_run / "checkpoints" / "best.pt").exists():
+            run.ckpt_dir.mkdir(exist_ok=True)
+            shutil.copy(src_run / "checkpoints" / "best.pt", run.ckpt_dir / "best.pt")
+    log.info("resumed from %s at iteration %d (%d aircraft-states)", src, state.iteration, state.transitions)
+
+
+def play_baseline(run: TrainingRun, pool: Any) -> None:
+    """The unequipped episodes on the training scenario (``baseline.json``), the curves' reference; once."""
+    tc, run_dir = run.cfg.train, run.run_dir
+    if int(tc.baseline_episodes) <= 0 or (run_dir / "baseline.json").exists():
+        return
+    slots = max(run.n_workers, 1)
+    seeds = [episode_seed(int(run.cfg.seed), 0, k % slots, k // slots) for k in range(int(tc.baseline_episodes))]
+    lists = [seeds[w::slots] for w in range(slots)]
+    base = [s for part in pool.collect(lists, "unequipped", record=False) for s in part]
+    base_summary = summarize_episodes(base, run.columns)
+    (run_dir / "baseline.json").write_text(json.dumps({"policy": "unequipped", **base_summary,
+                                                        "seeds": seeds}, indent=2) + "\n")
+    log.info("unequipped baseline: reward/aircraft %.4f%s over %d episodes", base_summary["reward_mean"],
+             _curve_text(base_summary, run.columns), len(base))
+
+
+class Budget:
+    """When the run stops: ``train.iterations``, ``train.aircraft_states``, ``train.hours`` (100 iterations
+    when none is set)."""
+
+    def __init__(self, tc: Any, t_start: float):
+        self.max_iter = tc.iterations
+        self.hours = tc.hours
+        self.states = tc.get("aircraft_states")  # stop once this many aircraft-states were collected
+        if self.max_iter is None and self.hours is None and self.states is None:
+            self.max_iter = 100
+        self.t_start = t_start
+
+    def may_start(self, done_iterations: int, collected: int) -> str | None:
+        """None if iteration ``done_iterations + 1`` may start, else why the run stops."""
+        if self.max_iter is not None and done_iterations >= int(self.max_iter):
+            return "iterations"
+        if self.states is not None and collected >= int(self.states):
+            return "aircraft_states"
+        if self.hours is not None and time.perf_counter() - self.t_start >= float(self.hours) * 3600.0:
+            return "hours"
+        return None
+
+
+def record_iteration(run: TrainingRun, curve: CurveWriter, batches: list[EpisodeBatch], ep: dict[str, Any],
+                     lstats: dict[str, Any], times: tuple[float, float, float], behaviour: Any) -> None:
+    """After iteration ``run.state.iteration``'s update: its curve row, log line and checkpoints.
+
+    ``times``: the clock when its episodes were submitted (or the previous update ended), when they
+    came back and when the update ended [s]. ``best.pt`` when the rolling mean of the reward reaches
+    a new maximum, ``last.pt`` every ``train.checkpoint_every`` iterations.
+    """
+    state, tc, it = run.state, run.cfg.train, run.state.iteration
+    t0, t1, t2 = times
+    row = {"iteration": it, "wall_s": _fmt(state.wall_s), "sim_s": _fmt(ep["sim_s"]),
+           "episodes": len(batches), "reward_mean": _fmt(ep["reward_mean"]),
+           "reward_std": _fmt(ep["reward_std"]),
+           "episode_rewards": ";".join(_fmt(b.stats.reward_per_aircraft) for b in batches),
+           **curve_row_values([b.stats for b in batches], run.columns, ep),
+           "aircraft_states": ep["aircraft_states"], "aircraft_states_total": state.transitions,
+           "states_per_s": _fmt(ep["aircraft_states"] / max(t2 - t0, 1e-9)), "rollout_s": _fmt(t1 - t0),
+           "update_s": _fmt(t2 - t1)}
+    row.update({k: _fmt(v) for k, v in lstats.items() if k in LEARNER_STATS})
+    curve.write(row)
+    extra = {"behaviour_weights": behaviour} if run.overlap else {}
+    window = int(tc.best_window)
+    roll = float(rolling_mean(state.rewards, window)[-1])
+    improved = len(state.rewards) >= window and roll > state.best
+    if improved:
+        state.best, state.best_iteration = roll, it
+        save_checkpoint(run.ckpt_dir / "best.pt", run.learner, state, {**run.meta, **extra})
+    log.info("it %d | episodes %d | reward/ac %.4f%s | states %d | %.0f states/s"
+             " | rollout %.1fs update %.1fs | rolling(%d) %.4f%s", it, state.episodes, ep["reward_mean"],
+             _curve_text(ep, run.columns, " | "), ep["aircraft_states"],
+             ep["aircraft_states"] / max(t2 - t0, 1e-9), t1 - t0, t2 - t1, window, roll,
+             " *best*" if improved else "")
+    if int(tc.checkpoint_every) > 0 and it % int(tc.checkpoint_every) == 0:
+        save_checkpoint(run.ckpt_dir / "last.pt", run.learner, state, {**run.meta, **extra})
+
+
+def train_loop(run: TrainingRun, pool: Any, budget: Budget, curve: CurveWriter) -> str:
+    """Play and learn until the budget says stop; returns why the run stopped.
+
+    serial: the workers play iteration k with the learner's weights, then the learner updates.
+    overlap: the workers play iteration k + 1 with the weights before update k while the learner
+    updates (the episodes of iteration k come from the policy of update k - 2).
+    """
+    state, learner, cfg, overlap = run.state, run.learner, run.cfg, run.overlap
+    slots, epw = max(run.n_workers, 1), int(cfg.train.episodes_per_worker)
     wall0 = state.wall_s
-    reason = "iterations"
-    try:
-        if int(tc.baseline_episodes) > 0 and not (run_dir / "baseline.json").exists():
-            seeds = [episode_seed(int(cfg.seed), 0, k % slots, k // slots) for k in range(int(tc.baseline_episodes))]
-            lists = [seeds[w::slots] for w in range(slots)]
-            base = [s for part in pool.collect(lists, "unequipped", record=False) for s in part]
-            base_summary = summarize_episodes(base)
-            (run_dir / "baseline.json").write_text(json.dumps({"policy": "unequipped", **base_summary,
-                                                                "seeds": seeds}, indent=2) + "\n")
-            log.info("unequipped baseline: reward/aircraft %.4f, NMAC/aircraft %.4f over %d episodes",
-                     base_summary["reward_mean"], base_summary["nmac_per_aircraft"], len(base))
-        t_train = time.perf_counter()  # throughput clock: iterations only (not Ray start-up nor baseline)
+    t_train = time.perf_counter()  # throughput clock: iterations only (not Ray start-up nor baseline)
 
-        def may_start(done_iterations: int, collected: int) -> str | None:
-            """None if iteration ``done_iterations + 1`` may start, else why the run stops."""
-            if max_iter is not None and done_iterations >= int(max_iter):
-                return "iterations"
-            if budget is not None and collected >= int(budget):
-                return "aircraft_states"
-            if hours is not None and time.perf_counter() - t_start >= float(hours) * 3600.0:
-                return "hours"
-            return None
+    def submit(it: int, weights: Any, collected: int, env_steps: int) -> Any:
+        lists = [[episode_seed(int(cfg.seed), it, w, e) for e in range(epw)] for w in range(slots)]
+        return pool.submit(lists, "policy", weights, learner.explore(collected, env_steps), lockstep=overlap)
 
-        def submit(it: int, weights: Any, collected: int, env_steps: int) -> Any:
-            lists = [[episode_seed(int(cfg.seed), it, w, e) for e in range(epw)] for w in range(slots)]
-            return pool.submit(lists, "policy", weights, learner.explore(collected, env_steps), lockstep=overlap)
+    # overlap: the weights the in-flight iteration plays with (one update behind the learner's).
+    behaviour = run.behaviour if run.behaviour is not None else learner.weights()
+    stop = budget.may_start(state.iteration, state.transitions)
+    pending = None if stop else submit(state.iteration + 1, behaviour, state.transitions, state.env_steps)
+    t0 = time.perf_counter()
+    while pending is not None:
+        it = state.iteration + 1
+        results = pool.wait(pending)
+        batches: list[EpisodeBatch] = [b for part in results for b in part]
+        t1 = time.perf_counter()
+        ep = summarize_episodes([b.stats for b in batches], run.columns)
+        pending = None
+        if overlap:
+            behaviour = learner.weights()
+            stop = budget.may_start(it, state.transitions + ep["aircraft_states"])
+            if not stop:
+                pending = submit(it + 1, behaviour, state.transitions + ep["aircraft_states"],
+                                 state.env_steps + ep["env_steps"])
+        lstats = learner.update(batches)
+        t2 = time.perf_counter()
+        state.iteration = it
+        state.transitions += ep["aircraft_states"]
+        state.env_steps += ep["env_steps"]
+        state.episodes += len(batches)
+        state.wall_s = wall0 + (t2 - t_train)
+        state.rollout_s += t1 - t0
+        state.rewards.append(ep["reward_mean"])
+        record_iteration(run, curve, batches, ep, lstats, (t0, t1, t2), behaviour)
+        if not overlap:
+            stop = budget.may_start(it, state.transitions)
+            if not stop:
+                pending = submit(it + 1, learner.weights(), state.transitions, state.env_steps)
+        t0 = t2 if overlap else time.perf_counter()
+    run.behaviour = behaviour
+    return stop or "iterations"
 
-        # overlap: the weights the in-flight iteration plays with (one update behind the learner's).
-        behaviour = resumed_behaviour if resumed_behaviour is not None else learner.weights()
-        stop = may_start(state.iteration, state.transitions)
-        pending = None if stop else submit(state.iteration + 1, behaviour, state.transitions, state.env_steps)
-        t0 = time.perf_counter()
-        while pending is not None:
-            it = state.iteration + 1
-            results = pool.wait(pending)
-            batches: list[EpisodeBatch] = [b for part in results for b in part]
-            t1 = time.perf_counter()
-            ep = summarize_episodes([b.stats for b in batches])
-            pending = None
-            if overlap:
-                # The workers play the next iteration with the weights before this update while the
-                # learner updates: the episodes of iteration k come from the policy of update k - 2.
-                behaviour = learner.weights()
-                stop = may_start(it, state.transitions + ep["aircraft_states"])
-                if not stop:
-                    pending = submit(it + 1, behaviour, state.transitions + ep["aircraft_states"],
-                                     state.env_steps + ep["env_steps"])
-            lstats = learner.update(batches)
-            t2 = time.perf_counter()
-            state.iteration = it
-            state.transitions += ep["aircraft_states"]
-            state.env_steps += ep["env_steps"]
-            state.episodes += len(batches)
-            state.wall_s = wall0 + (t2 - t_train)
-            state.rollout_s += t1 - t0
-            state.rewards.append(ep["reward_mean"])
-            row = {"iteration": it, "wall_s": _fmt(state.wall_s), "sim_s": _fmt(ep["sim_s"]),
-                   "episodes": len(batches), "reward_mean": _fmt(ep["reward_mean"]),
-                   "reward_std": _fmt(ep["reward_std"]),
-                   "episode_rewards": ";".join(_fmt(b.stats.reward_per_aircraft) for b in batches),
-                   "nmac_per_aircraft": _fmt(ep["nmac_per_aircraft"]),
-                   "lowc_per_aircraft": _fmt(ep["lowc_per_aircraft"]),
-                   "episode_nmac_per_aircraft": ";".join(_fmt(b.stats.nmac_events / max(b.stats.aircraft, 1))
-                                                         for b in batches),
-                   "aircraft_states": ep["aircraft_states"], "aircraft_states_total": state.transitions,
-                   "states_per_s": _fmt(ep["aircraft_states"] / max(t2 - t0, 1e-9)), "rollout_s": _fmt(t1 - t0),
-                   "update_s": _fmt(t2 - t1)}
-            row.update({k: _fmt(v) for k, v in lstats.items() if k in LEARNER_STATS})
-            curve.write(row)
-            extra = {"behaviour_weights": behaviour} if overlap else {}
-            window = int(tc.best_window)
-            roll = float(rolling_mean(state.rewards, window)[-1])
-            improved = len(state.rewards) >= window and roll > state.best
-            if improved:
-                state.best, state.best_iteration = roll, it
-                save_checkpoint(ckpt_dir / "best.pt", learner, state, {**meta, **extra})
-            log.info("it %d | episodes %d | reward/ac %.4f | NMAC/ac %.4f | LoWC/ac %.4f | states %d | %.0f states/s"
-                     " | rollout %.1fs update %.1fs | rolling(%d) %.4f%s", it, state.episodes, ep["reward_mean"],
-                     ep["nmac_per_aircraft"], ep["lowc_per_aircraft"], ep["aircraft_states"],
-                     ep["aircraft_states"] / max(t2 - t0, 1e-9), t1 - t0, t2 - t1, window, roll,
-                     " *best*" if improved else "")
-            if int(tc.checkpoint_every) > 0 and it % int(tc.checkpoint_every) == 0:
-                save_checkpoint(ckpt_dir / "last.pt", learner, state, {**meta, **extra})
-            if not overlap:
-                stop = may_start(it, state.transitions)
-                if not stop:
-                    pending = submit(it + 1, learner.weights(), state.transitions, state.env_steps)
-            t0 = t2 if overlap else time.perf_counter()
-        reason = stop or "iterations"
-    finally:
-        pool.shutdown()
-    if overlap:
-        meta["behaviour_weights"] = behaviour
-    save_checkpoint(ckpt_dir / "last.pt", learner, state, meta)
+
+def finish_training(run: TrainingRun, reason: str, elapsed: float) -> dict[str, Any]:
+    """The final checkpoints (``best.pt`` too when the run was shorter than the rolling window) and
+    ``training_summary.json``; returns the summary."""
+    state, meta, tc, ckpt_dir = run.state, run.meta, run.cfg.train, run.ckpt_dir
+    if run.overlap:
+        meta["behaviour_weights"] = run.behaviour
+    save_checkpoint(ckpt_dir / "last.pt", run.learner, state, meta)
     if not (ckpt_dir / "best.pt").exists():
         # Fewer iterations than the rolling window: the final weights stand in for the best.
         state.best, state.best_iteration = float(rolling_mean(state.rewards, int(tc.best_window))[-1]) \
             if state.rewards else float("nan"), state.iteration
-        save_checkpoint(ckpt_dir / "best.pt", learner, state, meta)
-    elapsed = time.perf_counter() - t_start
+        save_checkpoint(ckpt_dir / "best.pt", run.learner, state, meta)
     summary: dict[str, Any] = {
-               "algorithm": str(algo.name), "label": meta["algorithm"]["label"], "scenario": Path(env.scenario).stem,
-               "workers": n_workers, "iterations": state.iteration, "episodes": state.episodes,
+               "algorithm": str(run.cfg.algorithm.name), "label": meta["algorithm"]["label"],
+               "scenario": Path(run.env.scenario).stem,
+               "workers": run.n_workers, "iterations": state.iteration, "episodes": state.episodes,
                "aircraft_states": state.transitions, "env_steps": state.env_steps, "wall_s": state.wall_s,
                "states_per_s": state.transitions / state.wall_s if state.wall_s > 0 else None,
                "states_per_hour": 3600.0 * state.transitions / state.wall_s if state.wall_s > 0 else None,
                "rollout_s": state.rollout_s,
                "rollout_states_per_s": state.transitions / state.rollout_s if state.rollout_s > 0 else None,
                "this_session_s": elapsed, "stopped_by": reason, "best_rolling_reward": state.best,
-               "best_iteration": state.best_iteration, "best_window": int(tc.best_window), "device": device,
+               "best_iteration": state.best_iteration, "best_window": int(tc.best_window), "device": run.device,
                "code": meta["code"]}
-    (run_dir / "training_summary.json").write_text(json.dumps(summary, indent=2) + "\n")
+    (run.run_dir / "training_summary.json").write_text(json.dumps(summary, indent=2) + "\n")
     log.info("done: %d iterations, %d aircraft-states in %.0f s (%.0f states/s); best rolling reward %.4f at "
              "iteration %d", state.iteration, state.transitions, state.wall_s, summary["states_per_s"] or 0.0,
              state.best, state.best_iteration)
     return summary
 
 
+def run_training(cfg: DictConfig, run_dir: str | Path) -> dict[str, Any]:
+    """Train ``cfg.algorithm`` on ``cfg.scenario``; everything goes to ``run_dir``.
+
+    The steps: :func:`build_training` (learner, resume), :func:`play_baseline`, :func:`train_loop`
+    (each iteration recorded by :func:`record_iteration`), :func:`finish_training`.
+    """
+    run = build_training(cfg, run_dir)
+    curve = CurveWriter(run.run_dir / "learning_curve.csv", curve_columns(run.columns))
+    actors = {"policy": run.learner.actor_spec(str(cfg.algorithm.kind)), "unequipped": {"kind": "unequipped"}}
+    log.info("training %s on %s with %s, device %s; output in %s", cfg.algorithm.name, Path(run.env.scenario).name,
+             f"{run.n_workers} Ray workers" if run.n_workers else "an in-process worker", run.device, run.run_dir)
+    pool = make_pool(run.n_workers, run.env, actors, cfg.ray, 1)  # one PyTorch thread per worker (one CPU each)
+    t_start = time.perf_counter()
+    try:
+        play_baseline(run, pool)
+        reason = train_loop(run, pool, Budget(cfg.train, t_start), curve)
+    finally:
+        pool.shutdown()
+    return finish_training(run, reason, time.perf_counter() - t_start)
+
+
 def hydra_entry() -> None:
     """The Hydra app (``aamgym train ...``): composes the config and calls :func:`run_training`."""
     import hydra
     from hydra.core.hydra_config import HydraConfig
+
+    from rlbridge.experiment.configstore import register_configs
+
+    register_configs()
 
     @hydra.main(config_path="../conf", config_name="config", version_base="1.3")
     def _main(cfg: DictConfig) -> None:

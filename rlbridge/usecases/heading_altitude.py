@@ -50,7 +50,7 @@ from rlbridge.observe import nearest_neighbours
 from rlbridge.usecases.protocol import Feedback, Observations, UseCaseBase, make_params
 from rlbridge.usecases.rejoin import RouteKeeper, east_north_m
 from rlbridge.usecases.separation import apply_separation, check_distances, nmac_distance
-from rlbridge.usecases.spec import UseCaseSpec
+from rlbridge.usecases.spec import SEPARATION_CURVE, CurveColumn, UseCaseSpec
 from rlbridge.usecases.variation import NYC_LANES_FT, PAPER_ALT_NOISE_FT, add_altitude_noise
 
 if TYPE_CHECKING:
@@ -144,7 +144,10 @@ class HeadingAltitudeSA(UseCaseBase):
     spec = UseCaseSpec(HeadingAltitudeParams, action_kinds=("heading", "altitude"), baselines=("daa", "mvp"),
                        advisory="manoeuvre_change",
                        metrics=("heading_advisories", "altitude_advisories", "mean_abs_xtrack_m",
-                                "max_abs_xtrack_m", "mean_abs_dalt_m"))
+                                "max_abs_xtrack_m", "mean_abs_dalt_m"),
+                       curve=(*SEPARATION_CURVE,
+                              CurveColumn("mean_abs_xtrack_m", "heading_altitude_sa.mean_abs_xtrack_m",
+                                          per_aircraft=False)))
     fixed_traffic: ClassVar[dict[str, Any]] = {"alt_noise_ft": 0.0}
     info_fields = {"nmac": np.bool_, "lowc": np.bool_, "xtrack_m": np.float64, "dalt_m": np.float64}  # noqa: RUF012
 

@@ -32,7 +32,7 @@ from aamsim.stack.parser import TimedCommand
 from rlbridge.usecases.corridor import CorridorSA
 from rlbridge.usecases.frozen import NO_POLICY, FrozenPolicy, PolicySource, SimHandle, frozen_policy
 from rlbridge.usecases.protocol import Feedback, Observations, UseCaseBase, check_advisory_kinds, make_params
-from rlbridge.usecases.spec import UseCaseSpec
+from rlbridge.usecases.spec import SEPARATION_CURVE, CurveColumn, UseCaseSpec
 from rlbridge.usecases.strategic import PLANNER, PLANNING_METRICS, StrategicPlanning
 from rlbridge.usecases.tactical import PLANNER_BASELINES
 
@@ -69,7 +69,10 @@ class Hierarchical(UseCaseBase):
     spec = UseCaseSpec(HierarchicalParams, action_kinds=StrategicPlanning.spec.action_kinds,
                        baselines=StrategicPlanning.spec.baselines, advisory="tactical_layer",
                        metrics=("train", "planner", "tactical", *PLANNING_METRICS), aircraft_agents=False,
-                       plans_departures=True, policy_params=("tactical", "planner"))
+                       plans_departures=True, policy_params=("tactical", "planner"),
+                       curve=(CurveColumn("mean_delay_s", "hierarchical.mean_delay_s", per_aircraft=False),
+                              CurveColumn("unplaced_per_aircraft", "hierarchical.unplaced"),
+                              *SEPARATION_CURVE))
     # Both levels draw the paper's altitude noise by default; fixed traffic switches both off.
     fixed_traffic: ClassVar[dict[str, Any]] = {"planning": {"alt_noise_ft": 0.0}, "corridor": {"alt_noise_ft": 0.0}}
 

@@ -24,7 +24,7 @@ from aamsim.metrics import record_advisory
 from aamsim.units import KTS
 from aamsim.units import R_EARTH as R_EARTH_M
 from rlbridge.usecases.protocol import Feedback, Observations, UseCaseBase, make_params, start_overlay
-from rlbridge.usecases.spec import SPEED_TARGETS, UseCaseSpec
+from rlbridge.usecases.spec import SEPARATION_CURVE, SPEED_TARGETS, CurveColumn, UseCaseSpec
 from rlbridge.usecases.variation import PAPER_CRUISE_KTS, check_range, draw_cruise_speed
 
 if TYPE_CHECKING:
@@ -69,7 +69,11 @@ class ReachDestination(UseCaseBase):
     # (its "hold" would select 60 kt here) and is refused. An action that changes the selected speed is
     # an advisory.
     spec = UseCaseSpec(ReachParams, action_kinds=("speed",), speed_actions=SPEED_TARGETS, baselines=("daa",),
-                       advisory="target_change", metrics=("arrivals", "flights_ended"))
+                       advisory="target_change", metrics=("arrivals", "flights_ended"),
+                       curve=(CurveColumn("arrivals_per_aircraft", "reach_destination.arrivals"),
+                              CurveColumn("episode_arrivals_per_aircraft", "reach_destination.arrivals",
+                                          each_episode=True),
+                              *SEPARATION_CURVE[:2]))
     fixed_traffic: ClassVar[dict[str, Any]] = {"cruise_speed_kts": ()}
     info_fields = {"arrived": np.bool_, "dist_m": np.float64}  # noqa: RUF012
 

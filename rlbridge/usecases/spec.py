@@ -36,6 +36,40 @@ ADVISORY_RULES = {
 }
 
 
+@dataclass(frozen=True)
+class CurveColumn:
+    """One use-case column of a training run's ``learning_curve.csv`` (and of its ``baseline.json``).
+
+    Attributes:
+        name: the column's header.
+        metric: a dotted path into an episode's metrics: a standard group's key
+            (``safety.nmac_events``) or the use case's ``extra_metrics`` under its registry name
+            (``reach_destination.arrivals``).
+        per_aircraft: divide each episode's value by its aircraft (flights created) first.
+        each_episode: the iteration's episodes' values, ``;``-separated, instead of their mean.
+    """
+
+    name: str
+    metric: str
+    per_aircraft: bool = True
+    each_episode: bool = False
+
+    def value(self, metrics: dict[str, Any], aircraft: int) -> float:
+        """This column's value for one episode (NaN when the episode has no such metric)."""
+        node: Any = metrics
+        for key in self.metric.split("."):
+            node = node.get(key) if isinstance(node, dict) else None
+        if node is None:
+            return float("nan")
+        return float(node) / max(aircraft, 1) if self.per_aircraft else float(node)
+
+
+# The separation columns every use case flying aircraft shares (the corridor's learning curve).
+SEPARATION_CURVE = (CurveColumn("nmac_per_aircraft", "safety.nmac_events"),
+                    CurveColumn("lowc_per_aircraft", "safety.lowc_events"),
+                    CurveColumn("episode_nmac_per_aircraft", "safety.nmac_events", each_episode=True))
+
+
 class CapabilityError(TypeError):
     """A policy needs a capability a use case does not declare, or a use case declares no spec."""
 
@@ -60,6 +94,8 @@ class UseCaseSpec:
             the scenario itself, BlueSky, cannot run it).
         policy_params: its parameters that name frozen policies (a baseline name or a training
             run path; a simulation server accepts baseline names only).
+        curve: its columns of a training run's learning curve (:class:`CurveColumn`), between the
+            reward's and the throughput's; the separation rates unless it declares its own.
     """
 
     params_class: type
@@ -71,6 +107,7 @@ class UseCaseSpec:
     aircraft_agents: bool = True
     plans_departures: bool = False
     policy_params: tuple[str, ...] = ()
+    curve: tuple[CurveColumn, ...] = SEPARATION_CURVE
 
     def __post_init__(self) -> None:
         if not (isinstance(self.params_class, type) and is_dataclass(self.params_class)):
@@ -84,6 +121,9 @@ class UseCaseSpec:
         if ("speed" in self.action_kinds) != bool(self.speed_actions):
             raise ValueError("UseCaseSpec.speed_actions is required with a speed action kind and only then "
                              f"(action_kinds {self.action_kinds}, speed_actions {self.speed_actions!r})")
+        names = [c.name for c in self.curve]
+        if len(set(names)) != len(names):
+            raise ValueError(f"UseCaseSpec.curve: column names repeat ({', '.join(names)})")
         if self.speed_actions and self.speed_actions not in SPEED_LAYOUTS:
             raise ValueError(f"UseCaseSpec.speed_actions {self.speed_actions!r}: expected one of "
                              f"{', '.join(SPEED_LAYOUTS)}")

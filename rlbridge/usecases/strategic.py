@@ -41,7 +41,7 @@ from rlbridge.usecases.protocol import Feedback, Observations, UseCaseBase, make
 from rlbridge.usecases.reservation import Frame, Intent, IntentTable, probe_intents
 from rlbridge.usecases.schedule import DepartureRequest, Schedule, split_schedule
 from rlbridge.usecases.separation import apply_separation, check_distances, lowc_distance
-from rlbridge.usecases.spec import UseCaseSpec
+from rlbridge.usecases.spec import SEPARATION_CURVE, CurveColumn, UseCaseSpec
 from rlbridge.usecases.tactical import TacticalLayer
 from rlbridge.usecases.variation import PAPER_ALT_NOISE_FT, add_altitude_noise
 
@@ -174,7 +174,11 @@ class StrategicPlanning(UseCaseBase):
     # BlueSky's reader); ``tactical`` names a frozen policy (a baseline name or a run path).
     spec = UseCaseSpec(StrategicParams, action_kinds=("departure_slot",), baselines=("no_planning", "fcfs"),
                        advisory="tactical_layer", metrics=PLANNING_METRICS, aircraft_agents=False,
-                       plans_departures=True, policy_params=("tactical",))
+                       plans_departures=True, policy_params=("tactical",),
+                       curve=(CurveColumn("mean_delay_s", "strategic_planning.mean_delay_s", per_aircraft=False),
+                              CurveColumn("unplaced_per_aircraft", "strategic_planning.unplaced"),
+                              CurveColumn("intent_conflicts_per_aircraft", "strategic_planning.intent_conflicts"),
+                              *SEPARATION_CURVE))
     standing_agents: tuple[str, ...] = (PLANNER,)
     fixed_traffic: ClassVar[dict[str, Any]] = {"alt_noise_ft": 0.0}
     info_fields = {"delay_s": np.float64, "unplaced": np.bool_, "intent_conflicts": np.int64,  # noqa: RUF012

@@ -1,0 +1,65 @@
+"""The parameter dataclasses as Hydra structured configs: the one source of every default.
+
+``algorithm.params`` and ``usecase.params`` of ``rlbridge/conf`` are not written in YAML: each
+file of ``conf/algorithm/`` and ``conf/usecase/`` names the dataclass its ``params`` start from
+(``- /schema/algorithm/dqn@params``: :class:`rlbridge.agents.ddqn.DDQNConfig`;
+``- /schema/usecase/reach_destination@params``: :class:`rlbridge.usecases.reach.ReachParams`)
+and lists only what its preset changes. :func:`register_configs` stores those dataclasses in
+Hydra's ConfigStore under ``schema/algorithm/<learner kind>`` and ``schema/usecase/<use case>``
+(every entry of the learner and use-case registries), so Hydra composes the defaults from the
+dataclass itself and checks every override's type against the field
+(``algorithm.params.lr=abc`` is refused naming ``algorithm.params.lr``).
+
+Registration is a call, not an import side effect: the Hydra apps (``aamgym train``,
+``aamgym evaluate``) call it before composing, and :func:`compose_config` composes for
+everything else (``aamgym study``, the preflight check, tests).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import Any
+
+SCHEMA_GROUP = "schema"  # ConfigStore group of the generated configs: schema/algorithm/<kind>, schema/usecase/<name>
+CONFIG_MODULE = "rlbridge.conf"
+
+
+def schema_classes() -> dict[str, type]:
+    """The dataclass of each generated config, by its ConfigStore path (``schema/algorithm/dqn``, ...)."""
+    from rlbridge.agents import LEARNER_KINDS, learner_config_class
+    from rlbridge.usecases.registry import available, usecase_spec
+
+    out = {f"{SCHEMA_GROUP}/algorithm/{kind}": learner_config_class(kind) for kind in LEARNER_KINDS}
+    out.update({f"{SCHEMA_GROUP}/usecase/{name}": usecase_spec(name).params_class for name in available()})
+    return out
+
+
+def register_configs() -> None:
+    """Store every learner's and use case's parameter dataclass in Hydra's ConfigStore (idempotent)."""
+    from hydra.core.config_store import ConfigStore
+    from omegaconf import OmegaConf
+
+    store = ConfigStore.instance()
+    for path, cls in schema_classes().items():
+        group, _, name = path.rpartition("/")
+        node = OmegaConf.structured(cls)
+        # A frozen dataclass makes a read-only node; presets and the command line must still set fields
+        # (the dataclass itself stays frozen: the job builds it from the composed values).
+        OmegaConf.set_readonly(node, False)
+        store.store(group=group, name=name, node=node)
+
+
+def compose_config(config_name: str, overrides: Sequence[str] = ()) -> Any:
+    """Hydra's composition of ``config_name`` (``config``: ``aamgym train``; ``evaluate``) with ``overrides``.
+
+    Returns:
+        The composed ``DictConfig``, as the Hydra app would receive it (without the ``hydra`` node).
+    """
+    from hydra import compose, initialize_config_module
+
+    register_configs()
+    with initialize_config_module(CONFIG_MODULE, version_base="1.3"):
+        return compose(config_name, overrides=list(overrides))
+
+
+__all__ = ["compose_config", "register_configs", "schema_classes"]
