@@ -84,19 +84,24 @@ def test_intruder_range_and_order(scene):
 
 
 def test_reward_branches():
+    sim = Simulation()  # the rewards read the NMAC distance of its separation standard: 150 m by default
     uc = make_usecase("corridor_sa")
     agents = ["N", "M", "F", "A"]
     closest = np.array([100.0, 1000.0, 5000.0, 1000.0])
     actions = {"N": HOLD, "M": HOLD, "F": HOLD, "A": ACCELERATE}
-    r = uc.rewards(None, agents, actions, closest, {})
+    r = uc.rewards(sim, agents, actions, closest, {})
     # d < 150: -1; 150 <= d < 3000: -1 + 0.0003 d; else 0; minus Omega = 0.001; -psi = 0.001 if not hold.
     np.testing.assert_allclose(r, [-1.001, -1 + 0.3 - 0.001, -0.001, -1 + 0.3 - 0.001 - 0.001])
     # An NMAC during the interval counts even if the aircraft are apart at the decision.
-    r2 = uc.rewards(None, ["M"], {}, np.array([1000.0]), {"M": 80.0})
+    r2 = uc.rewards(sim, ["M"], {}, np.array([1000.0]), {"M": 80.0})
     assert r2[0] == pytest.approx(-1.001)
-    r3 = make_usecase("corridor_sa", reward_interval_nmac=False).rewards(None, ["M"], {}, np.array([1000.0]),
+    r3 = make_usecase("corridor_sa", reward_interval_nmac=False).rewards(sim, ["M"], {}, np.array([1000.0]),
                                                                          {"M": 80.0})
     assert r3[0] == pytest.approx(-0.701)
+    # Another standard, another NMAC branch: with a 50 m NMAC volume, 100 m apart is not an NMAC.
+    sim.stack("SEPVOLUME NMAC 50 50")
+    r4 = uc.rewards(sim, ["N"], {"N": HOLD}, np.array([100.0]), {})
+    assert r4[0] == pytest.approx(-1 + 0.03 - 0.001)
 
 
 def test_action_effects_on_target_speed(scene):
