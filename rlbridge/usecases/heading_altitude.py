@@ -43,7 +43,7 @@ from typing import TYPE_CHECKING, Any, ClassVar
 import gymnasium as gym
 import numpy as np
 
-from aamsim.conflicts import SeparationVolume, conflicts_of, pairs_within
+from aamsim.conflicts import SeparationVolume, pairs_within
 from aamsim.metrics import record_advisory
 from aamsim.units import FPM, FT, R_EARTH
 from rlbridge.observe import nearest_neighbours
@@ -184,7 +184,7 @@ class HeadingAltitudeSA(UseCaseBase):
     # -------------------------------------------------------------- lifecycle
     def attach(self, sim: Simulation) -> None:
         p = self.params
-        conflicts_of(sim).volumes = (SeparationVolume("nmac", p.nmac_m), SeparationVolume("lowc", p.lowc_m))
+        sim.services.conflicts.volumes = (SeparationVolume("nmac", p.nmac_m), SeparationVolume("lowc", p.lowc_m))
         self.ep = _Episode({}, {}, {}, set(), set(), {}, RouteKeeper(p.arrival_m))
         add_altitude_noise(sim, p.alt_noise_ft, p.alt_noise_lanes_ft, "heading_altitude.alt_noise")
         sim.hooks.created.add(self._on_created, name="heading_altitude.created")
@@ -349,7 +349,7 @@ class HeadingAltitudeSA(UseCaseBase):
     # ----------------------------------------------------------------- reward
     def feedback(self, sim: Simulation, agents: list[str], actions: dict[str, Any], since_s: float) -> Feedback:
         p = self.params
-        service = conflicts_of(sim)
+        service = sim.services.conflicts
         nmac_min = service.involved_since("nmac", since_s)
         lowc = service.involved_since("lowc", since_s)
         slots = sim.slots(agents) if agents else np.empty(0, dtype=np.int64)

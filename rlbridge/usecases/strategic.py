@@ -32,8 +32,8 @@ from typing import TYPE_CHECKING, Any, ClassVar
 import gymnasium as gym
 import numpy as np
 
-from aamsim.conflicts import SeparationVolume, conflicts_of
-from aamsim.metrics import NotDeparted, metrics_of
+from aamsim.conflicts import SeparationVolume
+from aamsim.metrics import NotDeparted
 from aamsim.stack.parser import TimedCommand
 from aamsim.units import FT
 from rlbridge.usecases.frozen import PolicySource
@@ -226,7 +226,7 @@ class StrategicPlanning(UseCaseBase):
     # -------------------------------------------------------------- lifecycle
     def attach(self, sim: Simulation) -> None:
         p = self.params
-        conflicts_of(sim).volumes = (SeparationVolume("nmac", p.nmac_m), SeparationVolume("lowc", p.lowc_m))
+        sim.services.conflicts.volumes = (SeparationVolume("nmac", p.nmac_m), SeparationVolume("lowc", p.lowc_m))
         sim.hooks.created.add(self._on_created, name="strategic.layer")
         add_altitude_noise(sim, p.alt_noise_ft, p.layers_ft, "strategic.alt_noise")
         self.tactical.attach(sim, sim.seed)
@@ -258,7 +258,7 @@ class StrategicPlanning(UseCaseBase):
         plan = self.plan
         # The flights held on the ground count in the episode's metrics (completed + unfinished + not
         # departed = scheduled; their delay runs to the end of the episode).
-        metrics_of(sim).held_departures = lambda: not_departed(plan, ep)
+        sim.services.metrics.held_departures = lambda: not_departed(plan, ep)
         self._skip_unplaceable(sim)
         return list(self.plan.schedule.other)
 
@@ -515,7 +515,7 @@ class StrategicPlanning(UseCaseBase):
         if who not in agents or self.ep is None:
             return Feedback(rewards, info)
         k = agents.index(who)
-        service = conflicts_of(sim)
+        service = sim.services.conflicts
         nmac, lowc = service.count("nmac") - self.ep.nmac_seen, service.count("lowc") - self.ep.lowc_seen
         self.ep.nmac_seen += nmac
         self.ep.lowc_seen += lowc
