@@ -45,31 +45,26 @@ class SimulationAPI:
     wind: WindField
     _traffic_view: TrafficView
     flight_log: list[FlightRecord]
-    # Built-in services (conflict detection, metrics), set by aamsim.services.build_services.
-    services: Services | None = None
+    # Built-in services (conflict detection, metrics, ...), built by the constructor (aamsim.services).
+    services: Services
     create_aircraft: Callable[..., int]
     delete_aircraft: Callable[..., FlightRecord]
-
-    def require_services(self) -> Services:
-        """The built-in services, built with the defaults when no entry point built them (scripts, tests)."""
-        if self.services is None:
-            from aamsim.services import build_services
-
-            return build_services(self)  # type: ignore[arg-type]
-        return self.services
 
     @property
     def separation_standard(self) -> SeparationStandard:
         """The NMAC and LoWC volumes [m] that events, metrics, use cases and baselines count against.
 
         The conflict service owns it (:attr:`aamsim.conflicts.ConflictService.standard`; ``SEPVOLUME``
-        changes it); reading it builds the services with the defaults when no entry point built them.
+        changes it).
         """
-        return self.require_services().conflicts.standard
+        return self.services.conflicts.standard
 
     def set_separation_standard(self, standard: SeparationStandard) -> None:
-        """Count NMAC and LoWC events against ``standard`` from now on (the conflict service's volumes)."""
-        self.require_services().conflicts.set_standard(standard)
+        """Count NMAC and LoWC events against ``standard`` from now on (the conflict service's volumes).
+
+        Like ``SEPVOLUME``, it starts the services (conflict detection runs from the next check on).
+        """
+        self.services.start().conflicts.set_standard(standard)
 
     def flights(self, real_traffic: bool = False) -> Iterator[FlightRecord]:
         """Closed flights followed by the open ones (their distance and times brought up to date).

@@ -202,7 +202,6 @@ def run(scenario: str, until: str | None, out_dir: Path | None, dt: float, seed:
     until_s = _time_option(until)
     groups = tuple(g.strip() for g in metrics.split(",") if g.strip())
     from aamsim.metrics.registry import MetricRegistry
-    from aamsim.metrics.service import metrics_of  # noqa: F401  (registry of known groups)
     from aamsim.metrics.standard import register_standard_metrics
 
     known = MetricRegistry()
@@ -280,9 +279,7 @@ def run(scenario: str, until: str | None, out_dir: Path | None, dt: float, seed:
         raise
     progress.close()
     s = result.summary
-    from aamsim.output.recorder import WRITE_FAILURES
-
-    if result.sim.extensions.get(WRITE_FAILURES):
+    if result.sim.run_outputs.write_failures:
         click.echo(f"error: the run stopped at sim time {s['sim_time_s']:.1f} s: an output file could not be "
                    f"written (see above); {result.out_dir} holds the run up to there", err=True)
         sys.exit(1)

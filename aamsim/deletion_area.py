@@ -118,9 +118,9 @@ class DeletionArea:
 
 def area_of(sim: CommandContext) -> DeletionArea:
     """The simulation's area state; the first use attaches its hooks."""
-    area = sim.extensions.get("deletion_area")
+    area = sim.features.get(DeletionArea)
     if area is None:
-        area = sim.extensions["deletion_area"] = DeletionArea()
+        area = sim.features.add(DeletionArea())
         view = sim.view
         for slot, acid in enumerate(view.ids):  # aircraft created before the first AREA/EXP/TAXI
             area.old_alt[acid] = float(view.alt[slot])

@@ -4,7 +4,7 @@ The run directory holds ``scenario.scn`` (the exact text that ran),
 ``flights.csv``, ``trajectories.csv`` (unless the log period is 0),
 ``summary.json`` and ``messages.log`` (every error, warning, note and ECHO).
 Services that report more (conflict metrics) add their own files through
-the ``finish`` callbacks in ``sim.extensions["run_outputs"]``.
+the ``finish`` callbacks in ``sim.run_outputs``.
 """
 
 from __future__ import annotations
@@ -98,7 +98,7 @@ def build_simulation(cfg: RunConfig, path: Path, text: str) -> Simulation:
     sim.files.text = text
     from aamsim.services import attach_run_services
 
-    attach_run_services(sim, cfg)
+    attach_run_services(sim, sim.services, cfg)
     from aamsim.plugins import load_plugin
 
     for name in cfg.plugins:
@@ -178,7 +178,7 @@ def run_scenario(
             if stop.signal_name is not None:
                 summary["interrupted_by"] = stop.signal_name
                 sim.report("note", f"{stop.signal_name}: run stopped at sim time {sim.simt:.2f} s; outputs written")
-            for finish in sim.extensions.get("run_outputs", []):
+            for finish in sim.run_outputs.finishers:
                 finish(sim, out_dir, summary)
             with open(out_dir / "messages.log", "w", encoding="utf-8") as fh:
                 fh.writelines(f"{msg.simt:10.2f} {msg}\n" for msg in sim.reporter.messages)

@@ -1,10 +1,10 @@
 """The simulation's built-in services, wired in one place.
 
-:func:`build_services` creates conflict detection, metrics, detect and avoid
-(:mod:`aamsim.resolution`) and the traffic snapshot stream (:mod:`aamsim.snapshots`), attaches their
-hooks and sets the typed field ``sim.services`` (a :class:`Services`); every
-entry point (``aamsim run``, the episode engine, the simulation server) calls
-it once, before the scenario loads. Settings have one owner each: the
+:class:`Services` holds conflict detection, metrics, detect and avoid
+(:mod:`aamsim.resolution`) and the traffic snapshot stream (:mod:`aamsim.snapshots`) as typed
+fields; every :class:`aamsim.Simulation` builds one in its constructor (``sim.services``), and
+every entry point (``aamsim run``, the episode engine, the simulation server) starts it
+(:meth:`Services.start`: the hooks attach) before the scenario loads. Settings have one owner each: the
 detection settings (``ASAS``, ``ZONER``, ``ZONEDH``, ``DTLOOK``, ``DT ASAS``)
 live in ``sim.settings`` and the service reads them when it runs, so ``DT ASAS
 5`` changes the check interval from then on; the separation volumes live in
@@ -16,7 +16,6 @@ while ``RESO DAA`` is on; BlueSky's resolution settings (``RMETHH``, ``RFACH``,
 
 from __future__ import annotations
 
-from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -30,42 +29,52 @@ if TYPE_CHECKING:
     from aamsim.simapi import SimulationCore
 
 
-@dataclass(frozen=True)
 class Services:
-    """The built-in services of one simulation."""
+    """The built-in services of one simulation: typed fields, built once with it (``sim.services``).
 
-    conflicts: ConflictService
-    metrics: MetricsService
-    snapshots: SnapshotStream  # frozen traffic snapshots for the recorder, the bridge and viewers
-    daa: DAAService  # detect-and-avoid alerting and speed resolutions (idle until RESO DAA)
-    mvp: MVPService  # BlueSky's Modified Voltage Potential resolution (idle until RESO MVP)
+    Building them costs nothing while they are idle: their hooks (conflict detection, DAA, MVP) attach
+    when :meth:`start` runs, because a conflict check every ``DT ASAS`` splits the kernel's batches
+    and costs up to 2.5 times the stepping of a plain simulation (measured with
+    ``bench/bench_sim.py``'s scenario). Every entry point starts them (``aamsim run``, the episode
+    engine, the simulation server), and so do the commands that configure them (``SEPVOLUME``,
+    ``RESO``, ``DAA``, ...).
+    """
+
+    def __init__(self, sim: SimulationCore) -> None:
+        self._sim = sim
+        self.conflicts = ConflictService()
+        self.metrics = MetricsService(conflicts=self.conflicts)
+        # frozen traffic snapshots for the recorder, the bridge and viewers
+        self.snapshots = SnapshotStream(sim)
+        self.daa = DAAService()  # detect-and-avoid alerting and speed resolutions (idle until RESO DAA)
+        self.mvp = MVPService()  # BlueSky's Modified Voltage Potential resolution (idle until RESO MVP)
+        self.started = False
+
+    def start(self, volumes: tuple[SeparationVolume, ...] | None = None,
+              groups: tuple[str, ...] | None = None) -> Services:
+        """Attach the hooks of conflict detection, DAA and MVP (the first call; later ones only configure).
+
+        Args:
+            volumes: the separation volumes to count events in (None: as they are; default the paper's).
+            groups: the metric groups a run computes (None: as they are; default :data:`DEFAULT_GROUPS`).
+        """
+        if volumes is not None:
+            self.conflicts.volumes = tuple(volumes)
+        if groups is not None:
+            self.metrics.groups = tuple(groups)
+        if not self.started:
+            self.started = True
+            self.conflicts.attach(self._sim)
+            self.daa.attach(self._sim)
+            self.mvp.attach(self._sim)
+        return self
 
 
-def build_services(sim: SimulationCore, volumes: tuple[SeparationVolume, ...] = PAPER_VOLUMES,
-                   groups: tuple[str, ...] = DEFAULT_GROUPS) -> Services:
-    """Create and attach conflict detection, metrics, DAA and MVP (once per simulation); returns ``sim.services``."""
-    if sim.services is not None:
-        raise RuntimeError("the simulation's services are already built")
-    conflicts = ConflictService(volumes=tuple(volumes))
-    conflicts.attach(sim)
-    metrics = MetricsService(groups=tuple(groups))
-    daa = DAAService()
-    daa.attach(sim)
-    mvp = MVPService()
-    mvp.attach(sim)
-    sim.services = Services(conflicts, metrics, SnapshotStream(sim), daa, mvp)
-    return sim.services
-
-
-def services_of(sim: SimulationCore) -> Services:
-    """The simulation's services, built with the defaults when no entry point built them (scripts, tests)."""
-    return sim.require_services()
-
-
-def attach_run_services(sim: SimulationCore, cfg: Any) -> None:
-    """Conflict detection and the metric groups of the run config; they write into the run directory."""
-    services = build_services(sim, tuple(getattr(cfg, "volumes", None) or PAPER_VOLUMES),
-                              tuple(getattr(cfg, "metrics", DEFAULT_GROUPS)))
+def attach_run_services(sim: SimulationCore, services: Services, cfg: Any) -> None:
+    """Start ``sim``'s ``services`` with the run config's volumes and metric groups; they write into the run
+    directory."""
+    services.start(tuple(getattr(cfg, "volumes", None) or PAPER_VOLUMES),
+                                  tuple(getattr(cfg, "metrics", DEFAULT_GROUPS)))
     conflicts, metrics = services.conflicts, services.metrics
 
     def finish(sim: SimulationCore, out_dir: Path, summary: dict[str, Any]) -> None:
@@ -79,4 +88,5 @@ def attach_run_services(sim: SimulationCore, cfg: Any) -> None:
             summary["mvp"] = services.mvp.summary()
         write_conflicts_csv(out_dir / "conflicts.csv", sim, events)
 
-    sim.extensions.setdefault("run_outputs", []).append(finish)
+    sim.run_outputs.collecting = True
+    sim.run_outputs.add(finish)

@@ -144,14 +144,14 @@ class Shapes:
 
 def shapes_of(sim: CommandContext) -> Shapes:
     """The simulation's shapes (created on first use; a reset clears them)."""
-    shapes = sim.extensions.get("shapes")
+    shapes = sim.features.get(Shapes)
     if shapes is None:
-        shapes = sim.extensions["shapes"] = Shapes()
+        shapes = sim.features.add(Shapes())
         sim.hooks.reset.add(lambda s: shapes.clear(), name="shapes-reset")
-    return shapes  # type: ignore[no-any-return]
+    return shapes
 
 
 def delete_shape(sim: CommandContext, name: str) -> bool:
     """Remove a shape by name (BlueSky's DEL shapename); False when there is none."""
-    shapes = sim.extensions.get("shapes")
+    shapes = sim.features.get(Shapes)
     return bool(shapes is not None and shapes.delete(name))

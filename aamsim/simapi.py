@@ -15,13 +15,14 @@ queue) and those only for type checking.
 from __future__ import annotations
 
 from collections.abc import Callable, Iterator, Sequence
-from typing import TYPE_CHECKING, Any, Protocol
+from typing import TYPE_CHECKING, Protocol
 
 import numpy as np
 
 if TYPE_CHECKING:
     from aamsim.clock import Clock
     from aamsim.errors import SourceRef
+    from aamsim.features import FeatureStates, RunOutputs
     from aamsim.hooks import Hooks
     from aamsim.settings import SimSettings
     from aamsim.stack.queue import CommandQueue
@@ -42,16 +43,6 @@ class SimulationCore(Protocol):
     Read-only members are properties here so that a plain attribute (``sim.traffic``) or a property
     (``sim.simt``) satisfies them alike.
     """
-
-    # ``aamsim.services.Services`` (or None before they are built). Typed Any here: the services'
-    # modules import this one, so it cannot name their classes; the accessors
-    # (``aamsim.conflicts.conflicts_of``, ``aamsim.metrics.metrics_of``, ``aamsim.services.services_of``)
-    # return the precise types.
-    services: Any
-
-    def require_services(self) -> Any:
-        """The built-in services (an ``aamsim.services.Services``), built with the defaults when none were."""
-        ...
 
     # ---------------------------------------------------------------- state
     @property
@@ -95,8 +86,13 @@ class SimulationCore(Protocol):
         ...
 
     @property
-    def extensions(self) -> dict[str, Any]:
-        """Per-simulation state of services and plugins."""
+    def features(self) -> FeatureStates:
+        """Per-simulation state of the optional features, by class."""
+        ...
+
+    @property
+    def run_outputs(self) -> RunOutputs:
+        """What ``aamsim run`` writes when the run ends."""
         ...
 
     @property

@@ -27,6 +27,7 @@ import numpy as np
 from aamsim.api import SimulationAPI
 from aamsim.clock import Clock, TimeStepError
 from aamsim.errors import CommandError, SourceRef
+from aamsim.features import FeatureStates, RunOutputs
 from aamsim.geo import qdrdist
 from aamsim.hooks import Hooks
 from aamsim.limits import DEFAULT_LOCAL_MAX_AIRCRAFT, SimulationLimits
@@ -34,6 +35,7 @@ from aamsim.messages import Reporter
 from aamsim.navdb import NavDatabase
 from aamsim.scenario_files import ScenarioFiles
 from aamsim.scheduler import Scheduler
+from aamsim.services import Services
 from aamsim.settings import SimSettings
 from aamsim.stack.context import CommandContext
 from aamsim.stack.executor import CommandExecutor
@@ -122,7 +124,10 @@ class Simulation(SimulationAPI):
         self.performance = performance or PerformanceTable()
         self.flight_log: list[FlightRecord] = []
         self.plugins: dict[str, Any] = {}
-        self.extensions: dict[str, Any] = {}  # per-simulation state of services and plugins
+        self.features = FeatureStates()  # per-simulation state of optional features, by class (aamsim.features)
+        self.run_outputs = RunOutputs()  # what aamsim run writes at the end (aamsim.runner)
+        # Conflict detection, metrics, DAA, MVP, snapshots: built here, idle until started (aamsim.services).
+        self.services = Services(self)
         self.aircraft_steps = 0
         # Services with work still to come (a replay with tracks ahead) keep a run going: see is_quiescent.
         self.pending_work: list[Callable[[], bool]] = []

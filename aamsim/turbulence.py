@@ -54,9 +54,9 @@ class Turbulence:
 
 def set_noise(sim: CommandContext, on: bool) -> None:
     """NOISE ON/OFF: the hook runs every step only while the noise is on (it splits the kernel's batches)."""
-    turbulence = sim.extensions.get("turbulence")
+    turbulence = sim.features.get(Turbulence)
     if turbulence is None:
-        turbulence = sim.extensions["turbulence"] = Turbulence()
+        turbulence = sim.features.add(Turbulence())
         sim.hooks.reset.add(lambda s: set_noise(s, False), name=f"{_HOOK}-reset")
     turbulence.active = on
     registered = _HOOK in sim.hooks.post_step.names()
@@ -69,5 +69,5 @@ def set_noise(sim: CommandContext, on: bool) -> None:
 
 
 def noise_on(sim: CommandContext) -> bool:
-    turbulence = sim.extensions.get("turbulence")
+    turbulence = sim.features.get(Turbulence)
     return bool(turbulence is not None and turbulence.active)

@@ -24,7 +24,6 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from aamsim import Simulation
-from aamsim.services import build_services
 
 
 def box_scenario(n: int, seed: int = 0, half_box_m: float = 30000.0) -> str:
@@ -47,7 +46,7 @@ def run_once(n: int, sim_time: float, cd: bool, dtlook: float, zonedh_ft: float,
              asas: bool = True) -> tuple[float, int, int]:
     sim = Simulation(seed=1, use_bluesky_navdata=False)
     if cd:
-        build_services(sim)
+        sim.services.start()
         if asas:
             sim.stack(f"ASAS ON; ZONER 0.243; ZONEDH {zonedh_ft}; DTLOOK {dtlook}")
     sim.load_text(box_scenario(n))
@@ -55,8 +54,8 @@ def run_once(n: int, sim_time: float, cd: bool, dtlook: float, zonedh_ft: float,
     t0 = time.perf_counter()
     sim.run_until(sim_time)
     wall = time.perf_counter() - t0
-    service = sim.services.conflicts if sim.services is not None else None
-    events = (service.count("nmac"), service.count("lowc")) if service else (0, 0)
+    service = sim.services.conflicts
+    events = (service.count("nmac"), service.count("lowc")) if sim.services.started else (0, 0)
     return wall, *events
 
 

@@ -64,10 +64,9 @@ def timed_run(scenario: str, recording: Path | None, sim_time: float, dt: float,
     """Wall time of the stepping, and the most aircraft flying at once."""
     from aamsim import Simulation
     from aamsim.realtraffic import replay as replay_module
-    from aamsim.services import build_services
 
     sim = Simulation(seed=0, dt=dt, use_bluesky_navdata=False)
-    build_services(sim)
+    sim.services.start()
     sim.load_text(scenario)
     if recording is not None:
         feed = replay_module.RecordingFeed(recording, stream_above_bytes=0 if stream else 1 << 40)

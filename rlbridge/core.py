@@ -29,12 +29,9 @@ import gymnasium as gym
 import numpy as np
 
 from aamsim import Simulation
-from aamsim.conflicts import conflicts_of
 from aamsim.errors import SourceRef
 from aamsim.limits import SimulationLimits
-from aamsim.metrics import metrics_of
 from aamsim.scenarios import resolve_scenario
-from aamsim.services import build_services
 from aamsim.snapshots import SNAPSHOT_FIELDS, TrafficSnapshot, take_snapshot
 from aamsim.stack.parser import ParsedScenario, TimedCommand
 from aamsim.stack.tokens import next_arg
@@ -185,7 +182,7 @@ class EpisodeCore:
         sim.files.search_path.insert(0, self.path.parent)
         sim.files.guard = self.file_guard
         sim.limits = self.limits  # before the use case attaches: its overlay parameters obey them too
-        build_services(sim)
+        sim.services.start()
         self.usecase.attach(sim)
         from aamsim.plugins import load_plugin
 
@@ -455,8 +452,8 @@ class EpisodeCore:
         if self.sim is None:
             return {}
         if self._scenario_over():
-            conflicts_of(self.sim).finish(self.sim)
-        out = metrics_of(self.sim).compute(self.sim, groups)
+            self.sim.services.conflicts.finish(self.sim)
+        out = self.sim.services.metrics.compute(self.sim, groups)
         extra = self.usecase.extra_metrics(self.sim)
         undeclared = sorted(set(extra) - set(self.spec.metrics))
         if undeclared:
@@ -478,7 +475,6 @@ class EpisodeCore:
         """The aircraft now flying: ``ids`` and SI arrays (deg, m, m/s) ``lat lon alt tas gs trk vs``."""
         if self.sim is None:
             raise RuntimeError("traffic_state() before reset()")
-        assert self.sim.services is not None
         return self.sim.services.snapshots.latest().as_dict(TRAFFIC_STATE_FIELDS)
 
     def snapshot(self, fields: tuple[str, ...] = SNAPSHOT_FIELDS) -> TrafficSnapshot:

@@ -12,6 +12,7 @@ import numpy as np
 import pytest
 
 from aamsim import Simulation
+from aamsim.deletion_area import DeletionArea
 from aamsim.shapes import kwikdist_nm, shapes_of
 from aamsim.units import FT, KTS, NM
 
@@ -138,7 +139,7 @@ def test_reset_clears_shapes_and_area():
     sim = _sim("0:0:0>BOX B 40 -75 41 -73\n0:0:0>AREA B\n0:0:1>RESET\n")
     sim.run_until(2)
     assert shapes_of(sim).names() == []
-    area = sim.extensions["deletion_area"]
+    area = sim.features.get(DeletionArea)
     assert not area.active and area.delarea == ""
 
 

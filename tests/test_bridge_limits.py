@@ -15,11 +15,10 @@ import pytest
 from bridge_util import REPLY_TIMEOUT_MS, raw_socket, thread_server, write_scenario
 
 from aamsim import Simulation
-from aamsim.conflicts import conflicts_of
 from aamsim.conflicts import service as conflict_service
 from aamsim.errors import CommandError
 from aamsim.limits import SimulationLimits
-from aamsim.services import build_services
+from aamsim.realtraffic.replay import replays_of
 from rlbridge.protocol import decode, request
 from rlbridge.scenario_access import ScenarioRoots
 from rlbridge.usecases.reservation import probe_intents
@@ -47,7 +46,7 @@ def test_a_client_cannot_start_live_polling_unless_the_server_allows_it(root: Pa
         assert any("live OpenSky overlays are not allowed in this simulation" in m and "--allow-live-overlays" in m
                    for m in messages), messages
         sim = next(iter(server.sessions.values())).core.sim
-        assert sim is not None and sim.extensions.get("replays", []) == []
+        assert sim is not None and replays_of(sim) == []
         # RESET (which restores the settings) does not lift it.
         ask(sock, "stack", text="RESET")
         messages = ask(sock, "stack", text="REPLAY OPENSKY,,47.2,8.3,47.6,8.8")["messages"]
@@ -94,12 +93,12 @@ def test_an_mcre_past_the_limit_is_refused_whole() -> None:
 def test_a_conflict_check_stops_at_the_pair_bound_with_one_error(monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.setattr(conflict_service, "MAX_PAIRS_PER_CHECK", 100)
     sim = Simulation(use_bluesky_navdata=False)
-    build_services(sim)
+    sim.services.start()
     sim.stack("ASAS ON")
     for k in range(30):  # 435 pairs, all in conflict and inside both volumes
         sim.stack(f"CRE Z{k} EC35 40.7 -74.0 {k * 12} 500 10")
     sim.run_until(5.0)
-    service = conflicts_of(sim)
+    service = sim.services.start().conflicts
     assert service.checks_cut >= 4
     errors = [m.text for m in sim.reporter.errors()]
     assert len(errors) == 1 and "over 100 aircraft pairs close together" in errors[0]
@@ -110,11 +109,11 @@ def test_a_conflict_check_stops_at_the_pair_bound_with_one_error(monkeypatch: py
 def test_a_pile_of_aircraft_on_one_spot_costs_a_bounded_check() -> None:
     """1,000 aircraft on one spot: 499,500 pairs in conflict; a check handles 100,000 and stops."""
     sim = Simulation(use_bluesky_navdata=False)
-    build_services(sim)
+    sim.services.start()
     sim.stack("ASAS ON")
     sim.stack("; ".join(f"CRE Z{k} EC35 40.7 -74.0 0 500 0" for k in range(1000)))
     sim.run_until(2.0)
-    service = conflicts_of(sim)
+    service = sim.services.start().conflicts
     cap = conflict_service.MAX_PAIRS_PER_CHECK
     assert service.checks_cut >= 2 and service.state is not None
     assert cap <= len(service.state.pi) <= cap + 1000 and len(service.state.los_pi) <= cap + 1000
@@ -125,10 +124,10 @@ def test_a_pile_of_aircraft_on_one_spot_costs_a_bounded_check() -> None:
 
 def test_normal_traffic_never_meets_the_pair_bound() -> None:
     sim = Simulation(use_bluesky_navdata=False, seed=3)
-    build_services(sim)
+    sim.services.start()
     sim.stack("ASAS ON; MCRE 400")
     sim.run_until(30.0)
-    assert conflicts_of(sim).checks_cut == 0 and sim.reporter.errors() == []
+    assert sim.services.start().conflicts.checks_cut == 0 and sim.reporter.errors() == []
 
 
 def test_involved_since_by_hand() -> None:

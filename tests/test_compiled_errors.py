@@ -24,8 +24,6 @@ import pytest
 
 from aamsim import Simulation
 from aamsim.compiled_errors import original_error
-from aamsim.conflicts.service import conflicts_of
-from aamsim.services import build_services
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -54,10 +52,10 @@ def test_the_original_error_is_the_first_cause_that_is_not_a_system_error() -> N
 @pytest.mark.skipif(not hasattr(signal, "setitimer"), reason="needs POSIX interval timers")
 def test_an_alarm_during_a_conflict_check_raises_its_exception_never_a_system_error() -> None:
     sim = Simulation(seed=1, use_bluesky_navdata=False)
-    build_services(sim)
+    sim.services.start()
     sim.stack("ASAS ON; MCRE 3000 EC35 1500 60")  # 3,000 aircraft: the detection pass takes milliseconds
     sim.run_until(1.0)
-    service = conflicts_of(sim)
+    service = sim.services.start().conflicts
     service.check(sim)  # compiled (or loaded) before any alarm
     rng = random.Random(0)
     outcomes: list[str] = []
@@ -82,9 +80,8 @@ CHILD = """
 import json, logging, resource
 logging.disable(logging.CRITICAL)
 from aamsim import Simulation
-from aamsim.services import build_services
 sim = Simulation(seed=1, use_bluesky_navdata=False)
-build_services(sim)
+sim.services.start()
 sim.stack("ASAS ON; ZONER 0.1; MCRE 3000 EC35 1500 60")  # few conflicts while the kernels warm up
 sim.run_until(2.0)
 sim.stack("ZONER 100")  # then every pair is one: the next check needs megabytes more

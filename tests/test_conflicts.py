@@ -10,7 +10,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from aamsim import Simulation
-from aamsim.conflicts import SeparationVolume, closest_intruders, conflicts_of
+from aamsim.conflicts import SeparationVolume, closest_intruders
 from aamsim.conflicts.events import encounter_type, track_speed
 from aamsim.conflicts.pairs import slant_distances, statebased, volume_encounters
 from aamsim.conflicts.service import search_pairs, traffic_snapshot
@@ -21,7 +21,7 @@ DEG_PER_M = 1.0 / (6371000.0 * math.pi / 180.0)  # latitude degrees per metre (f
 
 def encounter(lines: str, until: float = 300.0, volumes=None) -> Simulation:
     sim = Simulation(seed=1, use_bluesky_navdata=False)
-    service = conflicts_of(sim)
+    service = sim.services.start().conflicts
     if volumes is not None:
         service.volumes = volumes
     sim.load_text(lines)
@@ -31,7 +31,7 @@ def encounter(lines: str, until: float = 300.0, volumes=None) -> Simulation:
 
 
 def counts(sim):
-    s = conflicts_of(sim)
+    s = sim.services.start().conflicts
     return s.count("nmac"), s.count("lowc")
 
 
@@ -39,7 +39,7 @@ def test_head_on_same_altitude_one_nmac_one_lowc():
     d = 4000 * DEG_PER_M
     sim = encounter(f"00:00:00.00>CRE A EC35 0 0 0 1000 100\n00:00:00.00>CRE B EC35 {d} 0 180 1000 100\n")
     assert counts(sim) == (1, 1)
-    ev = [e for e in conflicts_of(sim).events if e.volume == "nmac"][0]
+    ev = [e for e in sim.services.start().conflicts.events if e.volume == "nmac"][0]
     assert ev.min_dist_m < 5.0
     # They meet after 2000 m at the same TAS; the NMAC sphere (150 m) is entered 75 m before.
     tas = float(sim.traffic.tas[0])
@@ -54,7 +54,7 @@ def test_parallel_tracks_300_m_apart_lowc_only():
     sim = encounter(f"00:00:00.00>CRE A EC35 0 0 0 1000 100\n00:00:00.00>CRE B EC35 0 {dlon} 0 1000 100\n",
                     until=120)
     assert counts(sim) == (0, 1)
-    assert conflicts_of(sim).min_separation_m == pytest.approx(300.0, abs=0.5)
+    assert sim.services.start().conflicts.min_separation_m == pytest.approx(300.0, abs=0.5)
 
 
 def test_minimum_separation_counts_a_graze_between_two_checks():
@@ -64,10 +64,10 @@ def test_minimum_separation_counts_a_graze_between_two_checks():
     d, offset = 4000 * DEG_PER_M, 449.5 * DEG_PER_M
     sim = encounter(f"00:00:00.00>CRE A EC35 0 0 0 1000 100\n00:00:00.00>CRE B EC35 {d} {offset} 180 1000 100\n",
                     until=100)
-    (ev,) = [e for e in conflicts_of(sim).events if e.volume == "lowc"]
+    (ev,) = [e for e in sim.services.start().conflicts.events if e.volume == "lowc"]
     assert math.floor(ev.start_s) == math.floor(ev.end_s) == 38
     assert ev.min_dist_m == pytest.approx(449.5, abs=0.01)
-    assert conflicts_of(sim).min_separation_m == pytest.approx(449.5, abs=0.01)
+    assert sim.services.start().conflicts.min_separation_m == pytest.approx(449.5, abs=0.01)
 
 
 def test_vertical_separation_200_m():
@@ -92,7 +92,7 @@ def test_in_trail_overtake_twice_is_two_events():
         "00:02:00.00>SPD A 20\n",
         until=600,
     )
-    lowc = [e for e in conflicts_of(sim).events if e.volume == "lowc"]
+    lowc = [e for e in sim.services.start().conflicts.events if e.volume == "lowc"]
     assert len(lowc) == 2
     assert all(not e.active for e in lowc)
     assert lowc[0].end_s < lowc[1].start_s
@@ -110,9 +110,9 @@ def test_three_aircraft_cluster_three_pairs():
     )
     nmac, lowc = counts(sim)
     assert (nmac, lowc) == (3, 3)
-    pairs = {(e.ac1, e.ac2) for e in conflicts_of(sim).events if e.volume == "lowc"}
+    pairs = {(e.ac1, e.ac2) for e in sim.services.start().conflicts.events if e.volume == "lowc"}
     assert pairs == {("A", "B"), ("A", "C"), ("B", "C")}
-    assert {e.encounter for e in conflicts_of(sim).events} == {"crossing"}  # tracks 120 deg apart
+    assert {e.encounter for e in sim.services.start().conflicts.events} == {"crossing"}  # tracks 120 deg apart
 
 
 def test_deleted_aircraft_closes_only_its_own_events():
@@ -122,7 +122,7 @@ def test_deleted_aircraft_closes_only_its_own_events():
     d = 4000 * DEG_PER_M
     dlon = 300 * DEG_PER_M
     sim = Simulation(seed=1, use_bluesky_navdata=False)
-    service = conflicts_of(sim)
+    service = sim.services.start().conflicts
     sim.load_text(f"00:00:00.00>CRE A EC35 0 0 0 1000 100\n00:00:00.00>CRE B EC35 {d} 0 180 1000 100\n"
                   f"00:00:00.00>CRE C EC35 0.5 0 0 1000 100\n00:00:00.00>CRE D EC35 0.5 {dlon} 0 1000 100\n"
                   "00:00:37.70>DEL A\n")
@@ -154,7 +154,7 @@ def test_short_encounter_between_checks_is_not_missed():
     # sphere for well under the 1 s check interval.
     d = 1000 * DEG_PER_M
     sim = Simulation(seed=1, use_bluesky_navdata=False)
-    service = conflicts_of(sim)
+    service = sim.services.start().conflicts
     sim.settings.cd_interval_s = 1.0
     sim.stack("CRE A A320 0 0 0 1000 250")
     sim.stack(f"CRE B A320 {d * 0.99} {-d} 90 1000 250")
@@ -167,7 +167,7 @@ def test_short_encounter_between_checks_is_not_missed():
 def test_statebased_cd_flags_and_switch():
     d = 20000 * DEG_PER_M
     sim = Simulation(seed=1, use_bluesky_navdata=False)
-    service = conflicts_of(sim)
+    service = sim.services.start().conflicts
     sim.stack(f"CRE A EC35 0 0 0 1000 100; CRE B EC35 {d} 0 180 1000 100; CRE C EC35 0 1 0 1000 100")
     sim.run_until(2.0)
     assert service.state is None  # ASAS is off by default, as in BlueSky
@@ -304,8 +304,7 @@ def test_fused_check_equals_brute_force(traffic, rpz, tlook, lookback, cylinder,
 def test_metrics_are_deterministic():
     def go():
         sim = Simulation(seed=5, use_bluesky_navdata=False)
-        from aamsim.metrics import metrics_of
-        m = metrics_of(sim)
+        m = sim.services.start().metrics
         sim.load_text("00:00:00.00>MCRE 40 EC35 1500 100\n")
         sim.settings.mcre_area = (40.6, -74.1, 40.8, -73.9)
         sim.run_until(120.0)
@@ -335,7 +334,7 @@ def test_conflict_pairs_total_counts_each_new_conflict_once():
     # Two head-on pairs far apart: each is in conflict for many checks but counts once.
     d = 8000 * DEG_PER_M
     sim = Simulation(seed=1, use_bluesky_navdata=False)
-    service = conflicts_of(sim)
+    service = sim.services.start().conflicts
     sim.stack("ASAS ON; ZONER 0.243; DTLOOK 60")
     sim.load_text(f"00:00:00.00>CRE A EC35 0 0 0 1000 100\n00:00:00.00>CRE B EC35 {d} 0 180 1000 100\n"
                   f"00:00:00.00>CRE C EC35 0 1 0 1000 100\n00:00:00.00>CRE D EC35 {d} 1 180 1000 100\n")

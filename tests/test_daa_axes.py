@@ -30,7 +30,7 @@ ENV = dict(os.environ, PYTHONPATH=str(ROOT))
 
 def two(lines: list[str]) -> Simulation:
     sim = Simulation(seed=0)
-    sim.require_services()
+    sim.services.start()
     for line in lines:
         sim.stack(line)
     sim.run_until(0.0)
@@ -144,7 +144,7 @@ def test_reso_daa_on_every_axis_resolves_head_on_crossing_and_overtaking(tmp_pat
 
 def test_daa_resoaxes_command_sets_lists_and_rejects():
     sim = Simulation(seed=0)
-    sim.require_services()
+    sim.services.start()
     daa = sim.services.daa.daa
     assert daa.params.resolution_axes == ("hdg", "vs", "gs")
     sim.stack("DAA RESOAXES vs, hdg")

@@ -45,7 +45,7 @@ def test_aamsim_run_with_reso_daa_has_fewer_losses_of_well_clear(tmp_path):
 
 def crossing_sim(reso: str, axes: str = "") -> Simulation:
     sim = Simulation(seed=0)
-    sim.require_services()
+    sim.services.start()
     sim.stack("CRE C1 EC35 40.700000 -74.100000 0 1000 100")
     sim.stack("CRE C2 EC35 40.720000 -74.085000 270 1000 60")
     sim.stack(f"RESO {reso}")
@@ -90,7 +90,7 @@ def test_reso_off_releases_the_advisories_and_other_methods_are_stored_only():
 
 def test_daa_command_sets_lists_and_rejects():
     sim = Simulation(seed=0)
-    sim.require_services()
+    sim.services.start()
     params = sim.services.daa.daa.params
     assert (params.dmod_m, params.hmd_m, params.taumod_s) == (450.0, 450.0, 35.0)
     sim.stack("DAA DMOD 600; DAA TAUMOD 20; DAA LEVEL 3; DAA SPDMAX 120")
@@ -204,7 +204,7 @@ def test_daa_policy_releases_an_agent_its_actions_cannot_bring_closer_to_its_own
 def test_resume_order_defers_only_ready_aircraft_whose_resumed_paths_meet():
     # B1 hovers 1 km ahead of A1 on A1's line, C1 3 km to the side on a parallel line; all three ready.
     sim = Simulation(seed=0)
-    sim.require_services()
+    sim.services.start()
     for line in ("CRE A1 EC35 40.700000 -74.000000 90 1000 60", "CRE B1 EC35 40.700000 -73.988150 90 1000 0",
                  "CRE C1 EC35 40.727000 -74.000000 90 1000 0"):
         sim.stack(line)

@@ -9,6 +9,7 @@ from __future__ import annotations
 import pytest
 
 from aamsim import Simulation
+from aamsim.plugins.geovector import GeoVectors
 from aamsim.units import FPM, KTS
 
 
@@ -28,7 +29,7 @@ def test_commands_need_the_plugin():
 def test_definitions_ordered_and_shown():
     sim = _run("0:0:0>PLUGIN GEOVECTOR\n0:0:0>BOX B 40 -75 41 -73\n0:0:0>GEOVECTOR B,200,100,350,10,2000,-500\n"
                "0:0:0>GEOVECTOR B\n0:0:0>GEOVECTOR C\n0:0:0>DELGEOVECTOR NONE\n")
-    vec = sim.extensions["geovector"].vectors["B"]
+    vec = sim.features.get(GeoVectors).vectors["B"]
     assert (vec.gsmin, vec.gsmax) == pytest.approx((100 * KTS, 200 * KTS))
     assert (vec.trkmin, vec.trkmax) == (350.0, 10.0)  # a track interval keeps its order (350..10 is valid)
     assert (vec.vsmin, vec.vsmax) == pytest.approx((-500 * FPM, 2000 * FPM))

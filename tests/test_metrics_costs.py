@@ -12,7 +12,6 @@ import pytest
 
 from aamsim import Simulation
 from aamsim.metrics.registry import MetricContext
-from aamsim.metrics.service import metrics_of
 from aamsim.traffic.traffic import FlightRecord
 
 DT = 0.05
@@ -29,7 +28,7 @@ def test_an_aircraft_held_from_its_creation_holds_for_its_whole_airborne_time():
     flight = next(iter(sim.flights()))
     assert flight.airborne_s == pytest.approx(120.0)
     assert flight.slow_s == pytest.approx(120.0)  # was 0.0: it never "had moved"
-    assert metrics_of(sim).compute(sim, ("operational",))["operational"]["airborne_holding_s"] == pytest.approx(120)
+    assert sim.services.start().metrics.compute(sim, ("operational",))["operational"]["airborne_holding_s"] == pytest.approx(120)
 
 
 def test_the_spin_up_after_a_creation_at_zero_speed_is_not_holding():
@@ -66,7 +65,7 @@ def test_delay_and_flight_time_count_unfinished_flights_to_the_end_of_their_reco
         _flight("NOR", created=0.0, deleted=300.0, arrived=True),  # no scheduled arrival: no delay
     ]
     ctx = MetricContext(sim=sim, flights=flights, events=[], duration_s=1000.0, hold_speed_mps=2.57)
-    op = metrics_of(sim).registry.compute(("operational",), ctx)["operational"]
+    op = sim.services.start().metrics.registry.compute(("operational",), ctx)["operational"]
     # Flight times 600, 900 (to the end of the run), 200 (to its deletion), 300.
     assert op["mean_flight_time_s"] == pytest.approx((600 + 900 + 200 + 300) / 4)
     # Delays 100, 1,000 - 700 = 300, 400 - 900 = -500 (a lower bound: it never arrived).
@@ -87,7 +86,7 @@ def test_a_policy_that_parks_aircraft_no_longer_looks_faster():
         if park:
             sim.stack("SPD A 0")
         sim.run_until(900.0)
-        return metrics_of(sim).compute(sim, ("operational",))["operational"]
+        return sim.services.start().metrics.compute(sim, ("operational",))["operational"]
 
     flown, parked = run(False), run(True)
     assert flown["flights_unfinished"] == 0 and parked["flights_unfinished"] == 1

@@ -29,7 +29,6 @@ from aamsim.resolution.mvp import (
     commands,
     mvp_pairs,
 )
-from aamsim.services import build_services
 
 RPZ, HPZ, DTLOOK = 5 * 1852.0 * 1.05, 1000 * 0.3048 * 1.05, 300.0  # BlueSky's default zone, resolution factors
 
@@ -106,7 +105,7 @@ def test_finite_bluesky_pushes_are_unchanged():
 
 def run_pair(lines: str, seconds: float = 30.0) -> Simulation:
     sim = Simulation(seed=0, use_bluesky_navdata=False)
-    build_services(sim)
+    sim.services.start()
     sim.stack("ASAS ON; RESO MVP")
     sim.stack(lines)
     sim.run_until(seconds)

@@ -20,7 +20,6 @@ import pytest
 from aamsim import Simulation
 from aamsim.resolution.mvp import MVPSettings, OwnState, PairGeometry, combine, commands, mvp_pairs
 from aamsim.resolution.mvp_detect import detect
-from aamsim.services import build_services
 
 
 def geometry(drel, vrel, tcpa, tlos, own=(0,), intr=(1,)) -> PairGeometry:
@@ -142,7 +141,7 @@ HEAD_ON = (
 
 def closest_approach(text: str, until: float = 200.0) -> tuple[float, Simulation]:
     sim = Simulation(seed=0, use_bluesky_navdata=False)
-    build_services(sim)
+    sim.services.start()
     sim.load_text(text)
     best = math.inf
     while sim.simt < until:

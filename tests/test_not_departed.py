@@ -15,7 +15,6 @@ from pathlib import Path
 import pytest
 
 from aamsim import Simulation
-from aamsim.metrics import metrics_of
 from aamsim.metrics.registry import MetricContext
 from aamsim.traffic.traffic import FlightRecord
 from rlbridge.agents.rollout import EnvSpec, RolloutWorker
@@ -51,7 +50,7 @@ def test_flights_never_departed_are_counted_beside_the_flights_and_late_to_the_e
     held = [NotDeparted("GND", 200.0, 400.0), NotDeparted("GND#2", 300.0)]  # the second has no scheduled arrival
     ctx = MetricContext(sim=sim, flights=flights, events=[], duration_s=1000.0, hold_speed_mps=2.57,
                         not_departed=held)
-    op = metrics_of(sim).registry.compute(("operational",), ctx)["operational"]
+    op = sim.services.start().metrics.registry.compute(("operational",), ctx)["operational"]
     assert (op["flights"], op["flights_completed"], op["flights_unfinished"]) == (2, 1, 1)
     assert (op["flights_not_departed"], op["flights_scheduled"]) == (2, 4)
     # Delays 600 - 500, 1,000 - 700 (flying at the end) and 1,000 - 400 (on the ground at the end).

@@ -19,7 +19,6 @@ import pytest
 from aamsim import Simulation
 from aamsim.realtraffic import read_reports
 from aamsim.realtraffic.live import LiveFeed, LiveSettings, OpenSkyClient, Pacer, credits_per_request, start_live
-from aamsim.services import build_services
 
 ROOT = Path(__file__).resolve().parents[1]
 REGA = read_reports(ROOT / "tests" / "data" / "opensky" / "rega_zh.json.gz")
@@ -125,7 +124,7 @@ def test_unreachable_server_is_a_message_not_a_crash():
     with FakeOpenSky(["ok"]) as server:
         url = server.url
     sim = Simulation(dt=0.5)
-    build_services(sim)
+    sim.services.start()
     replay = start_live(sim, BOX, LiveSettings(api_url=url, interval_s=0.2, timeout_s=0.3))
     assert replay.feed.wait_idle(30.0)  # type: ignore[attr-defined]  # the first poll, in the background
     sim.run_until(1.0)

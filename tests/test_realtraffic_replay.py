@@ -19,7 +19,6 @@ from aamsim.errors import CommandError
 from aamsim.realtraffic.replay import RecordingFeed, Replay, replays_of
 from aamsim.realtraffic.tracks import build_tracks
 from aamsim.realtraffic.readers import read_reports
-from aamsim.services import build_services
 from aamsim.units import FT
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -54,7 +53,7 @@ def recording(tmp_path: Path) -> Path:
 
 def simulation(dt: float = 0.5) -> Simulation:
     sim = Simulation(dt=dt)
-    build_services(sim)
+    sim.services.start()
     return sim
 
 
@@ -276,13 +275,11 @@ def test_real_vs_real_events_are_listed_but_not_aam_events(tmp_path):
     sim.stack(f"REPLAY {path}")
     sim.stack("CRE UAM1 EC35 48 8 0 1000 0")
     sim.run_until(50.0)
-    from aamsim.metrics import metrics_of
 
-    safety = metrics_of(sim).compute(sim, ("safety",))["safety"]
+    safety = sim.services.start().metrics.compute(sim, ("safety",))["safety"]
     assert safety["nmac_events"] == 0 and safety["nmac_events_aam_vs_real_traffic"] == 0
-    from aamsim.conflicts import conflicts_of
 
-    assert conflicts_of(sim).count("nmac") == 1  # seen by conflict detection, not an AAM event
+    assert sim.services.start().conflicts.count("nmac") == 1  # seen by conflict detection, not an AAM event
 
 
 def test_two_runs_are_identical(recording):

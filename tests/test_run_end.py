@@ -13,7 +13,6 @@ import pytest
 
 from aamsim import Simulation
 from aamsim.run_end import DEFAULT_HORIZON_S, STALL_LIMIT_S
-from aamsim.services import build_services
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -25,7 +24,7 @@ class RanTooLong(Exception):
 def run_open_ended(text: str, cap_s: float = 5 * 86_400.0) -> Simulation:
     """``sim.run()`` without an end time; raises RanTooLong past ``cap_s`` (a run that would never end)."""
     sim = Simulation(seed=0, use_bluesky_navdata=False)
-    build_services(sim)
+    sim.services.start()
     sim.load_text(text)
 
     def cap(s: Simulation) -> None:
@@ -102,7 +101,7 @@ ROTOR_PAIR = ("00:00:00.00>CRE A EC35 40.7 -74.0 90 1500 100\n"
 
 def zone_warnings(text: str) -> list[str]:
     sim = Simulation(seed=0, use_bluesky_navdata=False)
-    build_services(sim)
+    sim.services.start()
     sim.load_text(text)
     sim.run_until(5.0)
     return [m.text for m in sim.reporter.messages if m.kind == "warning" and "ZONER" in m.text]

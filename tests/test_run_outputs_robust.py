@@ -23,7 +23,6 @@ from hypothesis import strategies as st
 from aamsim import Simulation
 from aamsim.messages import printable
 from aamsim.output.recorder import TrajectoryRecorder
-from aamsim.services import build_services
 from aamsim.viewer.frames import RunReplay
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -68,7 +67,7 @@ def test_a_file_that_cannot_be_written_ends_the_run_with_a_message_and_whole_row
 @pytest.mark.skipif(not Path("/dev/full").exists(), reason="needs /dev/full")
 def test_a_recorder_whose_disk_is_full_stops_the_run_with_an_error() -> None:
     sim = Simulation(use_bluesky_navdata=False)
-    build_services(sim)
+    sim.services.start()
     recorder = TrajectoryRecorder(Path("/dev/full"), 1.0)  # every write: ENOSPC
     recorder.attach(sim)
     sim.stack("MCRE 5")

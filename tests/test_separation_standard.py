@@ -7,8 +7,7 @@ import math
 import pytest
 
 from aamsim import SeparationStandard, Simulation
-from aamsim.conflicts import PAPER_VOLUMES, SeparationVolume, conflicts_of
-from aamsim.metrics import metrics_of
+from aamsim.conflicts import PAPER_VOLUMES, SeparationVolume
 
 DEG_PER_M = 1.0 / (6371000.0 * math.pi / 180.0)  # degrees of arc per metre on the sphere
 
@@ -22,7 +21,7 @@ def passing(offset_m: float, standard: SeparationStandard | None = None) -> Simu
     sim.load_text(f"00:00:00.00>CRE A EC35 0 0 0 1000 100\n"
                   f"00:00:00.00>CRE B EC35 {4000 * DEG_PER_M} {lon} 180 1000 100\n")
     sim.run_until(120.0)
-    conflicts_of(sim).finish(sim)
+    sim.services.start().conflicts.finish(sim)
     return sim
 
 
@@ -35,8 +34,8 @@ def test_the_default_is_the_papers_spheres():
 
 def test_the_standard_decides_what_counts_as_a_loss_of_well_clear():
     # 500 m abeam: outside the paper's 450 m LoWC sphere, inside a 600 m one; never an NMAC.
-    paper = conflicts_of(passing(500.0))
-    wide = conflicts_of(passing(500.0, SeparationStandard(lowc_horizontal_m=600.0, lowc_vertical_m=600.0)))
+    paper = (passing(500.0)).services.start().conflicts
+    wide = (passing(500.0, SeparationStandard(lowc_horizontal_m=600.0, lowc_vertical_m=600.0))).services.start().conflicts
     assert (paper.count("nmac"), paper.count("lowc")) == (0, 0)
     assert (wide.count("nmac"), wide.count("lowc")) == (0, 1)
     assert wide.events[0].min_dist_m == pytest.approx(500.0, abs=1.0)
@@ -50,16 +49,16 @@ def test_sepvolume_changes_the_standard_and_the_metrics_read_it():
     assert (std.nmac_horizontal_m, std.nmac_vertical_m, std.nmac_sphere) == (100.0, 30.0, False)
     assert (std.lowc_horizontal_m, std.lowc_vertical_m, std.lowc_sphere) == (450.0, 450.0, True)
     assert std.nmac == SeparationVolume("nmac", 100.0, 30.0)
-    assert metrics_of(sim).context(sim).separation == std
+    assert sim.services.start().metrics.context(sim).separation == std
 
 
 def test_a_service_without_the_two_volumes_has_no_standard():
     sim = Simulation(seed=1, use_bluesky_navdata=False)
-    service = conflicts_of(sim)
+    service = sim.services.start().conflicts
     service.volumes = (SeparationVolume("wide", 900.0),)
     with pytest.raises(LookupError, match="no 'nmac' volume"):
         _ = sim.separation_standard
-    assert metrics_of(sim).context(sim).separation == SeparationStandard()  # the metrics keep the paper's names
+    assert sim.services.start().metrics.context(sim).separation == SeparationStandard()  # the metrics keep the paper's names
 
 
 @pytest.mark.parametrize("kwargs, message", [

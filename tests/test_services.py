@@ -1,11 +1,14 @@
-"""Services wired explicitly: one builder, typed fields, the ASAS interval read from the settings."""
+"""Services wired explicitly: typed fields built with the simulation, started once, the ASAS interval read from
+the settings."""
 
 from __future__ import annotations
 
 import pytest
 
 from aamsim import Simulation
-from aamsim.services import build_services
+from aamsim.conflicts import ConflictService
+from aamsim.metrics import MetricsService
+from aamsim.services import Services
 
 
 def _pair(sim: Simulation) -> None:
@@ -15,7 +18,7 @@ def _pair(sim: Simulation) -> None:
 @pytest.mark.parametrize(("interval", "last_check"), [(5.0, 10.0), (1.0, 12.0), (0.5, 12.0)])
 def test_dt_asas_sets_the_check_interval(interval, last_check):
     sim = Simulation(seed=0)
-    services = build_services(sim)
+    services = sim.services.start()
     _pair(sim)
     assert sim.stack(f"DT ASAS {interval}")
     sim.run_until(12.0)
@@ -27,7 +30,7 @@ def test_dt_asas_sets_the_check_interval(interval, last_check):
 
 def test_dt_asas_changes_the_interval_after_the_first_checks():
     sim = Simulation(seed=0)
-    services = build_services(sim)
+    services = sim.services.start()
     _pair(sim)
     sim.run_until(3.0)
     assert services.conflicts._last_check_s == 3.0  # every 1 s (BlueSky's default)
@@ -38,22 +41,32 @@ def test_dt_asas_changes_the_interval_after_the_first_checks():
 
 def test_services_are_typed_fields_built_once():
     sim = Simulation(seed=0)
-    assert sim.services is None
+    services = sim.services
+    assert isinstance(services, Services) and isinstance(services.conflicts, ConflictService)
+    assert isinstance(services.metrics, MetricsService) and services.metrics.conflicts is services.conflicts
+    assert not services.started and "conflicts" not in sim.hooks.post_step.names()  # idle: no check hooks
     sim.stack("SEPVOLUME")  # a listing does not start conflict detection
-    assert sim.services is None and "conflicts" not in sim.hooks.post_step.names()
-    services = build_services(sim)
-    assert sim.services is services and sim.hooks.post_step.names().count("conflicts") == 1
-    with pytest.raises(RuntimeError, match="already built"):
-        build_services(sim)
+    assert not services.started and "conflicts" not in sim.hooks.post_step.names()
+    assert services.start() is services and sim.services is services
+    assert sim.hooks.post_step.names().count("conflicts") == 1
+    services.start(groups=("safety",))  # a second start configures, attaches nothing twice
+    assert sim.hooks.post_step.names().count("conflicts") == 1 and services.metrics.groups == ("safety",)
     sim.stack("SEPVOLUME NMAC 100")
-    assert services.conflicts.volume("nmac").radius_m == 100.0
+    assert sim.services is services and services.conflicts.volume("nmac").radius_m == 100.0
+
+
+def test_configuring_commands_start_the_services():
+    for command in ("SEPVOLUME NMAC 100", "RESO MVP", "DAA TPREV 50"):
+        sim = Simulation(seed=0)
+        assert sim.stack(command)
+        assert sim.services.started and sim.hooks.post_step.names().count("conflicts") == 1, command
 
 
 def test_snapshot_stream_is_frozen_shared_and_periodic():
     from aamsim.snapshots import take_snapshot
 
     sim = Simulation(seed=0)
-    services = build_services(sim)
+    services = sim.services.start()
     _pair(sim)
     got: list = []
     services.snapshots.subscribe(got.append, 2.0, name="a")

@@ -24,7 +24,6 @@ from aamsim.conflicts.pairs import slant_distances
 from aamsim.conflicts.service import pairs_within, search_pairs, traffic_snapshot
 from aamsim.errors import SourceRef
 from aamsim.metrics import record_advisories, record_advisory
-from aamsim.services import build_services
 from aamsim.traffic.conditions import Condition
 from aamsim.traffic.kernel import COND_DIST
 from aamsim.traffic.pool import TrafficPool
@@ -156,7 +155,7 @@ def test_pairs_within_in_one_call_is_snapshot_search_and_distances(n, seed, radi
 # ------------------------------------------------------------------- joint conditional commands
 def _world(pool: TrafficPool, w: int, n: int) -> tuple[Simulation, list[str]]:
     sim = Simulation(seed=w, use_bluesky_navdata=False, traffic=pool.new_traffic(w))
-    build_services(sim)
+    sim.services.start()
     ids = [f"W{w}A{k}" for k in range(n)]
     for k, acid in enumerate(ids):
         sim.stack(f"CRE {acid} EC35 40.{70 + k} -74.0 90 1000 60")

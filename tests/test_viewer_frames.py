@@ -135,7 +135,7 @@ def test_a_bad_run_directory_is_refused_naming_the_file(run_dir, name, content, 
 
 def test_a_live_frame_shows_conflict_states_and_the_events_that_began():
     sim = Simulation(seed=1)
-    sim.require_services()
+    sim.services.start()
     # head-on at 500 ft, 1,001 m apart, 40 kt each (closing 41.2 m/s): LoWC (450 m) from 13.4 s, NMAC
     # (150 m) only from 20.6 s
     sim.stack("CRE P1 EC35 40.0 -74.0 90 500 40")
@@ -212,7 +212,7 @@ def test_a_run_in_which_no_aircraft_flew_replays_as_an_empty_map(tmp_path):
 
 def test_an_aircraft_on_the_ground_is_neither_airborne_nor_holding():
     sim = Simulation(seed=1)
-    sim.require_services()
+    sim.services.start()
     sim.stack("CRE G1 EC35 40.0 -74.0 90 0 0")  # parked on the ground
     sim.stack("CRE H1 EC35 40.1 -74.0 90 500 0")  # hovering at 500 ft
     sim.stack("CRE F1 EC35 40.2 -74.0 90 500 60")  # flying at 60 kt

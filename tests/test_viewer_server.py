@@ -105,7 +105,7 @@ def test_a_replay_stream_obeys_seek_and_pause_and_answers_bad_messages_without_s
 
 def test_a_client_that_vanishes_mid_stream_stops_neither_the_simulation_nor_the_server():
     sim = Simulation(seed=1)
-    sim.require_services()
+    sim.services.start()
     sim.stack("CRE P1 EC35 40.0 -74.0 90 500 40")
     live = LiveViewer("127.0.0.1", 0)
     url = live.start()

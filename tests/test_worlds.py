@@ -6,7 +6,6 @@ import numpy as np
 import pytest
 
 from aamsim import Simulation
-from aamsim.services import build_services
 from aamsim.simulation import PARALLEL_MIN_AIRCRAFT
 from aamsim.threads import THREADS_ENV, available_cores, check_threads
 from aamsim.traffic.pool import TrafficPool
@@ -37,7 +36,7 @@ def _scenario(seed: int, n: int = 12) -> str:
 
 
 def _fresh(sim: Simulation, text: str) -> Simulation:
-    build_services(sim)
+    sim.services.start()
     sim.load_text(text)
     return sim
 

@@ -8,7 +8,6 @@ from aamsim.conflicts.service import (
     ConflictState,
     SeparationVolume,  # (defined in aamsim.conflicts.separation)
     closest_intruders,
-    conflicts_of,
     pairs_within,
 )
 
@@ -24,6 +23,5 @@ __all__ = [
     "SeparationStandard",
     "SeparationVolume",
     "closest_intruders",
-    "conflicts_of",
     "pairs_within",
 ]

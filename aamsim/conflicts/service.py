@@ -404,8 +404,3 @@ def pairs_within(sim: SimulationCore, radius_m: float) -> tuple[np.ndarray, np.n
                                           f"t = {sim.simt:.2f} s; searches for near aircraft stop there, so some "
                                           "near aircraft are left out (traffic created on one spot?)")
     return pi, pj, d
-
-
-def conflicts_of(sim: SimulationCore) -> ConflictService:
-    """The conflict service of a simulation (``sim.services.conflicts``; see :mod:`aamsim.services`)."""
-    return sim.require_services().conflicts

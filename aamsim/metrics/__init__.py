@@ -2,7 +2,7 @@
 
 from aamsim.metrics.compare import Comparison, ComparisonError, compare_runs, expand_runs, load_run
 from aamsim.metrics.registry import MetricContext, MetricRegistry, NotDeparted
-from aamsim.metrics.service import MetricsService, metrics_of, record_advisories, record_advisory, write_conflicts_csv
+from aamsim.metrics.service import MetricsService, record_advisories, record_advisory, write_conflicts_csv
 
 __all__ = [
     "Comparison",
@@ -14,7 +14,6 @@ __all__ = [
     "compare_runs",
     "expand_runs",
     "load_run",
-    "metrics_of",
     "record_advisories",
     "record_advisory",
     "write_conflicts_csv",

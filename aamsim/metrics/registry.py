@@ -3,12 +3,10 @@
 Each simulation's metrics service owns a registry pre-filled with the
 standard metrics; a plugin or a user adds one in a few lines::
 
-    from aamsim.metrics import metrics_of
-
     def hover_share(ctx):
         return ctx.count(lambda f: f.slow_s > 60) / max(1, len(ctx.flights))
 
-    metrics_of(sim).registry.add("operational", "long_hover_share", hover_share)
+    sim.services.metrics.registry.add("operational", "long_hover_share", hover_share)
 """
 
 from __future__ import annotations

@@ -11,7 +11,7 @@ from typing import TYPE_CHECKING, Any
 
 from aamsim.conflicts.events import classify_encounter, track_speed
 from aamsim.conflicts.separation import PAPER_STANDARD, SeparationStandard
-from aamsim.conflicts.service import ConflictService, conflicts_of
+from aamsim.conflicts.service import ConflictService
 from aamsim.metrics.registry import MetricContext, MetricRegistry, NotDeparted, pair_kind
 from aamsim.metrics.standard import register_standard_metrics
 
@@ -42,6 +42,8 @@ def _standard_or_default(service: ConflictService) -> SeparationStandard:
 @dataclass
 class MetricsService:
     groups: tuple[str, ...] = DEFAULT_GROUPS
+    # The simulation's conflict service, whose events and separation the metrics count (aamsim.services).
+    conflicts: ConflictService = field(default_factory=ConflictService)
     registry: MetricRegistry = field(default_factory=_standard_registry)
     # Who holds scheduled departures back (a departure planner) tells which flights it kept on the ground:
     # they have no flight record, yet every scheduled flight must be counted (issue 28). None: nobody does.
@@ -53,7 +55,7 @@ class MetricsService:
 
         ``events``: the conflict service's events when the caller has them already (they take a
         while to build in a dense run)."""
-        service = conflicts_of(sim)
+        service = self.conflicts
         real = real_traffic_callsigns(sim)
         if events is None:
             events = service.events
@@ -80,11 +82,6 @@ class MetricsService:
     def compute(self, sim: SimulationCore, groups: tuple[str, ...] | None = None,
                 events: list[SeparationEvent] | None = None) -> dict[str, dict[str, Any]]:
         return self.registry.compute(groups or self.groups, self.context(sim, events))
-
-
-def metrics_of(sim: SimulationCore) -> MetricsService:
-    """The metrics service of a simulation (``sim.services.metrics``; see :mod:`aamsim.services`)."""
-    return sim.require_services().metrics
 
 
 def record_advisory(sim: SimulationCore, acid: str, action: str) -> None:
@@ -125,12 +122,10 @@ def _column(values: list[float], decimals: int) -> list[str]:
     return [format(x, spec) if isfinite(x) else "" for x in values]
 
 
-def write_conflicts_csv(path: Path, sim: SimulationCore, events: list[SeparationEvent] | None = None) -> int:
+def write_conflicts_csv(path: Path, sim: SimulationCore, events: list[SeparationEvent]) -> int:
     """Every event of every volume; ``pair`` says AAM vs AAM, AAM vs real traffic or real vs real traffic.
 
-    ``events``: the conflict service's events when the caller has them already."""
-    if events is None:
-        events = conflicts_of(sim).events
+    ``events``: the conflict service's events (``sim.services.conflicts.events``)."""
     real = real_traffic_callsigns(sim)
     ordered = sorted(events, key=lambda ev: (ev.start_s, ev.volume, ev.ac1, ev.ac2))
     numbers: list[tuple[float, ...]] = []

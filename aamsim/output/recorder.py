@@ -29,7 +29,6 @@ from typing import IO, TYPE_CHECKING
 import numpy as np
 
 from aamsim.output.fastcsv import format_rows, pack_names
-from aamsim.services import services_of
 
 if TYPE_CHECKING:
     from aamsim.simulation import Simulation
@@ -39,7 +38,6 @@ TRAJECTORY_HEADER = "id,simt,lat,lon,alt_m,tas_mps,cas_mps,gs_mps,trk_deg,vs_mps
 _FIELDS = ("lat", "lon", "alt", "tas", "cas", "gs", "trk", "vs")
 _DECIMALS = np.array([2, 7, 7, 3, 4, 4, 4, 4, 4], dtype=np.int64)
 _FLUSH_ROWS = 500_000
-WRITE_FAILURES = "write_failures"  # sim.extensions key: outputs that could not be written
 
 
 @dataclass
@@ -68,7 +66,7 @@ class TrajectoryRecorder:
         # Unbuffered, so that what was written is known exactly; open while the recorder is attached.
         self._file = open(self.path, "wb", buffering=0)  # noqa: SIM115
         self._write(TRAJECTORY_HEADER.encode())
-        services_of(sim).snapshots.subscribe(self.sample, self.period_s, name="trajectory-recorder",
+        sim.services.snapshots.subscribe(self.sample, self.period_s, name="trajectory-recorder",
                                              phase="pre_step", priority=900)
 
     def sample(self, snap: TrafficSnapshot) -> None:
@@ -148,7 +146,7 @@ class TrajectoryRecorder:
             text = (f"{self.path.name}: cannot write ({self.failed}); recording stopped and the run stops at "
                     f"t = {sim.simt:.2f} s; the file holds {self.rows_written:,} whole rows")
             sim.report("error", text)
-            sim.extensions.setdefault(WRITE_FAILURES, []).append(text)  # aamsim run exits 1 on them
+            sim.run_outputs.write_failures.append(text)  # aamsim run exits 1 on them
             sim.quit_requested = True
 
     def sync(self) -> None:

@@ -3,7 +3,7 @@
 A plugin is a module with ``init_plugin(sim)``: it receives the simulation
 and registers what it provides explicitly (``sim.commands.add(...)``,
 ``sim.hooks.post_step.add(...)``, ...), keeping any state in its own objects
-(or ``sim.extensions``), never in module globals, so that two simulations in
+(or in ``sim.features``, one object of its own class), never in module globals, so that two simulations in
 one process stay independent. ``init_plugin`` may return an object; it is
 kept in ``sim.plugins[name]``. ``docs/plugins.md`` shows how to write one.
 

@@ -132,10 +132,10 @@ class GeoVectors:
 
 
 def _state(sim: CommandContext) -> GeoVectors:
-    state = sim.extensions.get("geovector")
+    state = sim.features.get(GeoVectors)
     if state is None:
         raise CommandError("the GEOVECTOR plugin is not loaded (PLUGINS LOAD GEOVECTOR)")
-    return state  # type: ignore[no-any-return]
+    return state
 
 
 def _speed(speed: Speed | None) -> float | None:
@@ -175,8 +175,7 @@ def delgeovector(sim: CommandContext, area: Text) -> str:
 
 
 def init_plugin(sim: CommandContext) -> GeoVectors:
-    state = GeoVectors()
-    sim.extensions["geovector"] = state
+    state = sim.features.add(GeoVectors())
     sim.commands.add(geovector)
     sim.commands.add(delgeovector)
     sim.hooks.reset.add(lambda s: state.vectors.clear(), name=f"{_HOOK}-reset")

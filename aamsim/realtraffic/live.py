@@ -327,10 +327,10 @@ class Pacer:
 
 def start_live(sim: CommandContext, box: BBox, settings: LiveSettings | None = None) -> Replay:
     """Overlay live OpenSky traffic in ``box`` from now on, and pace the simulation to real time."""
-    from aamsim.realtraffic.replay import Alignment, Replay, next_prefix
+    from aamsim.realtraffic.replay import Alignment, Replay, next_prefix, replays_of
 
     settings = settings or LiveSettings.from_env()
-    if any("live" in r.name for r in sim.extensions.get("replays", [])):
+    if any("live" in r.name for r in replays_of(sim)):
         raise CommandError("a live OpenSky overlay is already running")
     client = OpenSkyClient(box, settings)
     feed = LiveFeed(client, report=lambda kind, text: sim.report(kind, text))

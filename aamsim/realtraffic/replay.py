@@ -173,9 +173,11 @@ class Replay:
                                priority=5, start_us=0)
         sim.hooks.deleted.add(self._on_deleted, name=f"replay:{self.prefix}.deleted")
         sim.pending_work.append(lambda: self.pending(sim.simt))
-        replays = sim.extensions.setdefault("replays", [])
-        if not replays and "run_outputs" in sim.extensions:  # aamsim run: its run directory gets the list
-            sim.extensions["run_outputs"].append(write_run_outputs)
+        replays = sim.features.get(Replays)
+        if replays is None:
+            replays = sim.features.add(Replays())
+        if not replays and sim.run_outputs.collecting:  # aamsim run: its run directory gets the list
+            sim.run_outputs.add(write_run_outputs)
         replays.append(self)
         sim.report("note", self.describe(), sim.current_source)
 
@@ -353,10 +355,14 @@ def _utc(t: float) -> str:
     return datetime.fromtimestamp(t, tz=UTC).isoformat().replace("+00:00", "Z")
 
 
+class Replays(list[Replay]):
+    """The replays attached to a simulation, in the order they started (its feature state)."""
+
+
 def replays_of(sim: CommandContext) -> list[Replay]:
     """The replays attached to a simulation, in the order they started."""
-    replays: list[Replay] = sim.extensions.get("replays", [])
-    return replays
+    replays = sim.features.get(Replays)
+    return [] if replays is None else replays
 
 
 def next_prefix(sim: CommandContext) -> str:

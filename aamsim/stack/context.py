@@ -18,6 +18,7 @@ from aamsim.errors import SourceRef, UnknownAircraft
 from aamsim.stack.argtypes import Position
 
 if TYPE_CHECKING:
+    from aamsim.features import FeatureStates, RunOutputs
     from aamsim.hooks import Hooks
     from aamsim.limits import SimulationLimits
     from aamsim.navdb import NavDatabase
@@ -134,12 +135,11 @@ class CommandContext(Protocol):
     conditions: Conditions
     hooks: Hooks
     plugins: dict[str, Any]
-    extensions: dict[str, Any]
+    features: FeatureStates  # per-simulation state of optional features, by class
+    run_outputs: RunOutputs
     pending_work: list[Callable[[], bool]]
-    services: Services | None
+    services: Services
     wind: WindField  # the wind field (WIND, GETWIND, DEL WIND)
-
-    def require_services(self) -> Services: ...
 
     # clock, randomness and messages
     @property

@@ -245,14 +245,12 @@ def layout_from_sim(sim: Simulation, scenario_text: str | None = None) -> MapLay
 
 def frame_from_sim(sim: Simulation, events_since: float | None = None) -> TrafficFrame:
     """The traffic of a live simulation now, with the events that began after ``events_since``."""
-    from aamsim.conflicts.service import conflicts_of
-
     view = sim.view
     ids = tuple(view.ids)
     lat, lon, alt = (np.array(x, dtype=np.float64) for x in (view.lat, view.lon, view.alt))
     trk, tas = np.array(view.trk, dtype=np.float64), np.array(view.tas, dtype=np.float64)
     airborne, status = airborne_status(alt, tas, sim.settings.hold_speed_mps, sim.settings.airborne_alt_m)
-    service = conflicts_of(sim)  # type: ignore[arg-type]
+    service = sim.services.conflicts
     slot = {a: i for i, a in enumerate(ids)}
     for volume, code in (("lowc", STATUS_LOWC), ("nmac", STATUS_NMAC)):
         for acid in service.in_volume_now(volume):

@@ -51,7 +51,7 @@ def record_episode(env: EnvSpec, actor: str, spec: dict[str, Any], weights: Any,
             rec.close()
     sim = core.sim
     assert sim is not None
-    write_conflicts_csv(out_dir / "conflicts.csv", sim)
+    write_conflicts_csv(out_dir / "conflicts.csv", sim, sim.services.conflicts.events)
     write_flights(out_dir / "flights.csv", sim.flight_log)
     (out_dir / "scenario.scn").write_text(core.text, encoding="utf-8")
     return stats

@@ -25,7 +25,7 @@ from typing import TYPE_CHECKING, Any, ClassVar
 import gymnasium as gym
 import numpy as np
 
-from aamsim.conflicts import conflicts_of, pairs_within
+from aamsim.conflicts import pairs_within
 from aamsim.metrics import record_advisories
 from aamsim.units import KTS, R_EARTH
 from rlbridge.observe import corridor_features, nearest_neighbours
@@ -276,7 +276,7 @@ class CorridorSA(UseCaseBase):
     # ----------------------------------------------------------------- reward
     def feedback(self, sim: Simulation, agents: list[str], actions: dict[str, Any], since_s: float) -> Feedback:
         """Rewards from the closest intruder now and the interval's NMACs; info flags NMAC and LoWC events."""
-        service = conflicts_of(sim)
+        service = sim.services.conflicts
         nmac_min = service.involved_since("nmac", since_s)
         lowc = service.involved_since("lowc", since_s)
         closest = self.closest_distances(sim, agents) if agents else np.empty(0)

@@ -43,7 +43,7 @@ from typing import TYPE_CHECKING, Any, ClassVar
 import gymnasium as gym
 import numpy as np
 
-from aamsim.conflicts import conflicts_of, pairs_within
+from aamsim.conflicts import pairs_within
 from aamsim.metrics import record_advisory
 from aamsim.units import FPM, FT, R_EARTH
 from rlbridge.observe import nearest_neighbours
@@ -354,7 +354,7 @@ class HeadingAltitudeSA(UseCaseBase):
     # ----------------------------------------------------------------- reward
     def feedback(self, sim: Simulation, agents: list[str], actions: dict[str, Any], since_s: float) -> Feedback:
         p = self.params
-        service = conflicts_of(sim)
+        service = sim.services.conflicts
         nmac_min = service.involved_since("nmac", since_s)
         lowc = service.involved_since("lowc", since_s)
         slots = sim.slots(agents) if agents else np.empty(0, dtype=np.int64)

@@ -32,8 +32,7 @@ from typing import TYPE_CHECKING, Any, ClassVar
 import gymnasium as gym
 import numpy as np
 
-from aamsim.conflicts import conflicts_of
-from aamsim.metrics import NotDeparted, metrics_of
+from aamsim.metrics import NotDeparted
 from aamsim.stack.parser import TimedCommand
 from aamsim.units import FT
 from rlbridge.usecases.frozen import PolicySource
@@ -269,7 +268,7 @@ class StrategicPlanning(UseCaseBase):
         plan = self.plan
         # The flights held on the ground count in the episode's metrics (completed + unfinished + not
         # departed = scheduled; their delay runs to the end of the episode).
-        metrics_of(sim).held_departures = lambda: not_departed(plan, ep)
+        sim.services.metrics.held_departures = lambda: not_departed(plan, ep)
         self._skip_unplaceable(sim)
         return list(self.plan.schedule.other)
 
@@ -526,7 +525,7 @@ class StrategicPlanning(UseCaseBase):
         if who not in agents or self.ep is None:
             return Feedback(rewards, info)
         k = agents.index(who)
-        service = conflicts_of(sim)
+        service = sim.services.conflicts
         nmac, lowc = service.count("nmac") - self.ep.nmac_seen, service.count("lowc") - self.ep.lowc_seen
         self.ep.nmac_seen += nmac
         self.ep.lowc_seen += lowc

@@ -45,7 +45,7 @@ def zoner(sim: CommandContext, radius_nm: Number | None = None) -> str | None:
         return f"PZ radius {sim.settings.zoner_m / NM:g} NM ({sim.settings.zoner_m:.1f} m)"
     old = sim.settings.zoner_m
     sim.settings.zoner_m = _positive_up_to(radius_nm * NM, MAX_SEPARATION_M, "the protected-zone radius", "m")
-    mvp = sim.services.mvp.settings if sim.services is not None else None
+    mvp = sim.services.mvp.settings if sim.services.started else None
     if mvp is not None and not mvp.zone_r_relative:
         mvp.factor_h *= old / sim.settings.zoner_m  # RSZONER gave a radius: it stays (as BlueSky)
     return None
@@ -58,7 +58,7 @@ def zonedh(sim: CommandContext, height_ft: Number | None = None) -> str | None:
         return f"PZ half-height {sim.settings.zonedh_m / FT:g} ft"
     old = sim.settings.zonedh_m
     sim.settings.zonedh_m = _positive_up_to(height_ft * FT, MAX_SEPARATION_M, "the protected-zone height", "m")
-    mvp = sim.services.mvp.settings if sim.services is not None else None
+    mvp = sim.services.mvp.settings if sim.services.started else None
     if mvp is not None and not mvp.zone_dh_relative:
         mvp.factor_v *= old / sim.settings.zonedh_m  # RSZONEDH gave a height: it stays (as BlueSky)
     return None
@@ -82,12 +82,11 @@ def sepvolume(sim: CommandContext, name: Text = "", radius_m: Number | None = No
     LoWC 450 m); with a half-height: a cylinder, as detect-and-avoid standards
     define them. Without arguments, list the volumes.
     """
-    from aamsim.conflicts.service import PAPER_VOLUMES, SeparationVolume
+    from aamsim.conflicts.service import SeparationVolume
 
     if not name:  # a listing does not start conflict detection
-        volumes = sim.services.conflicts.volumes if sim.services is not None else PAPER_VOLUMES
-        return "\n".join(v.describe() for v in volumes)
-    service = sim.require_services().conflicts
+        return "\n".join(v.describe() for v in sim.services.conflicts.volumes)
+    service = sim.services.start().conflicts
     if radius_m is None or not 0 < radius_m <= MAX_SEPARATION_M or (
             half_height_m is not None and not 0 < half_height_m <= MAX_SEPARATION_M):
         raise CommandError(f"SEPVOLUME needs a radius [m] (and, for a cylinder, a half-height [m]) above 0 and at "

@@ -51,7 +51,7 @@ def _show(params: object, name: str) -> str:
 
 
 def describe(sim: CommandContext) -> str:
-    params = sim.require_services().daa.daa.params
+    params = sim.services.start().daa.daa.params
     return "\n".join(_show(params, name) for name in (*DAA_SETTINGS, AXES_SETTING))
 
 
@@ -76,7 +76,7 @@ def daa(sim: CommandContext, name: Text = "", value: RestOfLine = "") -> str | N
         return describe(sim)
     if name != AXES_SETTING and name not in DAA_SETTINGS:
         raise CommandError(f"unknown DAA setting {name}; known: {', '.join((*DAA_SETTINGS, AXES_SETTING))}")
-    service = sim.require_services().daa
+    service = sim.services.start().daa
     words = value.replace(",", " ").split()
     if not words:
         return _show(service.daa.params, name)

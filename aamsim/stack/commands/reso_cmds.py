@@ -21,7 +21,7 @@ BLUESKY_PLUGIN_METHODS = ("EBY", "SSD", "SWARM")
 
 
 def _mvp(sim: CommandContext) -> MVPService:
-    return sim.require_services().mvp
+    return sim.services.start().mvp
 
 
 @command("RESO", group="conflicts")
@@ -42,7 +42,7 @@ def reso(sim: CommandContext, method: Text = "") -> str | None:
         raise CommandError(f"RESO {method}: no such resolution method; available: {', '.join(RESO_METHODS)}")
     sim.settings.reso = method
     if method != "OFF":
-        sim.require_services()  # the service acts from its next cycle on
+        sim.services.start()  # the service acts from its next cycle on
     return None
 
 
