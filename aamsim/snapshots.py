@@ -57,7 +57,8 @@ class TrafficSnapshot:
         except ValueError:
             raise AttributeError(f"a traffic snapshot has no field {name!r}; it has {', '.join(self.fields)}") \
                 from None
-        return self.values[row]
+        column: np.ndarray = self.values[row]
+        return column
 
     def columns(self, names: tuple[str, ...]) -> np.ndarray:
         """Several fields as a new ``(len(names), n)`` array."""

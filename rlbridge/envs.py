@@ -70,8 +70,8 @@ class AamParallelEnv(ParallelEnv):
         self._seed_rng = np.random.default_rng()
         self.last_result: StepResult | None = None
         self._renderer: EnvRenderer | None = None
-        self._observation_spaces: dict[str, gym.Space] = {}
-        self._action_spaces: dict[str, gym.Space] = {}
+        self._observation_spaces: dict[str, gym.Space[Any]] = {}
+        self._action_spaces: dict[str, gym.Space[Any]] = {}
         if self.render_mode is not None:
             text = getattr(self.core, "text", None)
             if text is None:
@@ -81,17 +81,18 @@ class AamParallelEnv(ParallelEnv):
 
     # Each agent's spaces are built on first use and kept on the instance (the same object on every
     # call); a functools.cache on the method, keyed by self, kept every env ever made alive.
-    def observation_space(self, agent: str) -> gym.Space:
+    def observation_space(self, agent: str) -> gym.Space[Any]:
         if agent not in self._observation_spaces:
             self._observation_spaces[agent] = self._usecase.observation_space()
         return self._observation_spaces[agent]
 
-    def action_space(self, agent: str) -> gym.Space:
+    def action_space(self, agent: str) -> gym.Space[Any]:
         if agent not in self._action_spaces:
             self._action_spaces[agent] = self._usecase.action_space()
         return self._action_spaces[agent]
 
-    def reset(self, seed: int | None = None, options: dict[str, Any] | None = None):
+    def reset(self, seed: int | None = None, options: dict[str, Any] | None = None
+              ) -> tuple[dict[str, np.ndarray], dict[str, dict[str, Any]]]:
         if seed is not None:
             self._seed_rng = np.random.default_rng(seed)
         episode_seed = int(self._seed_rng.integers(2**31 - 1)) if seed is None else int(seed)
@@ -109,7 +110,8 @@ class AamParallelEnv(ParallelEnv):
         self.possible_agents += [a for a in result.discovered if a not in known]
         self.agents = list(result.alive)
 
-    def step(self, actions: dict[str, Any]):
+    def step(self, actions: dict[str, Any]) -> tuple[dict[str, np.ndarray], dict[str, float], dict[str, bool],
+                                                    dict[str, bool], dict[str, dict[str, Any]]]:
         result = self.core.step(actions)
         self._take(result)
         obs, rewards, terms, truncs = {}, {}, {}, {}
@@ -155,7 +157,7 @@ def parallel_env(scenario: str | Path = "nyc_train_100.scn", **kwargs: Any) -> A
 TrafficPolicy = Callable[[str, Any], int | None]
 
 
-class AamSingleAgentEnv(gym.Env):
+class AamSingleAgentEnv(gym.Env[np.ndarray, Any]):
     """Single-agent view of a use case: control one agent; the others follow ``traffic_policy``.
 
     ``ego`` is the controlled agent. Default (``ego=None``): each ``reset`` draws it from the agents
@@ -217,7 +219,8 @@ class AamSingleAgentEnv(gym.Env):
                     out[a] = act
         return out
 
-    def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
+    def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None
+              ) -> tuple[np.ndarray, dict[str, Any]]:
         super().reset(seed=seed)
         if self._draw_ego:
             self.ego = self._candidates[int(self.np_random.integers(len(self._candidates)))]
@@ -230,7 +233,7 @@ class AamSingleAgentEnv(gym.Env):
             self._obs = obs
         return obs[self.ego], infos.get(self.ego, {})
 
-    def step(self, action: Any):
+    def step(self, action: Any) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
         actions = self._traffic_actions()
         actions[self.ego] = int(action) if isinstance(self.action_space, gym.spaces.Discrete) else action
         obs, rewards, terms, truncs, infos = self._multi.step(actions)
