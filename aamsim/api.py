@@ -245,6 +245,15 @@ class SimulationAPI:
             raise CommandError("set_replay_state: only replayed (non-cooperative) aircraft follow a recording")
         intents.set_replay_state(self.traffic, slots, lat, lon, alt_m, gsnorth_mps, gseast_mps, vs_mps)
 
+    def set_kinematic_state(self, targets: Target, values: dict[str, np.ndarray]) -> None:
+        """Overwrite position, speeds and directions of ``targets`` from another simulator's state.
+
+        ``values``: one array per name of :data:`aamsim.traffic.intents.SYNC_FIELDS` (SI), one entry per
+        target. The caches that depend on them are invalidated, so the next step recomputes them; the
+        BlueSky backend mirrors BlueSky's aircraft this way after each of its steps.
+        """
+        intents.set_kinematic_state(self.traffic, self.slots(targets), values)
+
     def overwrite_state(self, targets: Target, name: str, values: float | bool | np.ndarray) -> None:
         """Set one field directly, as BlueSky's ``traf.alt[i] = x`` does: no mode switch, no other effect.
 

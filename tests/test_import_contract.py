@@ -65,3 +65,36 @@ def test_the_contract_sees_function_level_type_checking_and_relative_imports(tmp
         "rlbridge/usecases/b.py:2 imports rlbridge.experiment.train.load_checkpoint",
         "rlbridge/usecases/c.py:2 imports rlbridge.agents",
     ]
+
+
+def world_reads(folder: Path, root: Path = ROOT) -> list[str]:
+    """``file:line`` of every read of an object's ``traffic`` / ``_traffic`` attribute under ``folder``.
+
+    The simulation's world (its traffic arrays) is aamsim's: rlbridge reads the traffic through the
+    simulation API (``sim.view``, ``sim.slots``, the snapshot) and changes it through its intents.
+    Module paths (``aamsim.traffic.view``) are not reads of the world and are left out.
+    """
+    found = []
+    for path in sorted(folder.rglob("*.py")):
+        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"), str(path))):
+            if isinstance(node, ast.Attribute) and node.attr in ("traffic", "_traffic"):
+                base = node.value
+                while isinstance(base, ast.Attribute):
+                    base = base.value
+                if isinstance(base, ast.Name) and base.id == "aamsim":
+                    continue
+                found.append(f"{path.relative_to(root)}:{node.lineno}")
+    return found
+
+
+def test_rlbridge_never_reads_the_simulations_world():
+    assert world_reads(ROOT / "rlbridge") == []
+
+
+def test_the_world_check_sees_reads_and_writes_but_not_module_paths(tmp_path):
+    pkg = tmp_path / "rlbridge"
+    pkg.mkdir()
+    (pkg / "a.py").write_text("import aamsim.traffic.view\nfrom aamsim.traffic import fields\n"
+                              "def f(sim):\n    n = sim.traffic.n\n    sim.core.sim._traffic.F[0] = 1\n"
+                              "    return aamsim.traffic.view.PUBLIC_FLOATS\n")
+    assert world_reads(pkg, tmp_path) == ["rlbridge/a.py:4", "rlbridge/a.py:5"]

@@ -42,7 +42,7 @@ import numpy as np
 
 from aamsim import Simulation
 from aamsim.extras import require
-from aamsim.traffic.intents import SYNC_FIELDS, set_kinematic_state
+from aamsim.traffic.intents import SYNC_FIELDS
 from aamsim.units import FPM, FT, KTS
 from rlbridge.core import EpisodeCore, StepResult
 
@@ -167,7 +167,7 @@ class BlueSkyEpisode(EpisodeCore):
         slots = np.array([p[0] for p in pairs], dtype=np.int64)
         rows = np.array([p[1] for p in pairs], dtype=np.int64)
         values = {name: np.asarray(getattr(bs.traf, name), dtype=np.float64)[rows] for name in SYNC_FIELDS}
-        set_kinematic_state(sim.traffic, slots, values)
+        sim.set_kinematic_state(slots, values)
 
     # ----------------------------------------------------------------- steps
     def step(self, actions: dict[str, Any]) -> StepResult:

@@ -182,20 +182,19 @@ class CorridorSA(UseCaseBase):
         ``slots``: only these aircraft's rows are filled (the others are not read: an observation of a
         few agents needs them and their intruders only; the routes are read one aircraft at a time).
         """
-        t = sim.traffic
-        n = t.n
+        view = sim.view
+        n = view.n
         nw = self.params.n_wpt
         dest_lat = np.full(n, np.nan)
         dest_lon = np.full(n, np.nan)
         wlat = np.empty((n, nw))
         wlon = np.empty((n, nw))
-        view = sim.view
         lat, lon, lnav = view.lat, view.lon, view.lnav
         for s in range(n) if slots is None else slots.tolist():
-            route = t.routes[s]
+            route = view.route(s)
             wps = route.waypoints
             if wps:
-                rec = t.flights[s]
+                rec = view.flight(s)
                 if rec.destination and not math.isnan(rec.dest_lat):
                     dest_lat[s], dest_lon[s] = rec.dest_lat, rec.dest_lon
                 else:
@@ -250,12 +249,13 @@ class CorridorSA(UseCaseBase):
         return result
 
     def observe(self, sim: Simulation, agents: list[str]) -> Observations:
-        slots = np.array([sim.traffic.index(a) for a in agents], dtype=np.int64)
+        slot = sim.view.slot
+        slots = np.array([slot(a) for a in agents], dtype=np.int64)
         nbr, nbr_d = self._neighbours(sim, slots)
         self._last_closest = nbr_d[:, 0].copy() if len(slots) else np.empty(0)
         if self.params.n_intruders == 0:
             nbr, nbr_d = nbr[:, :0], nbr_d[:, :0]
-        needed = np.unique(np.concatenate([slots, nbr[nbr >= 0]])) if len(slots) < sim.traffic.n else None
+        needed = np.unique(np.concatenate([slots, nbr[nbr >= 0]])) if len(slots) < sim.view.n else None
         ddest, wlat, wlon, _, _ = self._route_arrays(sim, needed)
         t = sim.view
         own, intr, mask = corridor_features(
@@ -269,7 +269,8 @@ class CorridorSA(UseCaseBase):
 
     def closest_distances(self, sim: Simulation, agents: list[str]) -> np.ndarray:
         """3-D distance to the closest intruder within d_max (inf beyond)."""
-        slots = np.array([sim.traffic.index(a) for a in agents], dtype=np.int64)
+        slot = sim.view.slot
+        slots = np.array([slot(a) for a in agents], dtype=np.int64)
         _, nbr_d = self._neighbours(sim, slots)
         return nbr_d[:, 0].copy() if len(slots) else np.empty(0)
 
@@ -305,7 +306,8 @@ class CorridorSA(UseCaseBase):
         """1.0 for agents whose ground speed is under ``hover_speed_kts`` now (airborne and parked), else 0."""
         if not agents:
             return np.zeros(0)
-        slots = np.array([sim.traffic.index(a) for a in agents], dtype=np.int64)
+        slot = sim.view.slot
+        slots = np.array([slot(a) for a in agents], dtype=np.int64)
         return (np.abs(sim.view.gs[slots]) < self.params.hover_speed_kts * KTS).astype(float)
 
     # ----------------------------------------------------------------- action
@@ -321,7 +323,7 @@ class CorridorSA(UseCaseBase):
 
         All actions are checked before any is applied.
         """
-        find = sim.traffic.find
+        find = sim.view.find
         p = self.params
         slots: list[int] = []
         codes: list[int] = []
