@@ -27,7 +27,7 @@ def overlay_case(tmp_path: Path) -> tuple[Path, Path]:
 
 
 def test_corridor_observes_the_replayed_aircraft_as_an_intruder(overlay_case):
-    scn, rec = overlay_case
+    scn, _rec = overlay_case
     env = AamParallelEnv(str(scn), obs_format="dict", n_intruders=3, overlay="rec.csv", time_limit_s=120.0,
                          alt_noise_ft=0.0)  # fixed traffic: the hand-computed geometry
     obs, _ = env.reset(seed=1)
@@ -77,8 +77,10 @@ def test_overlay_parameters_are_checked():
 def test_hydra_configs_name_the_overlay():
     from omegaconf import OmegaConf
 
-    conf = Path(__file__).resolve().parents[1] / "rlbridge" / "conf" / "usecase"
+    from rlbridge.experiment.configstore import compose_config
+
+    # The use-case YAML files list only preset changes; the composed config carries every parameter.
     for name, cls in (("corridor_sa", CorridorParams), ("reach_destination", ReachParams)):
-        params = OmegaConf.to_container(OmegaConf.load(conf / f"{name}.yaml").params)
+        params = OmegaConf.to_container(compose_config("config", [f"usecase={name}"]).usecase.params)
         assert params["overlay"] == "" and params["overlay_area"] == []
         cls(**{k: tuple(v) if isinstance(v, list) else v for k, v in params.items()})  # every key is a parameter
