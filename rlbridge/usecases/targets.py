@@ -41,13 +41,15 @@ def action_target_info(usecase: Any, sim: Any, agents: list[str]) -> dict[str, A
     if not kinds:
         return {}
     view = sim.view
-    names = [a for a in agents if a in view]
+    # Agents are callsigns as the view spells them: one dict of the slots, not a look-up per agent.
+    slot_of = {a: i for i, a in enumerate(view.ids)}
+    names = [a for a in agents if a in slot_of]
     out: dict[str, Any] = {"agents": names}
     if not names:
         n_actions = int(usecase.action_space().n)
         out.update({k: np.zeros((0, n_actions)) for k in kinds})
         return {TARGETS_KEY: out}
-    slots = np.array([view.slot(a) for a in names], dtype=np.int64)
+    slots = np.array([slot_of[a] for a in names], dtype=np.int64)
     for kind in kinds:
         out[kind] = np.ascontiguousarray(usecase.action_targets(sim, slots, kind), dtype=np.float64)
     return {TARGETS_KEY: out}
