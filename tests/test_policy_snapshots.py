@@ -309,3 +309,18 @@ def test_heading_mvp_decides_alike_in_process_and_over_zeromq(tmp_path, monkeypa
         assert getattr(here, name).tobytes() == getattr(there, name).tobytes(), name
     assert here.stats.metrics["safety"] == there.stats.metrics["safety"]
     assert here.stats.nmac_events == there.stats.nmac_events
+
+
+def test_daa_refuses_a_snapshot_without_its_fields_naming_them():
+    from aamsim.resolution.state import DAA_FIELDS, SnapshotState
+
+    fields = tuple(x for x in DAA_FIELDS if x not in ("rotor", "axmax"))
+    snap = TrafficSnapshot(0.0, ("A1",), fields, np.zeros((len(fields), 1)))
+    with pytest.raises(ValueError, match="traffic field\\(s\\) rotor, axmax, which the snapshot lacks"):
+        SnapshotState(snap)
+    full = TrafficSnapshot(0.0, ("A1", "B1"), DAA_FIELDS, np.ones((len(DAA_FIELDS), 2)))
+    view = SnapshotState(full).view
+    assert view.n == 2 and view.slot("B1") == 1 and "A1" in view and "C1" not in view
+    assert view.rotor.tolist() == [1.0, 1.0]
+    with pytest.raises(KeyError, match="'C1' is not in the traffic snapshot"):
+        view.slot("C1")
