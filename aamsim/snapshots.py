@@ -22,7 +22,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from aamsim.conflicts.separation import SeparationStandard
-from aamsim.traffic.view import PUBLIC_FLOATS
+from aamsim.traffic.view import PUBLIC_FLAGS, PUBLIC_FLOATS
 
 if TYPE_CHECKING:
     from collections.abc import Callable
@@ -30,6 +30,9 @@ if TYPE_CHECKING:
     from aamsim.simapi import SimulationCore
 
 SNAPSHOT_FIELDS = ("lat", "lon", "alt", "hdg", "trk", "tas", "cas", "gs", "vs")
+# What a snapshot may hold: the public float fields, and the public flags as 1.0 / 0.0 (e.g. ``rotor``,
+# which says whether an aircraft's envelope speeds are TAS or CAS).
+FIELD_MEANINGS: dict[str, str] = {**PUBLIC_FLOATS, **{k: f"{v} (1.0 / 0.0)" for k, v in PUBLIC_FLAGS.items()}}
 
 
 @dataclass(frozen=True)
@@ -75,11 +78,15 @@ class TrafficSnapshot:
 def take_snapshot(sim: SimulationCore, fields: tuple[str, ...] = SNAPSHOT_FIELDS,
                   separation: SeparationStandard | None = None) -> TrafficSnapshot:
     """A frozen copy of the traffic now (with ``separation``, the standard it is read against, when given)."""
-    unknown = [x for x in fields if x not in PUBLIC_FLOATS]
+    unknown = [x for x in fields if x not in FIELD_MEANINGS]
     if unknown:
-        raise ValueError(f"unknown traffic field(s) {', '.join(unknown)}; known: {', '.join(PUBLIC_FLOATS)}")
+        raise ValueError(f"unknown traffic field(s) {', '.join(unknown)}; known: {', '.join(FIELD_MEANINGS)}")
     view = sim.view
-    values = view.rows(fields)  # a new array: the copy that freezes the state
+    if all(x in PUBLIC_FLOATS for x in fields):
+        values = view.rows(fields)  # a new array: the copy that freezes the state
+    else:
+        values = np.array([np.asarray(getattr(view, x), dtype=np.float64) for x in fields]).reshape(len(fields),
+                                                                                                    view.n)
     values.flags.writeable = False
     return TrafficSnapshot(sim.simt, view.ids, tuple(fields), values, separation)
 

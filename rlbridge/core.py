@@ -38,7 +38,7 @@ from aamsim.stack.tokens import next_arg
 from rlbridge.policies import make_usecase_with_policies
 from rlbridge.usecases.protocol import Feedback, Observations, UseCase, check_feedback, empty_info
 from rlbridge.usecases.spec import UseCaseSpec, spec_of
-from rlbridge.usecases.targets import action_target_info
+from rlbridge.usecases.targets import step_info
 
 TRAFFIC_STATE_FIELDS = ("lat", "lon", "alt", "tas", "gs", "trk", "vs")
 DEFAULT_EXTRA_TIME_S = 7200.0  # default episode limit: last scheduled command + 2 h
@@ -309,7 +309,7 @@ class EpisodeCore:
         done = self._scenario_over() and not self.agents
         return StepResult(reported, obs, np.zeros(n), np.zeros(n, bool), np.zeros(n, bool),
                           list(self.agents), self.sim.simt, done,
-                          info=action_target_info(self.usecase, self.sim, self.agents),
+                          info=step_info(self.usecase, self.sim, self.agents),
                           agent_info=empty_info(self.usecase.info_fields, n), discovered=self._take_discovered())
 
     def step_steps(self, actions: dict[str, Any]) -> Steps:
@@ -381,7 +381,7 @@ class EpisodeCore:
         self.agents = [] if truncate else list(now_alive)
         self._reported = set(self._watched(self.agents))
         return StepResult(reported, obs, rewards, terminated, truncated, list(self.agents), sim.simt, over,
-                          info=action_target_info(self.usecase, sim, self.agents), agent_info=info,
+                          info=step_info(self.usecase, sim, self.agents), agent_info=info,
                           discovered=self._take_discovered())
 
     def _conform(self, obs: Observations) -> Observations:

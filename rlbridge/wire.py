@@ -14,8 +14,7 @@ from typing import Any
 import numpy as np
 
 from aamsim.conflicts.separation import SeparationStandard
-from aamsim.snapshots import TrafficSnapshot
-from aamsim.traffic.view import PUBLIC_FLOATS
+from aamsim.snapshots import FIELD_MEANINGS, TrafficSnapshot
 from rlbridge.core import StepResult
 from rlbridge.protocol import ProtocolError
 from rlbridge.usecases.protocol import INFO_DTYPES, Observations
@@ -125,10 +124,10 @@ def snapshot_fields_from_request(value: Any) -> tuple[str, ...] | None:
         return None
     if not isinstance(value, list) or not all(isinstance(x, str) for x in value):
         raise ProtocolError("state: 'fields' must be a list of strings")
-    unknown = [x for x in value if x not in PUBLIC_FLOATS]
+    unknown = [x for x in value if x not in FIELD_MEANINGS]
     if unknown:
         raise ProtocolError(f"state: unknown traffic field(s) {', '.join(map(repr, unknown))}; "
-                            f"known: {', '.join(PUBLIC_FLOATS)}")
+                            f"known: {', '.join(FIELD_MEANINGS)}")
     if len(set(value)) != len(value):
         raise ProtocolError("state: 'fields' names a field twice")
     return tuple(value)
@@ -176,7 +175,7 @@ def snapshot_from_payload(payload: dict[str, Any]) -> TrafficSnapshot:
     rows = []
     for name in fields:
         arr = payload.get(name)
-        if name not in PUBLIC_FLOATS or not isinstance(arr, np.ndarray) or arr.dtype != np.float64 \
+        if name not in FIELD_MEANINGS or not isinstance(arr, np.ndarray) or arr.dtype != np.float64 \
                 or arr.shape != (n,):
             raise ProtocolError(f"reply field {name!r} must be a known traffic field with a float64 array of "
                                 f"{n} values")

@@ -155,16 +155,17 @@ def test_aamgym_evaluate_unknown_baseline_lists_the_known_ones(tmp_path):
 
 def test_daa_policy_acts_on_any_use_case_with_speed_actions():
     from rlbridge.agents import make_actor
-    from rlbridge.agents.rollout import EnvSpec
+    from rlbridge.agents.rollout import EnvSpec, policy_input
 
     core = EnvSpec(str(DATA / "tiny_conflict.scn"), "reach_destination", {}, 300.0).make(None)
     actor = make_actor({"kind": "daa", "config": {"daa": {"taumod_s": 20.0}}})
+    actor.check_usecase(core.usecase)
     assert actor.daa.params.taumod_s == 20.0
     result = core.reset(0)
     rng = np.random.default_rng(0)
     advised = 0
     while not result.done:
-        out = actor.act(result, core, rng, {})
+        out = actor.act(result, policy_input(actor, core), rng, {})
         acts = {a: int(x) for a, x, g in zip(result.agents, out.actions, out.advise) if g}
         assert all(0 <= x < 3 for x in acts.values())  # reach_destination's three speeds
         advised += len(acts)
@@ -180,6 +181,7 @@ def test_daa_policy_releases_an_agent_its_actions_cannot_bring_closer_to_its_own
     # which can resume. Released with the hold action instead; RB2, 2 km beside it, is not held up.
     from rlbridge.agents import make_actor
     from rlbridge.agents.daa import _Held
+    from rlbridge.agents.rollout import policy_input
     from rlbridge.core import EpisodeCore
 
     scn = tmp_path / "parallel.scn"
@@ -188,14 +190,15 @@ def test_daa_policy_releases_an_agent_its_actions_cannot_bring_closer_to_its_own
                    "00:00:00.00>ADDWPT RA1 40.700000 -73.700000\n00:00:00.00>ADDWPT RB2 40.718000 -73.700000\n")
     core = EpisodeCore(str(scn), "corridor_sa", {"alt_noise_ft": 0.0}, time_limit_s=300.0)
     actor = make_actor({"kind": "daa"})
+    actor.check_usecase(core.usecase)
     rng = np.random.default_rng(0)
     result = core.reset(0)
-    out = actor.act(result, core, rng, {})
+    out = actor.act(result, policy_input(actor, core), rng, {})
     assert not out.advise.any()  # parallel, 2 km apart: no alert
     view = core.sim.view
     cas = {a: float(view.cas[view.slot(a)]) for a in ("RA1", "RB2")}
     actor._held.update({"RA1": _Held(1, cas["RA1"] + 12.0), "RB2": _Held(1, cas["RB2"] + 34.0)})
-    out = actor.act(result, core, rng, {})
+    out = actor.act(result, policy_input(actor, core), rng, {})
     seen = {a: (int(x), bool(g)) for a, x, g in zip(result.agents, out.actions, out.advise)}
     assert seen["RA1"] == (1, True) and "RA1" not in actor._held  # holds the speed it has, released
     assert seen["RB2"] == (2, True)  # accelerates towards its own speed at once

@@ -104,13 +104,13 @@ def test_the_new_use_case_trains_alike_in_process_and_over_zeromq_with_its_basel
         remote = EnvSpec(**spec, backend="zmq", address=endpoint, timeout_s=600.0)
         assert _train(remote) == local_train
         remote_mvp = RolloutWorker(remote, {"policy": {"kind": "mvp"}}).collect([0])[0]
-        with pytest.raises(ValueError, match="read the simulation in process"):
-            RolloutWorker(remote, {"policy": {"kind": "daa"}})
+        remote_daa = RolloutWorker(remote, {"policy": {"kind": "daa"}}).collect([0])[0]
     finally:
         stop_process(proc)
     assert local_mvp.stats.metrics[NAME]["heading_advisories"] > 0
     for name in ("actions", "rewards", "obs_idx", "next_idx", "terminated", "truncated"):
         assert getattr(local_mvp, name).tobytes() == getattr(remote_mvp, name).tobytes(), name
+        assert getattr(daa, name).tobytes() == getattr(remote_daa, name).tobytes(), name
     assert batch_digest(local_mvp) != ""
 
 

@@ -124,15 +124,61 @@ def test_the_server_sends_the_fields_asked_for_and_refuses_unknown_ones(tmp_path
         assert ask("state", 5)["ids"] == ["A1", "B1"]  # still serving; the reply without fields unchanged
 
 
-def test_simulation_bound_baselines_are_refused_over_zeromq_naming_the_backends():
-    from rlbridge.agents.rollout import EnvSpec, RolloutWorker
+def test_a_zeromq_worker_needs_an_address():
+    from rlbridge.agents.rollout import EnvSpec
 
-    env = EnvSpec(str(DATA / "three_way.scn"), backend="zmq", address="tcp://127.0.0.1:1")
-    with pytest.raises(ValueError, match="actor\\(s\\) policy read the simulation in process: they run on backend "
-                                         "'local' or 'bluesky', not 'zmq'"):
-        RolloutWorker(env, {"policy": {"kind": "daa"}})
     with pytest.raises(ValueError, match='backend "zmq" needs the address'):
         EnvSpec(str(DATA / "three_way.scn"), backend="zmq")
+
+
+# (name, scenario, use case, parameters, actor spec): the baselines that once read the simulation in process.
+SNAPSHOT_ONLY_NOW = [
+    ("daa", "daa_encounters.scn", "corridor_sa", {"alt_noise_ft": 0.0}, {"kind": "daa"}),
+    ("daa_reach", "tiny_conflict.scn", "reach_destination", {}, {"kind": "daa"}),
+    ("daa_turns", "daa_turns.scn", "heading_altitude_sa", {}, {"kind": "daa"}),
+    ("fcfs", "strategic_cross.scn", "strategic_planning", {}, {"kind": "fcfs"}),
+    ("no_planning", "strategic_cross.scn", "strategic_planning", {}, {"kind": "no_planning"}),
+]
+
+
+def _decided(metrics: dict) -> dict:
+    """The metrics without the time-limit counts, which read the in-process simulation's traffic (a ZeroMQ
+    backend gives None parked aircraft and counts a truncated planner agent as airborne)."""
+    drop = ("airborne_at_time_limit", "parked_at_time_limit")
+    return {g: {k: v for k, v in m.items() if k not in drop} if isinstance(m, dict) else m
+            for g, m in metrics.items()}
+
+
+def test_daa_and_the_planners_decide_alike_in_process_and_over_zeromq(tmp_path, monkeypatch):
+    """``daa`` (speed, and heading / altitude actions) and the planners ``fcfs`` / ``no_planning`` act on the
+    step result and a snapshot: over a real ``aamsim serve`` they make the decisions they make in process,
+    which are those recorded when they read the simulation (the digests above)."""
+    from rlbridge.agents.rollout import EnvSpec, RolloutWorker
+
+    for name in {c[1] for c in SNAPSHOT_ONLY_NOW}:
+        shutil.copy(DATA / name, tmp_path / name)
+    monkeypatch.chdir(tmp_path)
+    proc, endpoint = spawn_server("--log-level", "ERROR", cwd=tmp_path)
+    played = {}
+    try:
+        for name, scenario, usecase, params, spec in SNAPSHOT_ONLY_NOW:
+            env = {"scenario": scenario, "usecase": usecase, "params": params, "time_limit_s": 900.0}
+            here = RolloutWorker(EnvSpec(**env), {"policy": spec}).collect([0])[0]
+            there = RolloutWorker(EnvSpec(**env, backend="zmq", address=endpoint, timeout_s=600.0),
+                                  {"policy": spec}).collect([0])[0]
+            played[name] = here
+            if name in EXPECTED:
+                assert batch_digest(here) == EXPECTED[name][0], name
+            for field in ("actions", "rewards", "obs_idx", "next_idx", "terminated", "truncated", "agent"):
+                assert getattr(here, field).tobytes() == getattr(there, field).tobytes(), (name, field)
+            assert _decided(here.stats.metrics) == _decided(there.stats.metrics), name
+    finally:
+        stop_process(proc)
+    # Not vacuous: DAA advised other than "hold" (speed) and turned or changed level; FCFS delayed or moved
+    # a flight that no planning departs on schedule, on its filed layer.
+    assert (played["daa"].actions != 1).any()
+    assert played["daa_turns"].stats.metrics["heading_altitude_sa"]["heading_advisories"] > 0
+    assert played["fcfs"].actions.tolist() != played["no_planning"].actions.tolist()
 
 
 def test_a_worker_refuses_a_baseline_whose_actions_do_not_fit_the_use_case():
@@ -263,3 +309,18 @@ def test_heading_mvp_decides_alike_in_process_and_over_zeromq(tmp_path, monkeypa
         assert getattr(here, name).tobytes() == getattr(there, name).tobytes(), name
     assert here.stats.metrics["safety"] == there.stats.metrics["safety"]
     assert here.stats.nmac_events == there.stats.nmac_events
+
+
+def test_daa_refuses_a_snapshot_without_its_fields_naming_them():
+    from aamsim.resolution.state import DAA_FIELDS, SnapshotState
+
+    fields = tuple(x for x in DAA_FIELDS if x not in ("rotor", "axmax"))
+    snap = TrafficSnapshot(0.0, ("A1",), fields, np.zeros((len(fields), 1)))
+    with pytest.raises(ValueError, match="traffic field\\(s\\) rotor, axmax, which the snapshot lacks"):
+        SnapshotState(snap)
+    full = TrafficSnapshot(0.0, ("A1", "B1"), DAA_FIELDS, np.ones((len(DAA_FIELDS), 2)))
+    view = SnapshotState(full).view
+    assert view.n == 2 and view.slot("B1") == 1 and "A1" in view and "C1" not in view
+    assert view.rotor.tolist() == [1.0, 1.0]
+    with pytest.raises(KeyError, match="'C1' is not in the traffic snapshot"):
+        view.slot("C1")

@@ -13,6 +13,7 @@ from pettingzoo.test import parallel_api_test
 import rlbridge
 from aamsim.units import FT
 from rlbridge.agents import make_actor
+from rlbridge.agents.rollout import policy_input
 from rlbridge.core import EpisodeCore
 from rlbridge.policies import make_usecase_with_policies
 from rlbridge.usecases import env_id, make_usecase
@@ -28,7 +29,7 @@ def play(core: EpisodeCore, kind: str, seed: int = 1) -> list[dict]:
     result = core.reset(seed)
     infos = []
     while not result.done:
-        out = actor.act(result, core, rng, {})
+        out = actor.act(result, policy_input(actor, core), rng, {})
         result = core.step({} if out.actions is None else {"planner": int(out.actions[0])})
         infos.append(result.infos()[0])
     return infos
@@ -97,7 +98,7 @@ def test_layer_choice_when_layers_separate():
                                name="test.alt", priority=1000)
     infos = []
     while not result.done:
-        result = core.step({"planner": int(actor.act(result, core, rng, {}).actions[0])})
+        result = core.step({"planner": int(actor.act(result, policy_input(actor, core), rng, {}).actions[0])})
         infos.append(result.infos()[0])
     assert [i["delay_s"] for i in infos[:2]] == [0.0, 0.0]
     assert core.metrics()["strategic_planning"]["layer_changes"] >= 1

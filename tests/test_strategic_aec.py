@@ -11,6 +11,7 @@ from pettingzoo.test import api_test
 import rlbridge
 from rlbridge.agents import make_actor
 from rlbridge.agents.planners import fcfs_action
+from rlbridge.agents.rollout import policy_input
 from rlbridge.core import EpisodeCore
 
 CROSS = str(Path(__file__).parent / "data" / "strategic_cross.scn")
@@ -65,7 +66,7 @@ def test_each_request_goes_to_its_vertiport_planner_and_the_rewards_are_the_sing
     actor = make_actor({"kind": "fcfs"})
     result, total = core.reset(1), 0.0
     while not result.done:
-        out = actor.act(result, core, np.random.default_rng(0), {})
+        out = actor.act(result, policy_input(actor, core), np.random.default_rng(0), {})
         result = core.step({"planner": int(out.actions[0])})
         total += float(result.rewards[0])
     assert core.metrics()["strategic_planning"]["unplaced_flights"] == ["N3"]

@@ -46,12 +46,12 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from aamsim.conflicts.axis_bands import pair_hdg_bands, pair_vs_bands, velocity_intervals
-from aamsim.conflicts.service import TrafficSnapshot, traffic_snapshot
+from aamsim.conflicts.service import TrafficSnapshot
 from aamsim.resolution.daa import isotropic_pairs
+from aamsim.resolution.state import KinematicState, geometry_of
 
 if TYPE_CHECKING:
     from aamsim.resolution.daa import DetectAndAvoid
-    from aamsim.simapi import SimulationCore
 
 HDG, VS, GS = "hdg", "vs", "gs"
 RIGHT_UP, LEFT_DOWN = 1, -1
@@ -155,7 +155,7 @@ class AxisResolver:
             self.preferred.pop((acid, axis), None)
 
     # ---------------------------------------------------------------- ranges
-    def vs_range(self, sim: SimulationCore) -> tuple[np.ndarray, np.ndarray]:
+    def vs_range(self, sim: KinematicState) -> tuple[np.ndarray, np.ndarray]:
         """Per aircraft, the vertical speeds [m/s] a resolution may fly: the envelope, the limit, and no
         crossing of the altitude floor or ceiling within the look-ahead."""
         p, view = self.daa.params, sim.view
@@ -165,14 +165,14 @@ class AxisResolver:
         hi = np.minimum(np.minimum(np.asarray(view.vsmax, dtype=np.float64), p.vs_max_mps), (p.alt_max_m - alt) / t)
         return np.minimum(lo, 0.0), np.maximum(hi, 0.0)
 
-    def _directed(self, sim: SimulationCore, slots: np.ndarray,
+    def _directed(self, sim: KinematicState, slots: np.ndarray,
                   horizon_s: float) -> tuple[TrafficSnapshot, np.ndarray, np.ndarray]:
         """Directed candidate pairs (ownship in ``slots``) for any direction the ownship may take."""
         p = self.daa.params
         return isotropic_pairs(sim, slots, horizon_s, max(p.dmod_m, p.recovery_m))
 
     # ----------------------------------------------------------------- bands
-    def bands(self, sim: SimulationCore, axis: str, slots: np.ndarray) -> AxisBands:
+    def bands(self, sim: KinematicState, axis: str, slots: np.ndarray) -> AxisBands:
         """Conflict bands of ``axis`` (``hdg`` or ``vs``) for the aircraft in ``slots``."""
         p = self.daa.params
         slots = np.asarray(slots, dtype=np.int64)
@@ -194,9 +194,9 @@ class AxisResolver:
         return AxisBands(axis, owner, lo, hi, vmin, vmax)
 
     # ----------------------------------------------------------- coordination
-    def senses(self, sim: SimulationCore, axis: str, slots: np.ndarray, urgent: np.ndarray) -> np.ndarray:
+    def senses(self, sim: KinematicState, axis: str, slots: np.ndarray, urgent: np.ndarray) -> np.ndarray:
         """Per slot, the coordinated direction against intruder ``urgent`` (-1: none): RIGHT_UP or LEFT_DOWN."""
-        s = traffic_snapshot(sim)  # type: ignore[arg-type]
+        s = geometry_of(sim)
         view = sim.view
         out = np.zeros(len(slots), dtype=np.int64)
         for k, (i, j) in enumerate(zip(np.asarray(slots).tolist(), np.asarray(urgent).tolist())):
@@ -219,7 +219,7 @@ class AxisResolver:
         return out
 
     # ------------------------------------------------------------ resolutions
-    def resolve(self, sim: SimulationCore, axis: str, slots: np.ndarray, bands: AxisBands,
+    def resolve(self, sim: KinematicState, axis: str, slots: np.ndarray, bands: AxisBands,
                 urgent: np.ndarray) -> list[AxisResolution]:
         """Per slot, the resolution on ``axis`` in the preferred direction (value NaN: saturated bands)."""
         p = self.daa.params
@@ -257,7 +257,7 @@ class AxisResolver:
             out.append(AxisResolution(axis, float(values[d]), d, False))
         return out
 
-    def candidates(self, sim: SimulationCore, axis: str, slot: int, values: np.ndarray) -> np.ndarray:
+    def candidates(self, sim: KinematicState, axis: str, slot: int, values: np.ndarray) -> np.ndarray:
         """Ownship velocities (east, north, up [m/s]; rows of ``values``) flying each value of ``axis``."""
         view = sim.view
         u, v, w = float(view.gseast[slot]), float(view.gsnorth[slot]), float(view.vs[slot])
@@ -270,7 +270,7 @@ class AxisResolver:
             out[:, 0], out[:, 1], out[:, 2] = u, v, values
         return out
 
-    def check_velocities(self, sim: SimulationCore, slots: np.ndarray, vel: np.ndarray,
+    def check_velocities(self, sim: KinematicState, slots: np.ndarray, vel: np.ndarray,
                          recovery: bool = False) -> tuple[np.ndarray, np.ndarray]:
         """For candidate velocities ``vel`` (slots x candidates x 3) of each ownship, against every intruder:
         the earliest loss of well clear and the time well clear is regained [s from now] (the recovery
@@ -299,7 +299,7 @@ class AxisResolver:
         np.maximum.at(regain, row, np.where(within, t_out, 0.0))
         return first, regain
 
-    def recovery(self, sim: SimulationCore, axis: str, slot: int, sense: int = 0) -> AxisResolution:
+    def recovery(self, sim: KinematicState, axis: str, slot: int, sense: int = 0) -> AxisResolution:
         """DAIDALUS's recovery value of ``axis`` for an aircraft whose every value loses well clear.
 
         Values on the coordinated side ``sense`` (:meth:`senses`; 0: either) come first, so that

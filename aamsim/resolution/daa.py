@@ -1,7 +1,9 @@
 """Detect and avoid: DO-365 / DAIDALUS alerting and ground-speed resolutions for every aircraft.
 
-:class:`DetectAndAvoid` reads the traffic through the simulator API and the
-conflict package's pair search, and answers three questions for any set of
+:class:`DetectAndAvoid` reads the traffic through a read-only kinematic state
+(:class:`aamsim.resolution.state.KinematicState`: the simulation in process, or a
+traffic snapshot of :data:`aamsim.resolution.state.DAA_FIELDS`) and the conflict
+package's pair search, and answers three questions for any set of
 aircraft:
 
 * **alerts** (:meth:`DetectAndAvoid.alerts`): per aircraft, the highest alert
@@ -25,19 +27,17 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, fields
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 
 from aamsim.aero import cas2tas, tas2cas
 from aamsim.conflicts.axis_bands import velocity_intervals
 from aamsim.conflicts.bands import pair_exit_times, pair_gs_bands
-from aamsim.conflicts.service import TrafficSnapshot, search_pairs, traffic_snapshot
+from aamsim.conflicts.service import TrafficSnapshot, search_pairs
 from aamsim.conflicts.wellclear import pair_alerts
+from aamsim.resolution.state import KinematicState, geometry_of
 from aamsim.units import FPM, FT, KTS
-
-if TYPE_CHECKING:
-    from aamsim.simapi import SimulationCore
 
 NONE, PREVENTIVE, CORRECTIVE, WARNING = 0, 1, 2, 3
 LEVEL_NAMES = ("none", "preventive", "corrective", "warning")
@@ -123,11 +123,11 @@ class DAAParams:
 PARAM_NAMES = tuple(f.name for f in fields(DAAParams))
 
 
-def isotropic_pairs(sim: SimulationCore, slots: np.ndarray, horizon_s: float,
+def isotropic_pairs(sim: KinematicState, slots: np.ndarray, horizon_s: float,
                     radius_m: float) -> tuple[TrafficSnapshot, np.ndarray, np.ndarray]:
     """The snapshot and directed candidate pairs (ownship in ``slots``, intruder) that can come within
     ``radius_m`` over ``horizon_s`` whatever direction and speed (up to the fastest envelope) either takes."""
-    s = traffic_snapshot(sim)  # type: ignore[arg-type]
+    s = geometry_of(sim)
     n = len(s.ids)
     speed = np.hypot(np.hypot(s.u, s.v), s.w)
     reach = float(max(speed.max(initial=0.0), float(np.max(sim.view.vmax, initial=0.0))))
@@ -230,7 +230,7 @@ class DetectAndAvoid:
         self.params = DAAParams(**values)
 
     # ---------------------------------------------------------------- state
-    def _ranges(self, sim: SimulationCore) -> tuple[np.ndarray, np.ndarray]:
+    def _ranges(self, sim: KinematicState) -> tuple[np.ndarray, np.ndarray]:
         """Per aircraft, the ground-speed range of resolutions: the envelope cut to the speed limits."""
         view, p = sim.view, self.params
         alt = np.asarray(view.alt, dtype=np.float64)
@@ -245,7 +245,7 @@ class DetectAndAvoid:
         gmax = np.maximum(tas_hi + wind, gmin)
         return gmin, gmax
 
-    def _search(self, sim: SimulationCore, s: TrafficSnapshot, gmax: np.ndarray,
+    def _search(self, sim: KinematicState, s: TrafficSnapshot, gmax: np.ndarray,
                 horizon_s: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """Candidate pairs over ``horizon_s`` at any resolution speed, and the tracks' unit vectors."""
         n = len(s.ids)
@@ -258,10 +258,10 @@ class DetectAndAvoid:
         pi, pj = search_pairs(swept, np.zeros(n), np.full(n, horizon_s), radius)
         return pi, pj, ex, ey
 
-    def alerts(self, sim: SimulationCore) -> Alerts:
+    def alerts(self, sim: KinematicState) -> Alerts:
         """Alert levels of every aircraft now."""
         p = self.params
-        s = traffic_snapshot(sim)  # type: ignore[arg-type]
+        s = geometry_of(sim)
         n = len(s.ids)
         level = np.zeros(n, dtype=np.int64)
         tlowc = np.full(n, np.inf)
@@ -278,12 +278,12 @@ class DetectAndAvoid:
         np.minimum.at(tlowc, pj, t_in[:, CORRECTIVE - 1])
         return Alerts(tuple(s.ids), level, tlowc, pi, pj, plevel, t_in[:, CORRECTIVE - 1].copy())
 
-    def _directed(self, sim: SimulationCore, slots: np.ndarray,
+    def _directed(self, sim: KinematicState, slots: np.ndarray,
                   horizon_s: float | None = None) -> tuple[TrafficSnapshot, np.ndarray, np.ndarray, np.ndarray,
                                                            np.ndarray]:
         """The snapshot, directed candidate pairs (ownship in ``slots``, intruder) over ``horizon_s`` (default:
         the look-ahead) and the tracks' unit vectors."""
-        s = traffic_snapshot(sim)  # type: ignore[arg-type]
+        s = geometry_of(sim)
         _gmin, gmax = self._ranges(sim)
         pi, pj, ex, ey = self._search(sim, s, gmax, horizon_s or self.params.lookahead_s)
         wanted = np.zeros(len(s.ids), dtype=bool)
@@ -292,7 +292,7 @@ class DetectAndAvoid:
         intr = np.concatenate([pj[wanted[pi]], pi[wanted[pj]]])
         return s, own, intr, ex, ey
 
-    def gs_bands(self, sim: SimulationCore, slots: np.ndarray, recovery: bool = False) -> SpeedBands:
+    def gs_bands(self, sim: KinematicState, slots: np.ndarray, recovery: bool = False) -> SpeedBands:
         """Ground-speed conflict bands of the aircraft in ``slots`` (the recovery volume when ``recovery``)."""
         p = self.params
         gmin, gmax = self._ranges(sim)
@@ -312,7 +312,7 @@ class DetectAndAvoid:
             return p.recovery_m, p.recovery_m, 0.0, p.recovery_zthr_m, 0.0
         return p.dmod_m, p.hmd_m, p.taumod_s, p.zthr_m, p.tcoa_s
 
-    def recovery_speeds(self, sim: SimulationCore, slots: np.ndarray, step_mps: float = 0.5) -> np.ndarray:
+    def recovery_speeds(self, sim: KinematicState, slots: np.ndarray, step_mps: float = 0.5) -> np.ndarray:
         """For aircraft whose every speed loses well clear: the speed that regains it soonest [m/s of GS].
 
         As DAIDALUS's recovery bands: among the speeds (on a ``step_mps`` grid) that stay
@@ -342,7 +342,7 @@ class DetectAndAvoid:
         return out
 
     # --------------------------------------------------------- coordination
-    def sides(self, sim: SimulationCore, alerts: Alerts, slots: np.ndarray) -> np.ndarray:
+    def sides(self, sim: KinematicState, alerts: Alerts, slots: np.ndarray) -> np.ndarray:
         """Per slot, the side of its speed resolution against its most urgent intruder.
 
         +1: it passes first (keeps its speed, or gains speed if that is needed), -1: it
@@ -358,7 +358,7 @@ class DetectAndAvoid:
         out = np.zeros(len(slots), dtype=np.int64)
         if alerts.pi.size == 0:
             return out
-        s = traffic_snapshot(sim)  # type: ignore[arg-type]
+        s = geometry_of(sim)
         trk = np.radians(np.where(view.gs > 0.1, view.trk, view.hdg))
         ex, ey = np.sin(trk), np.cos(trk)
         for k, i in enumerate(np.asarray(slots, dtype=np.int64).tolist()):
@@ -380,7 +380,7 @@ class DetectAndAvoid:
             out[k] = 1 if lead > 0 else -1
         return out
 
-    def resume_order(self, sim: SimulationCore, slots: np.ndarray, velocities: np.ndarray | None = None) -> np.ndarray:
+    def resume_order(self, sim: KinematicState, slots: np.ndarray, velocities: np.ndarray | None = None) -> np.ndarray:
         """Which of the aircraft in ``slots``, all ready to resume their own trajectory, resume now.
 
         Two aircraft that held each other up would both resume at once and meet again
@@ -419,7 +419,7 @@ class DetectAndAvoid:
         return np.array([i not in deferred for i in slots.tolist()], dtype=bool)
 
     # ----------------------------------------------------------- resolutions
-    def resolutions(self, sim: SimulationCore, slots: np.ndarray, bands: SpeedBands | None = None,
+    def resolutions(self, sim: KinematicState, slots: np.ndarray, bands: SpeedBands | None = None,
                     sides: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
         """Per slot in ``slots``: the resolution ground speed [m/s] and the CAS that flies it [m/s].
 
@@ -460,7 +460,7 @@ class DetectAndAvoid:
         return closest_free(free, edges, gs, self.params.margin_mps)
 
     @staticmethod
-    def cas_for(sim: SimulationCore, slots: np.ndarray, gs: np.ndarray) -> np.ndarray:
+    def cas_for(sim: KinematicState, slots: np.ndarray, gs: np.ndarray) -> np.ndarray:
         """The CAS [m/s] that flies ground speed ``gs`` with the along-track wind of now."""
         view = sim.view
         tas = np.maximum(gs - (view.gs[slots] - view.tas[slots]), 0.0)
@@ -470,7 +470,7 @@ class DetectAndAvoid:
         return cas
 
     @staticmethod
-    def gs_for(sim: SimulationCore, slots: np.ndarray, cas: np.ndarray) -> np.ndarray:
+    def gs_for(sim: KinematicState, slots: np.ndarray, cas: np.ndarray) -> np.ndarray:
         """The ground speed [m/s] that CAS ``cas`` flies with the along-track wind of now."""
         view = sim.view
         tas = np.asarray(cas2tas(np.asarray(cas, dtype=np.float64), np.asarray(view.alt[slots], dtype=np.float64)))

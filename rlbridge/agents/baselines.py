@@ -25,33 +25,17 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from aamsim.conflicts.grid import snapshot_arrays
 from aamsim.conflicts.pairs import statebased
 from aamsim.conflicts.separation import PAPER_STANDARD, SeparationStandard
-from aamsim.conflicts.service import TrafficSnapshot as ConflictGeometry
 from aamsim.conflicts.service import search_pairs
+from aamsim.resolution.state import KINEMATIC_FIELDS, conflict_geometry
 from aamsim.snapshots import TrafficSnapshot
-from aamsim.units import KTS, R_EARTH
+from aamsim.units import KTS
 from rlbridge.agents.rollout import ActOutput
 from rlbridge.core import StepResult
 from rlbridge.usecases.spec import SPEED_ROLES, Needs, check_fits
 
 DECELERATE, HOLD, ACCELERATE = 0, 1, 2
-# Positions and velocities (east, north, up), the order of aamsim.conflicts.grid.snapshot_arrays' rows.
-KINEMATIC_FIELDS = ("lat", "lon", "alt", "gseast", "gsnorth", "vs")
-
-
-def conflict_geometry(snap: TrafficSnapshot) -> ConflictGeometry:
-    """The conflict detection's view of a traffic snapshot: positions, velocities and the local flat frame.
-
-    The same arrays :func:`aamsim.conflicts.service.traffic_snapshot` computes from the
-    simulation (one compiled loop over the same float64 values), from a snapshot with the
-    fields of :data:`KINEMATIC_FIELDS`.
-    """
-    matrix = np.ascontiguousarray(snap.columns(KINEMATIC_FIELDS), dtype=np.float64)
-    rows = np.arange(len(KINEMATIC_FIELDS), dtype=np.int64)
-    lat, lon, alt, u, v, w, x, y, err, *frame = snapshot_arrays(matrix, len(snap.ids), rows, R_EARTH)
-    return ConflictGeometry(list(snap.ids), lat, lon, alt, u, v, w, x, y, err, tuple(frame))  # type: ignore[arg-type]
 
 
 def protected_zone(rpz_m: float | None, hpz_m: float | None,

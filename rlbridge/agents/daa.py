@@ -29,23 +29,32 @@ must say which speed each action selects (:class:`rlbridge.usecases.protocol.Spe
 headings and altitudes (its spec's ``action_kinds``; ``heading_altitude_sa``), the same
 logic turns and changes level: :mod:`rlbridge.agents.daa_manoeuvre`. A use case
 with none of these kinds is refused, naming its kinds.
+
+It acts on the step result (each action's targets, ``info["action_targets"]``:
+:mod:`rlbridge.usecases.targets`) and a traffic snapshot of ``snapshot_fields``, read by the
+DAA logic as a kinematic state (:class:`aamsim.resolution.state.SnapshotState`), so it runs on
+every backend and decides the same in process and over ZeroMQ.
 """
 
 from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from typing import Any, ClassVar, cast
+from typing import Any, ClassVar
 
 import numpy as np
 
 from aamsim.resolution import DAAParams, DetectAndAvoid, SpeedBands
+from aamsim.resolution.state import AXIS_FIELDS, SnapshotState
+from aamsim.snapshots import TrafficSnapshot
 from aamsim.units import KTS
 from rlbridge.agents.daa_manoeuvre import ManoeuvreDAA
-from rlbridge.agents.rollout import ActOutput, EpisodeAccess
+from rlbridge.agents.manoeuvres import ActionTargets
+from rlbridge.agents.rollout import ActOutput
 from rlbridge.core import StepResult
-from rlbridge.usecases.protocol import ADVISORY_KINDS, UseCaseBase
+from rlbridge.usecases.protocol import ADVISORY_KINDS
 from rlbridge.usecases.spec import Needs, check_fits, spec_of
+from rlbridge.usecases.targets import TARGETS_KEY
 
 
 @dataclass(frozen=True)
@@ -54,6 +63,22 @@ class DAAPolicyConfig:
 
     daa: dict[str, Any] = field(default_factory=dict)  # overrides of aamsim.resolution.DAAParams
     resume_band_kts: float = 8.0  # no advisory once this close to the agent's own speed
+
+
+@dataclass(frozen=True)
+class _UseCaseFacts:
+    """What the decisions read of the use case, noted by ``check_usecase``."""
+
+    kinds: tuple[str, ...]  # its action kinds
+    decision_interval_s: float
+    resume: int | None  # heading / altitude use cases: the action that gives no advisory
+    climb_rate_mps: float  # heading / altitude use cases: the vertical speed of level changes
+
+
+def _published_rows(published: dict[str, Any], kind: str, names: list[str]) -> np.ndarray:
+    """The published targets of ``kind`` of the agents ``names``, in that order: (len(names), n_actions)."""
+    row = {a: q for q, a in enumerate(published["agents"])}
+    return np.asarray(published[kind], dtype=np.float64)[[row[a] for a in names]]
 
 
 @dataclass
@@ -66,8 +91,9 @@ class DAAActor:
     """Speed-only detect and avoid on a use case's discrete speed actions (see the module docstring)."""
 
     obs_format: str | None = None
-    snapshot_fields: tuple[str, ...] = ()
-    reads_simulation = True  # aamsim's services in process (rlbridge.agents.rollout.EpisodeAccess)
+    # What the DAA logic reads (aamsim.resolution.state), the own speed (selspd) and, for heading / altitude
+    # actions, the selected altitude (a use case without altitude actions keeps it).
+    snapshot_fields: tuple[str, ...] = (*AXIS_FIELDS, "selspd", "selalt")
     # Speed actions of either layout (it steers with their targets), or heading / altitude actions.
     needs: ClassVar[Needs] = Needs(any_of=ADVISORY_KINDS)
 
@@ -76,28 +102,43 @@ class DAAActor:
         self.daa = DetectAndAvoid(DAAParams(**self.config.daa))
         self._held: dict[str, _Held] = {}
         self._own: dict[str, float] = {}  # each agent's own CAS, noted at its first advisory [m/s]
-        self._episode: tuple[int | None, int] | None = None
+        self._episode: np.random.Generator | None = None  # the current episode's action generator
         self._manoeuvre = ManoeuvreDAA(self.daa)
+        self._usecase: _UseCaseFacts | None = None  # check_usecase
 
     def set_weights(self, weights: Any) -> None:
         pass
 
     def check_usecase(self, usecase: Any) -> None:
-        """Refuse a use case with neither speed nor heading / altitude actions, naming its kinds."""
+        """Refuse a use case with neither speed nor heading / altitude actions, naming its kinds; note what
+        the decisions read of it (its kinds, decision interval, resume action and climb rate)."""
         if usecase is not None:
             check_fits(self.needs, usecase, "baseline daa")
+            kinds = tuple(spec_of(usecase).action_kinds)
+            resume = getattr(usecase, "resume_action", None)
+            if "speed" not in kinds and resume is None:
+                raise TypeError(f"use case {usecase.name} has heading/altitude actions but names no resume_action")
+            self._usecase = _UseCaseFacts(kinds, float(usecase.decision_interval_s),
+                                          None if resume is None else int(resume),
+                                          float(getattr(usecase, "climb_rate_mps", 5.08)))
 
-    def act(self, result: StepResult, core: EpisodeAccess, rng: np.random.Generator,
+    def act(self, result: StepResult, snapshot: TrafficSnapshot | None, rng: np.random.Generator,
             explore: dict[str, Any]) -> ActOutput:
-        sim = core.sim
-        assert sim is not None
-        usecase = core.usecase
-        key = (core.seed, id(sim))
-        if key != self._episode:  # a new episode: forget the previous aircraft
-            self._episode, self._held, self._own = key, {}, {}
+        if snapshot is None:
+            raise ValueError(f"baseline daa reads a traffic snapshot of {', '.join(self.snapshot_fields)}")
+        if self._usecase is None:
+            raise RuntimeError("baseline daa acts after check_usecase(usecase) (its actions and decision interval)")
+        if rng is not self._episode:  # a new episode (each has its own generator): forget the previous aircraft
+            self._episode, self._held, self._own = rng, {}, {}
             self._manoeuvre = ManoeuvreDAA(self.daa)
-        if "speed" not in spec_of(usecase).action_kinds:
-            return self._act_manoeuvres(result, core)
+        published = result.info.get(TARGETS_KEY)
+        if published is None:
+            raise ValueError(f"baseline daa reads the action targets of the step result (info[{TARGETS_KEY!r}]), "
+                             "which the episode engine adds for use cases with speed, heading or altitude actions")
+        sim = SnapshotState(snapshot)
+        facts = self._usecase
+        if "speed" not in facts.kinds:
+            return self._act_manoeuvres(result, sim, published, facts)
         view = sim.view
         alive = set(result.alive)
         rows = [k for k, a in enumerate(result.agents) if a in alive and a in view]
@@ -113,9 +154,9 @@ class DAAActor:
         involved = alerted | np.array([a in self._held for a in names], dtype=bool)
         bands = self.daa.gs_bands(sim, slots[involved])
         # The speed each action reaches within one decision interval, as ground speed.
-        targets = np.asarray(cast(UseCaseBase, usecase).action_targets(sim, slots, "speed"), dtype=np.float64)
+        targets = _published_rows(published, "speed", names)
         cas = np.asarray(view.cas[slots], dtype=np.float64)[:, None]
-        step = (np.asarray(view.axmax[slots], dtype=np.float64) * usecase.decision_interval_s)[:, None]
+        step = (np.asarray(view.axmax[slots], dtype=np.float64) * facts.decision_interval_s)[:, None]
         end_cas = cas + np.clip(targets - cas, -step, step)
         end_gs = np.stack([self.daa.gs_for(sim, slots, end_cas[:, a]) for a in range(targets.shape[1])], axis=1)
         end_gs = np.clip(end_gs, bands.gmin[slots][:, None], bands.gmax[slots][:, None])
@@ -178,10 +219,9 @@ class DAAActor:
                 actions[rows[r]], advise[rows[r]] = a, True
         return ActOutput(actions, advise=advise)
 
-    def _act_manoeuvres(self, result: StepResult, core: EpisodeAccess) -> ActOutput:
+    def _act_manoeuvres(self, result: StepResult, sim: SnapshotState, published: dict[str, Any],
+                        facts: _UseCaseFacts) -> ActOutput:
         """Heading and altitude advisories (rlbridge.agents.daa_manoeuvre)."""
-        sim = core.sim
-        assert sim is not None
         view = sim.view
         alive = set(result.alive)
         rows = [k for k, a in enumerate(result.agents) if a in alive and a in view]
@@ -190,7 +230,14 @@ class DAAActor:
         if rows:
             names = [result.agents[k] for k in rows]
             slots = np.array([view.slot(a) for a in names], dtype=np.int64)
-            acts, adv = self._manoeuvre.act(sim, core.usecase, names, slots)
+            assert facts.resume is not None  # check_usecase refused a heading / altitude use case without one
+            n_actions = int(next(v for k, v in published.items() if k != "agents").shape[1])
+            trk = _published_rows(published, "heading", names) if "heading" in facts.kinds else \
+                np.repeat(np.asarray(view.trk, dtype=np.float64)[slots, None], n_actions, axis=1)
+            alt = _published_rows(published, "altitude", names) if "altitude" in facts.kinds else \
+                np.repeat(np.asarray(view.selalt, dtype=np.float64)[slots, None], n_actions, axis=1)
+            targets = ActionTargets(trk, alt, facts.resume, facts.climb_rate_mps)
+            acts, adv = self._manoeuvre.act(sim, targets, names, slots)
             actions[rows], advise[rows] = acts, adv
         return ActOutput(actions, advise=advise)
 

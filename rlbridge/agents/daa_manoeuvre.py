@@ -25,14 +25,14 @@ give:
 from __future__ import annotations
 
 from dataclasses import dataclass, field, replace
-from typing import Any
 
 import numpy as np
 
 from aamsim.resolution import DetectAndAvoid
 from aamsim.resolution.axes import HDG, VS, AxisResolver
 from aamsim.resolution.service import most_urgent
-from rlbridge.agents.manoeuvres import action_targets, check_actions
+from aamsim.resolution.state import KinematicState
+from rlbridge.agents.manoeuvres import ActionTargets, check_actions
 
 
 @dataclass
@@ -42,8 +42,9 @@ class ManoeuvreDAA:
     daa: DetectAndAvoid
     held: dict[str, int] = field(default_factory=dict)  # agent -> the action it holds
 
-    def act(self, sim: Any, usecase: Any, names: list[str], slots: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Actions and advisory flags of the agents ``names`` (their ``slots``)."""
+    def act(self, sim: KinematicState, targets: ActionTargets, names: list[str],
+            slots: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Actions and advisory flags of the agents ``names`` (their ``slots``; ``targets``: a row each)."""
         p = self.daa.params
         actions = np.zeros(len(names), dtype=np.int64)
         advise = np.zeros(len(names), dtype=bool)
@@ -54,7 +55,7 @@ class ManoeuvreDAA:
         if involved.size == 0:
             return actions, advise
         inv = slots[involved]
-        targets = action_targets(usecase, sim, inv)
+        targets = _rows(targets, involved)
         first, last = check_actions(sim, inv, targets, p)
         free = first > p.lookahead_s
         resolve: list[int] = []
@@ -108,7 +109,7 @@ class ManoeuvreDAA:
         return actions, advise
 
 
-def _rows(targets: Any, rows: np.ndarray) -> Any:
+def _rows(targets: ActionTargets, rows: np.ndarray) -> ActionTargets:
     """The targets of some rows only."""
     return replace(targets, trk=targets.trk[rows], alt=targets.alt[rows])
 

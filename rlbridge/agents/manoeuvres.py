@@ -1,8 +1,8 @@
 """What a heading / altitude advisory of a use case would do: its targets and a well-clear check of each action.
 
 The rule-based baselines that act on use cases with heading and altitude
-advisories (``daa``, ``mvp``) read each action's targets from the use case
-(``action_targets(sim, slots, "heading" | "altitude")``) and, for DAA, check
+advisories (``daa``, ``mvp``) read each action's targets from the step result
+(``info["action_targets"]``, :mod:`rlbridge.usecases.targets`) and, for DAA, check
 every action's manoeuvre against the traffic: an instant turn to the action's
 track and a climb or descent at the use case's rate to its altitude, then level
 flight, intruders flying straight
@@ -12,16 +12,15 @@ flight, intruders flying straight
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any
 
 import numpy as np
 
 from aamsim.conflicts.axis_bands import manoeuvre_intervals
 from aamsim.resolution.daa import DAAParams, isotropic_pairs
-from rlbridge.usecases.spec import spec_of
+from aamsim.resolution.state import KinematicState
 from rlbridge.usecases.targets import MANOEUVRE_KINDS as TARGET_KINDS
 
-MANOEUVRE_KINDS = TARGET_KINDS  # the kinds whose action targets the step results publish
+MANOEUVRE_KINDS = TARGET_KINDS  # heading and altitude: the kinds these baselines steer with
 
 
 @dataclass(frozen=True)
@@ -34,23 +33,7 @@ class ActionTargets:
     rate_mps: float  # vertical speed of the level changes
 
 
-def action_targets(usecase: Any, sim: Any, slots: np.ndarray) -> ActionTargets:
-    """The targets of a heading / altitude use case's actions (a kind it lacks keeps the value of now)."""
-    kinds = spec_of(usecase).action_kinds
-    view = sim.view
-    n = int(usecase.action_space().n)
-    trk = usecase.action_targets(sim, slots, "heading") if "heading" in kinds else \
-        np.repeat(np.asarray(view.trk, dtype=np.float64)[slots, None], n, axis=1)
-    alt = usecase.action_targets(sim, slots, "altitude") if "altitude" in kinds else \
-        np.repeat(np.asarray(view.selalt, dtype=np.float64)[slots, None], n, axis=1)
-    resume = getattr(usecase, "resume_action", None)
-    if resume is None:
-        raise TypeError(f"use case {usecase.name} has heading/altitude actions but names no resume_action")
-    return ActionTargets(np.asarray(trk, dtype=np.float64), np.asarray(alt, dtype=np.float64), int(resume),
-                         float(getattr(usecase, "climb_rate_mps", 5.08)))
-
-
-def check_actions(sim: Any, slots: np.ndarray, targets: ActionTargets, params: DAAParams,
+def check_actions(sim: KinematicState, slots: np.ndarray, targets: ActionTargets, params: DAAParams,
                   recovery: bool = False, step_s: float = 1.0) -> tuple[np.ndarray, np.ndarray]:
     """Per aircraft and action: when the manoeuvre first loses well clear and when it last is not well clear
     [s from now, sampled every ``step_s``] against any intruder (``inf`` / ``-inf``: never); the recovery

@@ -8,20 +8,23 @@
   other layers from the nearest, at which its intent conflicts with no reserved intent
   (the observation's ``conflicts`` table); when no slot within the horizon is conflict-free
   it is rejected (unplaced: reported and counted).
+
+Both act on the step result alone: what the use case's departure planner offers for the
+request being decided is published with it (``info["departure_request"]``,
+:func:`rlbridge.usecases.targets.departure_request_info`), so they run on every backend.
 """
 
 from __future__ import annotations
 
-from typing import Any, ClassVar, cast
+from typing import Any, ClassVar
 
 import numpy as np
 
-from rlbridge.agents.rollout import ActOutput, EpisodeAccess
+from aamsim.snapshots import TrafficSnapshot
+from rlbridge.agents.rollout import ActOutput
 from rlbridge.core import StepResult
-from rlbridge.usecases.protocol import DepartureSlots
 from rlbridge.usecases.spec import Needs, check_fits
-
-PLANNER = "planner"
+from rlbridge.usecases.targets import REQUEST_KEY
 
 
 def fcfs_action(conflicts: np.ndarray, action_mask: np.ndarray, filed_layer: int, reject: int | None) -> int:
@@ -48,17 +51,11 @@ def fcfs_action(conflicts: np.ndarray, action_mask: np.ndarray, filed_layer: int
     return best[1] if best is not None else 0
 
 
-def _planner(core: EpisodeAccess) -> Any:
-    # check_usecase refused a use case without departure slots, so it has departure_planner
-    return cast(DepartureSlots, core.usecase).departure_planner()
-
-
 class _PlannerBaseline:
     """A rule acting for the planner agent only (the hierarchical use case's aircraft get nothing)."""
 
     obs_format: str | None = None
-    snapshot_fields: tuple[str, ...] = ()
-    reads_simulation = True  # aamsim's services in process (rlbridge.agents.rollout.EpisodeAccess)
+    snapshot_fields: tuple[str, ...] = ()  # the step result is all it reads
     needs: ClassVar[Needs] = Needs(any_of=("departure_slot",))  # a planner agent choosing departure slots
     kind: ClassVar[str] = ""
 
@@ -70,15 +67,18 @@ class _PlannerBaseline:
         if usecase is not None:
             check_fits(self.needs, usecase, f"baseline {self.kind}")
 
-    def choose(self, planner: Any) -> int:
+    def choose(self, request: dict[str, Any]) -> int:
         raise NotImplementedError
 
-    def act(self, result: StepResult, core: EpisodeAccess, rng: np.random.Generator,
+    def act(self, result: StepResult, snapshot: TrafficSnapshot | None, rng: np.random.Generator,
             explore: dict[str, Any]) -> ActOutput:
-        planner = _planner(core)
-        decider = planner.decider() if hasattr(planner, "decider") else PLANNER  # a planner per vertiport: its own
-        mine = np.array([a == decider for a in result.agents], bool)
-        actions = np.array([self.choose(planner) if m else 0 for m in mine], np.int64)
+        request = result.info.get(REQUEST_KEY)
+        if request is None:
+            raise ValueError(f"baseline {self.kind} reads the departure planner's request of the step result "
+                             f"(info[{REQUEST_KEY!r}]), which the episode engine adds for use cases with "
+                             "departure-slot actions")
+        mine = np.array([a == request["decider"] for a in result.agents], bool)  # a planner per vertiport: its own
+        actions = np.array([self.choose(request) if m else 0 for m in mine], np.int64)
         return ActOutput(actions, advise=mine)
 
 
@@ -87,8 +87,8 @@ class NoPlanningActor(_PlannerBaseline):
 
     kind = "no_planning"
 
-    def choose(self, planner: Any) -> int:
-        return int(planner.default_action())
+    def choose(self, request: dict[str, Any]) -> int:
+        return int(request["default_action"])
 
 
 class FCFSActor(_PlannerBaseline):
@@ -96,10 +96,9 @@ class FCFSActor(_PlannerBaseline):
 
     kind = "fcfs"
 
-    def choose(self, planner: Any) -> int:
-        req = planner.current()
-        if req is None:
+    def choose(self, request: dict[str, Any]) -> int:
+        if not request["pending"]:
             return 0
-        conflicts, _ = planner.candidate_table()
-        filed = max(planner.plan.filed_layer.get(req.key, 0), 0)
-        return fcfs_action(conflicts, planner.action_mask(req), filed, planner.reject_action)
+        reject = int(request["reject_action"])
+        return fcfs_action(np.asarray(request["conflicts"]), np.asarray(request["action_mask"]),
+                           int(request["filed_layer"]), None if reject < 0 else reject)

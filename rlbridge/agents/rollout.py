@@ -70,32 +70,8 @@ class Actor(Protocol):
             explore: dict[str, Any]) -> ActOutput: ...
 
 
-class EpisodeAccess(Protocol):
-    """What a simulation-bound baseline (``reads_simulation = True``) reads instead of a snapshot.
-
-    Only the detect-and-avoid and planner baselines are still bound to the
-    in-process simulation (they call aamsim's DAA and reservation services); they run
-    where the simulation runs (backends ``local`` and ``bluesky``, frozen layers inside a use
-    case) and are refused over ZeroMQ.
-    """
-
-    sim: Any  # aamsim.Simulation
-    seed: int | None
-    usecase: Any
-
-
-IN_PROCESS_BACKENDS = ("local", "bluesky")
-
-
-def reads_simulation(actor: Any) -> bool:
-    """Whether ``actor`` acts on the in-process simulation (:class:`EpisodeAccess`) rather than a snapshot."""
-    return bool(getattr(actor, "reads_simulation", False))
-
-
 def policy_input(actor: Any, episode: Any) -> Any:
-    """What ``actor.act`` reads besides the step result: a snapshot of its fields, None, or the episode itself."""
-    if reads_simulation(actor):
-        return episode
+    """What ``actor.act`` reads besides the step result: a snapshot of its fields, or None."""
     fields = tuple(getattr(actor, "snapshot_fields", ()))
     return episode.snapshot(fields) if fields else None
 
@@ -249,11 +225,6 @@ class RolloutWorker:
             torch.set_num_threads(torch_threads)
         self.env = env
         self.actors: dict[str, Actor] = {name: make_actor(spec) for name, spec in actors.items()}
-        if env.backend not in IN_PROCESS_BACKENDS:
-            bound = [name for name, a in self.actors.items() if reads_simulation(a)]
-            if bound:
-                raise ValueError(f"actor(s) {', '.join(bound)} read the simulation in process: they run on backend "
-                                 f"{' or '.join(map(repr, IN_PROCESS_BACKENDS))}, not {env.backend!r}")
         self._cores: dict[str | None, EpisodeBackend] = {}
         self._engines: dict[tuple[str | None, int], VectorEngine] = {}  # lockstep episodes, by format and number
         self._checked: set[str] = set()  # actors whose fit to the use case was checked

@@ -6,9 +6,8 @@ planners' ``no_planning`` and ``fcfs``, and any baseline added there later,
 e.g. ``daa``) or the path of a training run directory or checkpoint file
 (``aamgym train`` output: its best weights, acting greedily). An actor reads
 the step result and a traffic snapshot of the fields it names
-(``snapshot_fields``), as in a rollout; the baselines still bound to the
-simulation (``reads_simulation``: ``daa``, ``mvp``, the planners) read the
-:class:`SimHandle` (simulation, seed, use case) instead.
+(``snapshot_fields``), as in a rollout: the planners' and DAA's inputs come with the step
+result (:func:`rlbridge.usecases.targets.step_info`).
 
 Use cases sit below the agents and the experiment layer and import neither
 (tests/test_import_contract.py): the names are turned into policies by a
@@ -27,7 +26,7 @@ import numpy as np
 
 from aamsim.snapshots import take_snapshot
 from rlbridge.usecases.protocol import Observations
-from rlbridge.usecases.targets import action_target_info
+from rlbridge.usecases.targets import step_info
 
 if TYPE_CHECKING:
     from aamsim import Simulation
@@ -74,17 +73,14 @@ class FrozenPolicy:
 
         n = len(agents)
         result = StepResult(agents, obs, np.zeros(n), np.zeros(n, bool), np.zeros(n, bool), list(agents),
-                            handle.sim.simt, False, info=action_target_info(handle.usecase, handle.sim, agents))
+                            handle.sim.simt, False, info=step_info(handle.usecase, handle.sim, agents))
         if handle.usecase is not self._checked:
             check = getattr(self.actor, "check_usecase", None)
             if check is not None:
                 check(handle.usecase)
             self._checked = handle.usecase
-        if getattr(self.actor, "reads_simulation", False):
-            seen: Any = handle
-        else:
-            fields = tuple(getattr(self.actor, "snapshot_fields", ()))
-            seen = take_snapshot(handle.sim, fields, handle.sim.separation_standard) if fields else None
+        fields = tuple(getattr(self.actor, "snapshot_fields", ()))
+        seen = take_snapshot(handle.sim, fields, handle.sim.separation_standard) if fields else None
         out = self.actor.act(result, seen, rng, self.explore)
         if out.actions is None:
             return None
