@@ -103,8 +103,8 @@ class Simulation(SimulationAPI):
         self._rng = np.random.default_rng(seed)
         self.state = self.STATE_INIT
         # An empty Traffic of its own, or a block of a pool that several simulations share (aamsim.worlds).
-        self.traffic = traffic if traffic is not None else Traffic()
-        if self.traffic.n:
+        self._traffic = traffic if traffic is not None else Traffic()
+        if self._traffic.n:
             raise ValueError("a new simulation starts with an empty traffic")
         self.wind = WindField()
         self.hooks = Hooks()
@@ -286,14 +286,14 @@ class Simulation(SimulationAPI):
         envelope, and intents refuse it. The creation hooks see the flag already set.
         """
         acid = acid.upper()
-        if acid in self.traffic:
+        if acid in self._traffic:
             raise CommandError(f"aircraft {acid} already exists")
         if not acid or any(c in acid for c in " ,;#>'\""):
             raise CommandError(f'"{acid}" is not a valid callsign')
-        if self.limits.room(self.traffic.n) == 0:
+        if self.limits.room(self._traffic.n) == 0:
             raise CommandError(self.limits.refusal(
                 f"{acid}: this simulation flies at most {self.limits.max_aircraft:,} aircraft at once, and "
-                f"{self.traffic.n:,} fly at t = {self.simt:.2f} s: not created"))
+                f"{self._traffic.n:,} fly at t = {self.simt:.2f} s: not created"))
         if len(acid) > MAX_CALLSIGN_CHARS:
             raise CommandError(f'"{acid[:20]}...": a callsign has at most {MAX_CALLSIGN_CHARS} characters, '
                                f"not {len(acid):,}")
@@ -306,10 +306,10 @@ class Simulation(SimulationAPI):
             )
         spd = self._checked_creation(acid, lat, lon, alt, spd or Speed(0.0), envelope)
         self.executor.last_command[acid] = (self.executor.command_text or "create", self.executor.source)
-        i = self.traffic.create(acid, actype, envelope, lat, lon, hdg, alt, spd or Speed(0.0), self.simt,
+        i = self._traffic.create(acid, actype, envelope, lat, lon, hdg, alt, spd or Speed(0.0), self.simt,
                                 noncooperative)
         if self.wind.active and not noncooperative:
-            intents.apply_wind_at_creation(self.traffic, i, self.wind)
+            intents.apply_wind_at_creation(self._traffic, i, self.wind)
         if self.state == self.STATE_INIT:
             self.state = self.STATE_OP
         self.scheduler.perf_pending = True
@@ -349,8 +349,8 @@ class Simulation(SimulationAPI):
         ``arrived`` None means: arrived if within the arrival radius of its
         destination (DEST, else the last waypoint of its route).
         """
-        record = self.traffic.flights[i]
-        route = self.traffic.routes[i]
+        record = self._traffic.flights[i]
+        route = self._traffic.routes[i]
         if not record.destination and len(route):
             last = route.waypoints[-1]
             record.destination = last.name
@@ -358,14 +358,14 @@ class Simulation(SimulationAPI):
         if arrived is None:
             arrived = False
             if not math.isnan(record.dest_lat):
-                _, dist = qdrdist(self.traffic.lat[i], self.traffic.lon[i], record.dest_lat, record.dest_lon)
+                _, dist = qdrdist(self._traffic.lat[i], self._traffic.lon[i], record.dest_lat, record.dest_lon)
                 arrived = dist <= self.settings.arrival_radius_m
         record.arrived = bool(arrived)
         record.deleted_s = self.simt
         self.hooks.deleted.call(self, i, record)
-        self.conditions.drop_aircraft(self.traffic.ids[i])
-        self.executor.last_command.pop(self.traffic.ids[i], None)
-        self.traffic.delete(i)
+        self.conditions.drop_aircraft(self._traffic.ids[i])
+        self.executor.last_command.pop(self._traffic.ids[i], None)
+        self._traffic.delete(i)
         self.flight_log.append(record)
         return record
 
@@ -394,7 +394,7 @@ class Simulation(SimulationAPI):
         self._run_due_commands()
         if clock.simt_us >= scheduler.next_perf_us and scheduler.performance_due(self.settings.perf_interval_s):
             # Fixed-wing limits follow the aircraft's state: the next refresh changes them again.
-            scheduler.perf_pending = intents.refresh_performance(self.traffic)
+            scheduler.perf_pending = intents.refresh_performance(self._traffic)
         hooks.pre_step.call_due(clock.simt_us, clock.dt_us, self)
 
     def _advance_steps(self, nsteps: int) -> None:
@@ -402,7 +402,7 @@ class Simulation(SimulationAPI):
         done = 0
         check_first = True
         while done < nsteps:
-            traffic = self.traffic
+            traffic = self._traffic
             n = traffic.n
             cond = self.conditions.arrays(traffic) if len(self.conditions) else _NO_CONDITIONS
             extra: tuple[int, ...] = ()
@@ -468,7 +468,7 @@ class Simulation(SimulationAPI):
         A NaN position would otherwise spread into conflict detection and the
         output files (a CRE speed of 1e300 once did, silently).
         """
-        traffic = self.traffic
+        traffic = self._traffic
         for i in reversed(traffic.non_finite_slots()):
             acid = traffic.ids[i]
             state = traffic.describe_state(i)
@@ -484,7 +484,7 @@ class Simulation(SimulationAPI):
         Returns True when waypoint commands were queued or aircraft deleted,
         so that the batch ends after the current step.
         """
-        traffic = self.traffic
+        traffic = self._traffic
         scratch_qdr, scratch_dist, fresh, reached_flags = traffic.scratch
         reached = np.flatnonzero(reached_flags[: traffic.n])
         side_effects = False
@@ -579,7 +579,7 @@ class Simulation(SimulationAPI):
         """True when the scenario can produce no further change worth simulating."""
         if len(self.queue) or len(self.conditions) or any(pending() for pending in self.pending_work):
             return False
-        if self.traffic.n == 0:
+        if self._traffic.n == 0:
             return True
         view = self.view
         # Aircraft still following a route or changing speed/altitude keep the run going.
@@ -587,7 +587,7 @@ class Simulation(SimulationAPI):
 
     def reset(self) -> None:
         """RESET: clear traffic, pending commands and time; keep plugins and hooks."""
-        for i in range(self.traffic.n - 1, -1, -1):
+        for i in range(self._traffic.n - 1, -1, -1):
             self.delete_aircraft(i, arrived=False)
         self.scheduler.reset()  # time 0, nothing pending; the step is kept
         self.files.reset_budget()

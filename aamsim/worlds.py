@@ -134,9 +134,9 @@ class WorldSet:
         airborne = np.array([s.settings.airborne_alt_m for s in sims], dtype=np.float64)
         dt = sims[0].clock.dt_s
         pool = self.pool
-        turns = any(s.traffic.turn_speeds_used for s in sims)
-        reso = any(s.traffic.resolution_used for s in sims)
-        counts = [s.traffic.n for s in sims]
+        turns = any(s._traffic.turn_speeds_used for s in sims)
+        reso = any(s._traffic.resolution_used for s in sims)
+        counts = [s._traffic.n for s in sims]
         threads = self.threads if self.threads > 1 and sum(counts) >= PARALLEL_MIN_AIRCRAFT else 1
         conditions = [s.conditions for s in sims]
         ended: list[int] = []
@@ -164,10 +164,10 @@ class WorldSet:
                 cond = conds[i]
                 after = sim._after_kernel(int(pending[i]), status, counts[i], _NO_CONDITIONS if cond is None else cond)
                 pending[i] = 0
-                counts[i] = sim.traffic.n
+                counts[i] = sim._traffic.n
                 # Passing a waypoint may start a leg with a turn speed: the kernel's part for it.
-                turns = turns or sim.traffic.turn_speeds_used
-                reso = reso or sim.traffic.resolution_used
+                turns = turns or sim._traffic.turn_speeds_used
+                reso = reso or sim._traffic.resolution_used
                 check[i] = after == AFTER_CONTINUE
                 if after == AFTER_LAST_STEP:
                     nsteps[i] = done[i] + 1

@@ -126,7 +126,7 @@ def test_wind_errors_name_the_field(line, fragment):
 
 def test_del_wind_keeps_an_aircraft_called_wind_first():
     sim = make("WIND 0 0 90 10", "CRE WIND EC35 0 0 0 1000 100", "DEL WIND")
-    assert "WIND" not in sim.traffic and sim.wind.dim == 1
+    assert "WIND" not in sim.view and sim.wind.dim == 1
 
 
 @settings(max_examples=40, deadline=None)
