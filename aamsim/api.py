@@ -42,7 +42,7 @@ class SimulationAPI:
     """Views and intents of a simulation (mixed into :class:`aamsim.Simulation`)."""
 
     _traffic: Traffic
-    wind: WindField
+    _wind: WindField
     _traffic_view: TrafficView
     flight_log: list[FlightRecord]
     # Built-in services (conflict detection, metrics, ...), built by the constructor (aamsim.services).
@@ -155,7 +155,7 @@ class SimulationAPI:
 
     def select_heading(self, target: str | int, heading_deg: float) -> None:
         """Fly a heading [deg true]; LNAV off (BlueSky's HDG)."""
-        intents.select_heading(self._traffic, self._intent_slot(target), heading_deg, self.wind)
+        intents.select_heading(self._traffic, self._intent_slot(target), heading_deg, self._wind)
 
     def command_resolution(self, targets: Target, trk_deg: float | np.ndarray, gs_mps: float | np.ndarray,
                            vs_mps: float | np.ndarray, alt_m: float | np.ndarray) -> None:
@@ -276,6 +276,25 @@ class SimulationAPI:
         names = [self._traffic.ids[s] for s in self.slots(targets).tolist()]
         for name in names:  # by callsign: deleting moves the last aircraft into the freed slot
             self.delete_aircraft(self._traffic.index(name))
+
+    # ------------------------------------------------------------------ wind
+    def wind_at(self, lat: float, lon: float, alt_m: float) -> tuple[float, float]:
+        """North and east wind [m/s] at a position [deg] and altitude [m] (0, 0 without wind)."""
+        vn, ve = self._wind.get(lat, lon, alt_m)
+        return float(vn), float(ve)
+
+    def add_wind_point(self, lat: float, lon: float, direction_deg: float, speed_mps: float) -> None:
+        """Wind at a point [deg], the same at every altitude: the direction it blows from [deg], speed [m/s]."""
+        self._wind.add_point(lat, lon, direction_deg, speed_mps)
+
+    def add_wind_profile(self, lat: float, lon: float, alts_m: np.ndarray, directions_deg: np.ndarray,
+                         speeds_mps: np.ndarray) -> None:
+        """Wind at a point [deg] by altitude [m]: direction it blows from [deg] and speed [m/s] per altitude."""
+        self._wind.add_profile(lat, lon, alts_m, directions_deg, speeds_mps)
+
+    def clear_wind(self) -> None:
+        """Remove every wind point (``DEL WIND``)."""
+        self._wind.clear()
 
     def describe(self) -> dict[str, Any]:
         """The public fields and what they mean (for documentation and tools)."""

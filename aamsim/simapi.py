@@ -69,8 +69,8 @@ class SimulationCore(Protocol):
         ...
 
     @property
-    def clock(self) -> Clock:
-        """The simulation clock."""
+    def _clock(self) -> Clock:
+        """The simulation clock (private to the engine; everyone else reads ``simt``, ``simt_us``, ``dt``)."""
         ...
 
     @property

@@ -93,7 +93,7 @@ class Simulation(SimulationAPI):
         max_aircraft: int | None = DEFAULT_LOCAL_MAX_AIRCRAFT,
     ):
         try:
-            self.clock = Clock(dt)  # the one check every entry point shares (aamsim.clock)
+            self._clock = Clock(dt)  # the one check every entry point shares (aamsim.clock)
         except TimeStepError as exc:
             raise CommandError(f"DT: {exc}") from None
         self.settings = SimSettings()
@@ -106,9 +106,9 @@ class Simulation(SimulationAPI):
         self._traffic = traffic if traffic is not None else Traffic()
         if self._traffic.n:
             raise ValueError("a new simulation starts with an empty traffic")
-        self.wind = WindField()
+        self._wind = WindField()
         self.hooks = Hooks()
-        self.scheduler = Scheduler(self.clock, self.hooks)
+        self.scheduler = Scheduler(self._clock, self.hooks)
         self.commands = CommandRegistry()
         self.reporter = Reporter()
         self.executor = CommandExecutor(self, self.commands, self.scheduler.queue, self.report)
@@ -143,26 +143,26 @@ class Simulation(SimulationAPI):
     @property
     def simt(self) -> float:
         """Simulation time [s]."""
-        return self.clock.simt_us / 1_000_000
+        return self._clock.simt_us / 1_000_000
 
     @property
     def simt_us(self) -> int:
         """Simulation time [us] (exact)."""
-        return self.clock.simt_us
+        return self._clock.simt_us
 
     @property
     def dt(self) -> float:
         """Time step [s]."""
-        return self.clock.dt_s
+        return self._clock.dt_s
 
     @property
     def dt_us(self) -> int:
-        return self.clock.dt_us
+        return self._clock.dt_us
 
     def set_dt(self, dt_s: float) -> None:
         """Set the time step [s]; raises :class:`CommandError` outside :mod:`aamsim.clock`'s bounds."""
         try:
-            self.clock.set_dt(dt_s)
+            self._clock.set_dt(dt_s)
         except TimeStepError as exc:
             raise CommandError(f"DT: {exc}") from None
 
@@ -308,8 +308,8 @@ class Simulation(SimulationAPI):
         self.executor.last_command[acid] = (self.executor.command_text or "create", self.executor.source)
         i = self._traffic.create(acid, actype, envelope, lat, lon, hdg, alt, spd or Speed(0.0), self.simt,
                                 noncooperative)
-        if self.wind.active and not noncooperative:
-            intents.apply_wind_at_creation(self._traffic, i, self.wind)
+        if self._wind.active and not noncooperative:
+            intents.apply_wind_at_creation(self._traffic, i, self._wind)
         if self.state == self.STATE_INIT:
             self.state = self.STATE_OP
         self.scheduler.perf_pending = True
@@ -372,7 +372,7 @@ class Simulation(SimulationAPI):
     # ------------------------------------------------------------------ stepping
     def _run_due_commands(self) -> None:
         # Commands may queue more commands due now (SCHEDULE, PCALL, conditions).
-        queue, clock = self.scheduler.queue, self.clock
+        queue, clock = self.scheduler.queue, self._clock
         while True:
             due = queue.pop_due(clock.simt_us)
             if not due:
@@ -389,7 +389,7 @@ class Simulation(SimulationAPI):
         """Everything that happens at the start of a step, at time simt."""
         # The scheduler's parts are called directly: this runs at every batch boundary
         # (about 10,000 times per episode of the corridor use case).
-        scheduler, clock, hooks = self.scheduler, self.clock, self.hooks
+        scheduler, clock, hooks = self.scheduler, self._clock, self.hooks
         hooks.post_step.call_due(clock.simt_us, clock.dt_us, self)
         self._run_due_commands()
         if clock.simt_us >= scheduler.next_perf_us and scheduler.performance_due(self.settings.perf_interval_s):
@@ -414,14 +414,14 @@ class Simulation(SimulationAPI):
                 traffic.F,
                 traffic.B,
                 n,
-                self.clock.dt_s,
+                self._clock.dt_s,
                 nsteps - done,
                 check_first,
                 self.settings.hold_speed_mps,
                 self.settings.airborne_alt_m,
                 traffic.scratch,
                 cond,
-                self.wind.arrays() if self.wind.active else None,
+                self._wind.arrays() if self._wind.active else None,
                 () if traffic.turn_speeds_used else None,
                 () if traffic.resolution_used else None,
                 *extra,
@@ -443,7 +443,7 @@ class Simulation(SimulationAPI):
         but the batch ends after the next step). :class:`aamsim.worlds.WorldSet` calls it
         for each of its simulations after a kernel call that stepped them together.
         """
-        clock = self.clock
+        clock = self._clock
         clock.simt_us += k * clock.dt_us
         self.aircraft_steps += k * n
         if status == STATUS_NONFINITE:
@@ -593,7 +593,7 @@ class Simulation(SimulationAPI):
         self.files.reset_budget()
         self.conditions.clear()
         self.navdb.clear()
-        self.wind.clear()
+        self._wind.clear()
         self.state = self.STATE_INIT
         self.settings = SimSettings()
         self.hooks.reset.call(self)

@@ -111,7 +111,7 @@ def test_worlds_in_a_wind_field_take_their_own_kernel_call():
     _fresh(worlds.new_simulation(0, seed=3, use_bluesky_navdata=False), wind + text)
     _fresh(worlds.new_simulation(1, seed=3, use_bluesky_navdata=False), text)
     worlds.run_until({0: 60.0, 1: 60.0})
-    assert worlds.sim(0).wind.active
+    assert worlds.sim(0)._wind.active
     _same(_state(worlds.sim(0)), _state(ref))
 
 

@@ -238,5 +238,5 @@ def test_wind_profile_flight_levels_are_flight_levels():
     time (FL70 is taken as 650 m). aamsim: FL70 is 7000 ft."""
     sim = Simulation(seed=0, use_bluesky_navdata=False)
     assert sim.stack("WIND 52,4,0,270,10,FL70,270,30")
-    assert sim.wind.get(52.0, 4.0, 7000 * 0.3048)[1] == pytest.approx(30 * KTS)
-    assert sim.wind.get(52.0, 4.0, 3500 * 0.3048)[1] == pytest.approx(20 * KTS)
+    assert sim.wind_at(52.0, 4.0, 7000 * 0.3048)[1] == pytest.approx(30 * KTS)
+    assert sim.wind_at(52.0, 4.0, 3500 * 0.3048)[1] == pytest.approx(20 * KTS)

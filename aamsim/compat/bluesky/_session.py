@@ -210,7 +210,7 @@ class Session:
         self.before_change()
         sim = self.simulation
         self.delete_all()
-        sim.wind.clear()
+        sim._wind.clear()
         sim.conditions.clear()
         sim.stack("NOISE OFF")
         self.changed()
