@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
 import pytest
 from conftest import errors_of
 from hypothesis import given, settings
@@ -89,6 +90,24 @@ def test_profile_altitudes_in_any_order():
     a.add_profile(0.0, 0.0, [0.0, 1000.0], [90.0, 180.0], [5.0, 15.0])
     b.add_profile(0.0, 0.0, [1000.0, 0.0], [180.0, 90.0], [15.0, 5.0])
     assert a.get(0.0, 0.0, 400.0) == b.get(0.0, 0.0, 400.0)
+
+
+def test_the_wind_api_is_the_wind_command():
+    # From the west (270 deg) at 10 m/s: the air moves east, 10 m/s east and 0 north, at every altitude.
+    sim = Simulation(seed=1, use_bluesky_navdata=False)
+    assert sim.wind_at(52.0, 4.0, 0.0) == (0.0, 0.0)
+    sim.add_wind_point(52.0, 4.0, 270.0, 10.0)
+    vn, ve = sim.wind_at(52.0, 4.0, 500.0)
+    assert vn == pytest.approx(0.0, abs=1e-12) and ve == pytest.approx(10.0)
+    cmd = make("WIND 52,4,,270,10")  # kt, the command's unit
+    assert cmd.wind_at(52.0, 4.0, 500.0) == pytest.approx((0.0, 10 * KTS), abs=1e-12)
+    # A profile: 100 m from the south at 4 m/s, 300 m from the south at 8 m/s; halfway between, 6 m/s north.
+    sim.clear_wind()
+    sim.add_wind_profile(52.0, 4.0, np.array([100.0, 300.0]), np.array([180.0, 180.0]), np.array([4.0, 8.0]))
+    vn, ve = sim.wind_at(52.0, 4.0, 200.0)
+    assert vn == pytest.approx(6.0) and ve == pytest.approx(0.0, abs=1e-12)
+    sim.clear_wind()
+    assert sim.wind_at(52.0, 4.0, 200.0) == (0.0, 0.0)
 
 
 def test_wind_and_getwind_commands():
