@@ -96,11 +96,11 @@ class _Progress:
         speedup = self.speedup_text(sim.simt, wall_s)
         if self.bar is not None:
             self.bar.n = round(sim.simt)
-            self.bar.set_postfix(airborne=sim.traffic.n, speedup=speedup, refresh=False)
+            self.bar.set_postfix(airborne=sim.view.n, speedup=speedup, refresh=False)
             self.bar.refresh()
         elif time.perf_counter() - self.last_line >= 10.0:
             self.last_line = time.perf_counter()
-            click.echo(f"  sim {sim.simt:9.0f} s  airborne {sim.traffic.n:5d}  speed-up {speedup:>7}", err=True)
+            click.echo(f"  sim {sim.simt:9.0f} s  airborne {sim.view.n:5d}  speed-up {speedup:>7}", err=True)
 
     def close(self) -> None:
         if self.bar is not None:

@@ -63,7 +63,7 @@ class OpenEndWatch:
             self.idle_s = 0.0
         else:
             self.idle_s += chunk_s
-        tail = (f"{sim.traffic.n} aircraft still flying, {len(sim.conditions)} conditional command(s) never fired "
+        tail = (f"{sim.view.n} aircraft still flying, {len(sim.conditions)} conditional command(s) never fired "
                 "(use --until to run longer)")
         if self.idle_s >= STALL_LIMIT_S:
             return "no_progress", (f"stopped at sim time {sim.simt:.0f} s: nothing progressed for "
@@ -80,9 +80,9 @@ class OpenEndWatch:
 
     def _progressed(self, sim: SimulationCore) -> bool:
         """True when something changed since the previous check (and remembers the state for the next)."""
-        traffic, view = sim.traffic, sim.view
-        moved = traffic.layout_version != self._layout or len(sim.conditions) != self._conditions
-        self._layout, self._conditions = traffic.layout_version, len(sim.conditions)
+        view = sim.view
+        moved = view.layout_version != self._layout or len(sim.conditions) != self._conditions
+        self._layout, self._conditions = view.layout_version, len(sim.conditions)
         lnav = np.flatnonzero(np.asarray(view.lnav))
         dist = np.asarray(view.dist2wp)[lnav].tolist()
         ids = view.ids

@@ -271,6 +271,6 @@ def make_summary(sim: Simulation, cfg: RunConfig, path: Path, wall_s: float) -> 
         "flights_created": len(flights),
         "flights_deleted": sum(1 for f in flights if not math.isnan(f.deleted_s)),
         "flights_arrived": sum(1 for f in flights if f.arrived),
-        "aircraft_at_end": sim.traffic.n,
+        "aircraft_at_end": sim.view.n,
         "errors": len(sim.reporter.errors()),
     }

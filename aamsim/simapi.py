@@ -40,14 +40,17 @@ __all__ = ["SimulationCore", "Target"]
 class SimulationCore(Protocol):
     """The part of :class:`aamsim.Simulation` that its services, the run-end check and metrics use.
 
-    Read-only members are properties here so that a plain attribute (``sim.traffic``) or a property
+    Read-only members are properties here so that a plain attribute (``sim._traffic``) or a property
     (``sim.simt``) satisfies them alike.
     """
 
     # ---------------------------------------------------------------- state
     @property
-    def traffic(self) -> Traffic:
-        """The aircraft state (the services' read access; intents change it)."""
+    def _traffic(self) -> Traffic:
+        """The aircraft state: private to the engine, read by the built-in services only (issue 29).
+
+        Everything else reads it through :attr:`view` and changes it through the intents.
+        """
         ...
 
     @property
@@ -66,8 +69,8 @@ class SimulationCore(Protocol):
         ...
 
     @property
-    def clock(self) -> Clock:
-        """The simulation clock."""
+    def _clock(self) -> Clock:
+        """The simulation clock (private to the engine; everyone else reads ``simt``, ``simt_us``, ``dt``)."""
         ...
 
     @property

@@ -93,7 +93,7 @@ class Simulation(SimulationAPI):
         max_aircraft: int | None = DEFAULT_LOCAL_MAX_AIRCRAFT,
     ):
         try:
-            self.clock = Clock(dt)  # the one check every entry point shares (aamsim.clock)
+            self._clock = Clock(dt)  # the one check every entry point shares (aamsim.clock)
         except TimeStepError as exc:
             raise CommandError(f"DT: {exc}") from None
         self.settings = SimSettings()
@@ -103,12 +103,12 @@ class Simulation(SimulationAPI):
         self._rng = np.random.default_rng(seed)
         self.state = self.STATE_INIT
         # An empty Traffic of its own, or a block of a pool that several simulations share (aamsim.worlds).
-        self.traffic = traffic if traffic is not None else Traffic()
-        if self.traffic.n:
+        self._traffic = traffic if traffic is not None else Traffic()
+        if self._traffic.n:
             raise ValueError("a new simulation starts with an empty traffic")
-        self.wind = WindField()
+        self._wind = WindField()
         self.hooks = Hooks()
-        self.scheduler = Scheduler(self.clock, self.hooks)
+        self.scheduler = Scheduler(self._clock, self.hooks)
         self.commands = CommandRegistry()
         self.reporter = Reporter()
         self.executor = CommandExecutor(self, self.commands, self.scheduler.queue, self.report)
@@ -143,26 +143,26 @@ class Simulation(SimulationAPI):
     @property
     def simt(self) -> float:
         """Simulation time [s]."""
-        return self.clock.simt_us / 1_000_000
+        return self._clock.simt_us / 1_000_000
 
     @property
     def simt_us(self) -> int:
         """Simulation time [us] (exact)."""
-        return self.clock.simt_us
+        return self._clock.simt_us
 
     @property
     def dt(self) -> float:
         """Time step [s]."""
-        return self.clock.dt_s
+        return self._clock.dt_s
 
     @property
     def dt_us(self) -> int:
-        return self.clock.dt_us
+        return self._clock.dt_us
 
     def set_dt(self, dt_s: float) -> None:
         """Set the time step [s]; raises :class:`CommandError` outside :mod:`aamsim.clock`'s bounds."""
         try:
-            self.clock.set_dt(dt_s)
+            self._clock.set_dt(dt_s)
         except TimeStepError as exc:
             raise CommandError(f"DT: {exc}") from None
 
@@ -286,14 +286,14 @@ class Simulation(SimulationAPI):
         envelope, and intents refuse it. The creation hooks see the flag already set.
         """
         acid = acid.upper()
-        if acid in self.traffic:
+        if acid in self._traffic:
             raise CommandError(f"aircraft {acid} already exists")
         if not acid or any(c in acid for c in " ,;#>'\""):
             raise CommandError(f'"{acid}" is not a valid callsign')
-        if self.limits.room(self.traffic.n) == 0:
+        if self.limits.room(self._traffic.n) == 0:
             raise CommandError(self.limits.refusal(
                 f"{acid}: this simulation flies at most {self.limits.max_aircraft:,} aircraft at once, and "
-                f"{self.traffic.n:,} fly at t = {self.simt:.2f} s: not created"))
+                f"{self._traffic.n:,} fly at t = {self.simt:.2f} s: not created"))
         if len(acid) > MAX_CALLSIGN_CHARS:
             raise CommandError(f'"{acid[:20]}...": a callsign has at most {MAX_CALLSIGN_CHARS} characters, '
                                f"not {len(acid):,}")
@@ -306,10 +306,10 @@ class Simulation(SimulationAPI):
             )
         spd = self._checked_creation(acid, lat, lon, alt, spd or Speed(0.0), envelope)
         self.executor.last_command[acid] = (self.executor.command_text or "create", self.executor.source)
-        i = self.traffic.create(acid, actype, envelope, lat, lon, hdg, alt, spd or Speed(0.0), self.simt,
+        i = self._traffic.create(acid, actype, envelope, lat, lon, hdg, alt, spd or Speed(0.0), self.simt,
                                 noncooperative)
-        if self.wind.active and not noncooperative:
-            intents.apply_wind_at_creation(self.traffic, i, self.wind)
+        if self._wind.active and not noncooperative:
+            intents.apply_wind_at_creation(self._traffic, i, self._wind)
         if self.state == self.STATE_INIT:
             self.state = self.STATE_OP
         self.scheduler.perf_pending = True
@@ -349,8 +349,8 @@ class Simulation(SimulationAPI):
         ``arrived`` None means: arrived if within the arrival radius of its
         destination (DEST, else the last waypoint of its route).
         """
-        record = self.traffic.flights[i]
-        route = self.traffic.routes[i]
+        record = self._traffic.flights[i]
+        route = self._traffic.routes[i]
         if not record.destination and len(route):
             last = route.waypoints[-1]
             record.destination = last.name
@@ -358,21 +358,21 @@ class Simulation(SimulationAPI):
         if arrived is None:
             arrived = False
             if not math.isnan(record.dest_lat):
-                _, dist = qdrdist(self.traffic.lat[i], self.traffic.lon[i], record.dest_lat, record.dest_lon)
+                _, dist = qdrdist(self._traffic.lat[i], self._traffic.lon[i], record.dest_lat, record.dest_lon)
                 arrived = dist <= self.settings.arrival_radius_m
         record.arrived = bool(arrived)
         record.deleted_s = self.simt
         self.hooks.deleted.call(self, i, record)
-        self.conditions.drop_aircraft(self.traffic.ids[i])
-        self.executor.last_command.pop(self.traffic.ids[i], None)
-        self.traffic.delete(i)
+        self.conditions.drop_aircraft(self._traffic.ids[i])
+        self.executor.last_command.pop(self._traffic.ids[i], None)
+        self._traffic.delete(i)
         self.flight_log.append(record)
         return record
 
     # ------------------------------------------------------------------ stepping
     def _run_due_commands(self) -> None:
         # Commands may queue more commands due now (SCHEDULE, PCALL, conditions).
-        queue, clock = self.scheduler.queue, self.clock
+        queue, clock = self.scheduler.queue, self._clock
         while True:
             due = queue.pop_due(clock.simt_us)
             if not due:
@@ -389,12 +389,12 @@ class Simulation(SimulationAPI):
         """Everything that happens at the start of a step, at time simt."""
         # The scheduler's parts are called directly: this runs at every batch boundary
         # (about 10,000 times per episode of the corridor use case).
-        scheduler, clock, hooks = self.scheduler, self.clock, self.hooks
+        scheduler, clock, hooks = self.scheduler, self._clock, self.hooks
         hooks.post_step.call_due(clock.simt_us, clock.dt_us, self)
         self._run_due_commands()
         if clock.simt_us >= scheduler.next_perf_us and scheduler.performance_due(self.settings.perf_interval_s):
             # Fixed-wing limits follow the aircraft's state: the next refresh changes them again.
-            scheduler.perf_pending = intents.refresh_performance(self.traffic)
+            scheduler.perf_pending = intents.refresh_performance(self._traffic)
         hooks.pre_step.call_due(clock.simt_us, clock.dt_us, self)
 
     def _advance_steps(self, nsteps: int) -> None:
@@ -402,7 +402,7 @@ class Simulation(SimulationAPI):
         done = 0
         check_first = True
         while done < nsteps:
-            traffic = self.traffic
+            traffic = self._traffic
             n = traffic.n
             cond = self.conditions.arrays(traffic) if len(self.conditions) else _NO_CONDITIONS
             extra: tuple[int, ...] = ()
@@ -414,14 +414,14 @@ class Simulation(SimulationAPI):
                 traffic.F,
                 traffic.B,
                 n,
-                self.clock.dt_s,
+                self._clock.dt_s,
                 nsteps - done,
                 check_first,
                 self.settings.hold_speed_mps,
                 self.settings.airborne_alt_m,
                 traffic.scratch,
                 cond,
-                self.wind.arrays() if self.wind.active else None,
+                self._wind.arrays() if self._wind.active else None,
                 () if traffic.turn_speeds_used else None,
                 () if traffic.resolution_used else None,
                 *extra,
@@ -443,7 +443,7 @@ class Simulation(SimulationAPI):
         but the batch ends after the next step). :class:`aamsim.worlds.WorldSet` calls it
         for each of its simulations after a kernel call that stepped them together.
         """
-        clock = self.clock
+        clock = self._clock
         clock.simt_us += k * clock.dt_us
         self.aircraft_steps += k * n
         if status == STATUS_NONFINITE:
@@ -468,7 +468,7 @@ class Simulation(SimulationAPI):
         A NaN position would otherwise spread into conflict detection and the
         output files (a CRE speed of 1e300 once did, silently).
         """
-        traffic = self.traffic
+        traffic = self._traffic
         for i in reversed(traffic.non_finite_slots()):
             acid = traffic.ids[i]
             state = traffic.describe_state(i)
@@ -484,7 +484,7 @@ class Simulation(SimulationAPI):
         Returns True when waypoint commands were queued or aircraft deleted,
         so that the batch ends after the current step.
         """
-        traffic = self.traffic
+        traffic = self._traffic
         scratch_qdr, scratch_dist, fresh, reached_flags = traffic.scratch
         reached = np.flatnonzero(reached_flags[: traffic.n])
         side_effects = False
@@ -579,7 +579,7 @@ class Simulation(SimulationAPI):
         """True when the scenario can produce no further change worth simulating."""
         if len(self.queue) or len(self.conditions) or any(pending() for pending in self.pending_work):
             return False
-        if self.traffic.n == 0:
+        if self._traffic.n == 0:
             return True
         view = self.view
         # Aircraft still following a route or changing speed/altitude keep the run going.
@@ -587,13 +587,13 @@ class Simulation(SimulationAPI):
 
     def reset(self) -> None:
         """RESET: clear traffic, pending commands and time; keep plugins and hooks."""
-        for i in range(self.traffic.n - 1, -1, -1):
+        for i in range(self._traffic.n - 1, -1, -1):
             self.delete_aircraft(i, arrived=False)
         self.scheduler.reset()  # time 0, nothing pending; the step is kept
         self.files.reset_budget()
         self.conditions.clear()
         self.navdb.clear()
-        self.wind.clear()
+        self._wind.clear()
         self.state = self.STATE_INIT
         self.settings = SimSettings()
         self.hooks.reset.call(self)

@@ -102,7 +102,7 @@ class SnapshotStream:
     def latest(self, phase: str = "post_step") -> TrafficSnapshot:
         """The snapshot of now (shared with the other subscribers due at this moment)."""
         sim = self.sim
-        key = (sim.simt_us, sim.traffic.layout_version, phase)
+        key = (sim.simt_us, sim._traffic.layout_version, phase)
         last = self._last
         if last is None or last[:3] != key:
             snap = take_snapshot(sim, self.fields)

@@ -107,13 +107,13 @@ class WorldSet:
             groups: dict[int, list[int]] = {}
             for w in list(batches):
                 sim = self.sim(w)
-                if sim.wind.active or (len(batches) == 1 and batches[w].done == 0):
+                if sim._wind.active or (len(batches) == 1 and batches[w].done == 0):
                     # Alone (a world whose episode needs more time than the others), or in a wind field
                     # (a field per simulation): the simulation's own batch, with nothing to share.
                     sim._advance_steps(batches.pop(w).nsteps)
                     at_boundary.append(w)
                 else:
-                    groups.setdefault(sim.clock.dt_us, []).append(w)
+                    groups.setdefault(sim._clock.dt_us, []).append(w)
             for group in groups.values():
                 at_boundary += self._advance_group(group, batches)
 
@@ -132,11 +132,11 @@ class WorldSet:
         pending = np.zeros(m, dtype=np.int64)  # steps not yet on the world's clock
         hold = np.array([s.settings.hold_speed_mps for s in sims], dtype=np.float64)
         airborne = np.array([s.settings.airborne_alt_m for s in sims], dtype=np.float64)
-        dt = sims[0].clock.dt_s
+        dt = sims[0]._clock.dt_s
         pool = self.pool
-        turns = any(s.traffic.turn_speeds_used for s in sims)
-        reso = any(s.traffic.resolution_used for s in sims)
-        counts = [s.traffic.n for s in sims]
+        turns = any(s._traffic.turn_speeds_used for s in sims)
+        reso = any(s._traffic.resolution_used for s in sims)
+        counts = [s._traffic.n for s in sims]
         threads = self.threads if self.threads > 1 and sum(counts) >= PARALLEL_MIN_AIRCRAFT else 1
         conditions = [s.conditions for s in sims]
         ended: list[int] = []
@@ -164,10 +164,10 @@ class WorldSet:
                 cond = conds[i]
                 after = sim._after_kernel(int(pending[i]), status, counts[i], _NO_CONDITIONS if cond is None else cond)
                 pending[i] = 0
-                counts[i] = sim.traffic.n
+                counts[i] = sim._traffic.n
                 # Passing a waypoint may start a leg with a turn speed: the kernel's part for it.
-                turns = turns or sim.traffic.turn_speeds_used
-                reso = reso or sim.traffic.resolution_used
+                turns = turns or sim._traffic.turn_speeds_used
+                reso = reso or sim._traffic.resolution_used
                 check[i] = after == AFTER_CONTINUE
                 if after == AFTER_LAST_STEP:
                     nsteps[i] = done[i] + 1
@@ -179,7 +179,7 @@ class WorldSet:
         for i, w in enumerate(worlds):
             sim = sims[i]
             if pending[i]:
-                sim.clock.simt_us += int(pending[i]) * sim.clock.dt_us
+                sim._clock.simt_us += int(pending[i]) * sim._clock.dt_us
                 sim.aircraft_steps += int(pending[i]) * counts[i]
             if over[i] or done[i] >= nsteps[i]:
                 del batches[w]

@@ -134,7 +134,7 @@ def run_planner_episode(env: rlbridge.AamParallelEnv, seed: int) -> tuple[int, i
         obs, *_ = env.step({"planner": int(rng.choice(valid))})
         decisions += 1
     wall, cpu = time.perf_counter() - t0, time.process_time() - cpu0
-    flights = len(env.core.sim.flight_log) + env.core.sim.traffic.n if env.core.sim is not None else 0
+    flights = len(env.core.sim.flight_log) + env.core.sim.view.n if env.core.sim is not None else 0
     sim_s = env.last_result.simt if env.last_result else 0.0
     return decisions, flights, wall, cpu, sim_s
 

@@ -76,7 +76,7 @@ def timed_run(scenario: str, recording: Path | None, sim_time: float, dt: float,
     wall0 = time.perf_counter()
     for t in np.arange(60.0, sim_time + 1.0, 60.0):
         sim.run_until(float(t))
-        most = max(most, sim.traffic.n)
+        most = max(most, sim.view.n)
     return time.perf_counter() - wall0, most
 
 

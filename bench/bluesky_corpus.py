@@ -306,8 +306,8 @@ def run_aamsim(corpus: Path, name: str, until: float) -> SideResult:
     result.simt = sim.simt
     for msg in sim.reporter.errors():
         result.add_error(str(msg).replace(str(corpus) + os.sep, ""))
-    F = sim.traffic.F
-    for i, acid in enumerate(sim.traffic.ids):
+    F = sim._traffic.F
+    for i, acid in enumerate(sim.view.ids):
         result.aircraft[acid] = (float(F[f.LAT, i]), float(F[f.LON, i]), float(F[f.ALT, i]), float(F[f.DISTFLOWN, i]))
     return result
 

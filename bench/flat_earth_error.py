@@ -85,9 +85,9 @@ def leg_error(lat: float, lon: float, heading: float, length_km: float) -> LegEr
     sim = Simulation(seed=0, use_bluesky_navdata=False)
     sim.stack(f"CRE A EC35 {lat} {lon} {heading} 0 {SPEED_KT}")
     sim.run_until(round(t_end / DT) * DT)
-    flown = float(sim.traffic.F[f.DISTFLOWN, 0])
+    flown = float(sim._traffic.F[f.DISTFLOWN, 0])
     true_lat, true_lon = rhumb_end(lat, lon, heading, flown)
-    _, hdg_error = geodesic_inverse(true_lat, true_lon, float(sim.traffic.lat[0]), float(sim.traffic.lon[0]))
+    _, hdg_error = geodesic_inverse(true_lat, true_lon, float(sim.view.lat[0]), float(sim.view.lon[0]))
 
     wp_lat, wp_lon = geodesic_forward(lat, lon, heading, length)
     sim = Simulation(seed=0, use_bluesky_navdata=False)
@@ -100,11 +100,11 @@ def leg_error(lat: float, lon: float, heading: float, length_km: float) -> LegEr
     def watch(s: Simulation) -> None:
         if passed:
             return
-        if not s.traffic.B[f.B_SWLNAV, 0]:  # the (last) waypoint was passed
+        if not s._traffic.B[f.B_SWLNAV, 0]:  # the (last) waypoint was passed
             passed.append(s.simt)
         elif s.simt_us % 1_000_000 == 0:
-            cross[0] = max(cross[0], _cross_track(lat, lon, heading, float(s.traffic.lat[0]),
-                                                  float(s.traffic.lon[0])))
+            cross[0] = max(cross[0], _cross_track(lat, lon, heading, float(s.view.lat[0]),
+                                                  float(s.view.lon[0])))
 
     sim.hooks.post_step.add(watch, interval_s=DT)
     sim.run_until(t_end * 1.05 + 10.0)

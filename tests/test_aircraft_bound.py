@@ -31,15 +31,15 @@ def test_mcre_past_the_bound_is_refused_whole_saying_how_many_fit() -> None:
     sim.stack("CRE A1 EC35 40.7 -74.0 0 1500 60; CRE A2 EC35 40.7 -74.1 0 1500 60")
     sim.run_until(0.5)
     sim.stack("MCRE 49")
-    assert sim.traffic.n == 2  # none of the 49 was created
+    assert sim.view.n == 2  # none of the 49 was created
     (error,) = _errors(sim)
     assert ("MCRE 49: this simulation flies at most 50 aircraft at once, and 2 fly at t = 0.50 s: 48 more fit; "
             "none created") in error
     assert "aamsim run --max-aircraft" in error
     sim.stack("MCRE 48")
-    assert sim.traffic.n == 50 and len(_errors(sim)) == 1
+    assert sim.view.n == 50 and len(_errors(sim)) == 1
     sim.stack("CRE A3 EC35 40.7 -74.2 0 1500 60")
-    assert "A3" not in sim.traffic and sim.traffic.n == 50
+    assert "A3" not in sim.view and sim.view.n == 50
     assert "A3: this simulation flies at most 50 aircraft at once, and 50 fly at t = 0.50 s" in _errors(sim)[-1]
 
 
@@ -48,7 +48,7 @@ def test_the_default_bound_refuses_the_fuzz_line_and_the_run_goes_on() -> None:
     assert sim.limits.max_aircraft == DEFAULT_LOCAL_MAX_AIRCRAFT == 20_000
     sim.load_text(FUZZ_LINE + "\n00:00:01.00>CRE A1 EC35 40.7 -74.0 0 1500 60\n", "fuzz.scn")
     sim.run_until(2.0)
-    assert sim.traffic.n == 1 and "A1" in sim.traffic  # the line after the refused one ran
+    assert sim.view.n == 1 and "A1" in sim.view  # the line after the refused one ran
     (error,) = sim.reporter.errors()
     assert error.source is not None and (error.source.path, error.source.line) == ("fuzz.scn", 1)
     # 0.76 s runs at the first step boundary at or after it, as in BlueSky
@@ -60,7 +60,7 @@ def test_reset_keeps_the_bound_and_none_lifts_it() -> None:
     sim = Simulation(use_bluesky_navdata=False, max_aircraft=3)
     sim.stack("RESET")
     sim.stack("MCRE 4")
-    assert sim.traffic.n == 0 and "3 more fit" in _errors(sim)[-1]
+    assert sim.view.n == 0 and "3 more fit" in _errors(sim)[-1]
     unbounded = Simulation(use_bluesky_navdata=False, max_aircraft=None)
     assert unbounded.limits.room(10**9) is None
 
@@ -78,7 +78,7 @@ def test_cre_lines_of_a_pcalled_file_past_the_bound_are_reported_with_their_line
     sim.files.search_path.insert(0, tmp_path)
     sim.load_text("00:00:00.00>CRE A1 EC35 40.7 -73.9 0 1500 60\n00:00:00.00>PCALL more.scn\n", "main.scn")
     sim.run_until(1.0)
-    assert sorted(sim.traffic.ids) == ["A1", "B0", "B1"]
+    assert sorted(sim.view.ids) == ["A1", "B0", "B1"]
     refused = sim.reporter.errors()
     assert [(Path(e.source.path).name, e.source.line) for e in refused if e.source] == [("more.scn", 3),
                                                                                         ("more.scn", 4)]
@@ -104,7 +104,7 @@ def test_no_sequence_of_creations_passes_the_bound_and_every_refusal_is_reported
             flying += count  # an MCRE that fits creates all it asked for
         else:
             refused += 1  # one that does not creates none, with one error
-        assert sim.traffic.n == flying <= bound
+        assert sim.view.n == flying <= bound
         assert len(sim.reporter.errors()) == refused
 
 

@@ -71,10 +71,10 @@ def test_a_session_flies_at_most_max_aircraft(root: Path) -> None:
     with thread_server(max_aircraft=40) as server, raw_socket(server.endpoint, timeout_ms=REPLY_TIMEOUT_MS) as sock:
         assert ask(sock, "reset", scenario="conflicts.scn", seed=1)["ok"]
         sim = next(iter(server.sessions.values())).core.sim
-        before = sim.traffic.n
+        before = sim.view.n
         text = "; ".join(f"CRE Z{k} EC35 40.7 -74.0 0 500 0" for k in range(60))
         messages = ask(sock, "stack", text=text)["messages"]
-        assert sim.traffic.n == 40
+        assert sim.view.n == 40
         refused = [m for m in messages if "flies at most 40 aircraft at once" in m]
         assert len(refused) == 60 - (40 - before) and "--max-aircraft" in refused[0]
 
@@ -83,11 +83,11 @@ def test_an_mcre_past_the_limit_is_refused_whole() -> None:
     sim = Simulation(use_bluesky_navdata=False)
     sim.limits = SimulationLimits(max_aircraft=25, why="a limit of this server")
     sim.stack("MCRE 100")
-    assert sim.traffic.n == 0  # none created: it used to create 25 of the 100 and stop
+    assert sim.view.n == 0  # none created: it used to create 25 of the 100 and stop
     assert sim.reporter.errors()[-1].text.endswith("at most 25 aircraft at once, and 0 fly at t = 0.00 s: 25 more fit; "
                                                    "none created; a limit of this server")
     sim.stack("MCRE 25")
-    assert sim.traffic.n == 25
+    assert sim.view.n == 25
 
 
 def test_a_conflict_check_stops_at_the_pair_bound_with_one_error(monkeypatch: pytest.MonkeyPatch) -> None:

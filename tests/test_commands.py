@@ -15,14 +15,14 @@ from aamsim.units import FPM, FT, KTS, NM
 
 def test_cre_defaults_and_units(sim):
     sim.stack("CRE KL1 EC35 N40'42'00 W074'00'00 090 FL015 120")
-    i = sim.traffic.index("kl1")
-    assert sim.traffic.lat[i] == pytest.approx(40.7)
-    assert sim.traffic.lon[i] == pytest.approx(-74.0)
-    assert sim.traffic.alt[i] == pytest.approx(1500 * FT)
-    assert sim.traffic.cas[i] == pytest.approx(120 * KTS)
+    i = sim.view.slot("kl1")
+    assert sim.view.lat[i] == pytest.approx(40.7)
+    assert sim.view.lon[i] == pytest.approx(-74.0)
+    assert sim.view.alt[i] == pytest.approx(1500 * FT)
+    assert sim.view.cas[i] == pytest.approx(120 * KTS)
     sim.stack("CRE KL2,EC35,40,-74")
-    j = sim.traffic.index("KL2")
-    assert sim.traffic.alt[j] == 0.0 and sim.traffic.tas[j] == 0.0 and sim.traffic.hdg[j] == 0.0
+    j = sim.view.slot("KL2")
+    assert sim.view.alt[j] == 0.0 and sim.view.tas[j] == 0.0 and sim.view.hdg[j] == 0.0
 
 
 def test_cre_unknown_type_warns_once_and_uses_default(sim):
@@ -30,22 +30,22 @@ def test_cre_unknown_type_warns_once_and_uses_default(sim):
     sim.stack("CRE B XYZ1 0 1 0 1000 100")
     notes = [m for m in sim.reporter.messages if "XYZ1" in m.text]
     assert len(notes) == 1 and "B744" in notes[0].text
-    assert sim.traffic.types == ["XYZ1", "XYZ1"]
+    assert sim.view.types == ("XYZ1", "XYZ1")
 
 
 def test_del_star_all_and_unknown(sim):
     sim.stack("CRE A EC35 0 0 0 1000 100; CRE B EC35 0 1 0 1000 100")
     assert not sim.stack("DEL ALL")
     assert "DEL *" in errors_of(sim)[-1]
-    assert sim.traffic.n == 2
+    assert sim.view.n == 2
     sim.stack("DEL *")
-    assert sim.traffic.n == 0
+    assert sim.view.n == 0
 
 
 def test_spd_alt_vs_hdg_set_autopilot(sim):
     sim.stack("CRE A EC35 0 0 0 1000 100")
     sim.stack("SPD A 80; ALT A FL020 800; HDG A 270")
-    F, B = sim.traffic.F, sim.traffic.B
+    F, B = sim._traffic.F, sim._traffic.B
     assert F[f.SELSPD, 0] == pytest.approx(80 * KTS) and not B[f.B_SELSPD_MACH, 0]
     assert F[f.SELALT, 0] == pytest.approx(2000 * FT) and F[f.SELVS, 0] == pytest.approx(800 * FPM)
     assert F[f.AP_TRK, 0] == 270.0 and not B[f.B_SWLNAV, 0]
@@ -63,27 +63,27 @@ def test_addwpt_names_constraints_and_insertion(sim):
     sim.stack("ADDWPT A FIX1")
     sim.stack("DEST A 0.3 0")
     sim.stack("ADDWPT A 0.15 0,,, A001")
-    route = sim.traffic.routes[0]
+    route = sim._traffic.routes[0]
     assert route.names == ["A001", "A002", "FIX1", "0.300000,0.000000"]
     assert route.waypoints[0].alt == pytest.approx(2000 * FT)
     assert route.waypoints[0].spd == pytest.approx(90 * KTS)
     assert math.isnan(route.waypoints[1].alt)
     assert route.waypoints[-1].alt == 0.0
-    assert sim.traffic.B[f.B_SWLNAV, 0] and route.iactwp == 0
+    assert sim._traffic.B[f.B_SWLNAV, 0] and route.iactwp == 0
 
 
 def test_addwpt_flyover_mode_and_unsupported_modes(sim):
     sim.stack("CRE A EC35 0 0 0 1000 100")
     sim.stack("ADDWPT A FLYOVER")
     sim.stack("ADDWPT A 0.1 0")
-    assert not sim.traffic.routes[0].waypoints[0].flyby
+    assert not sim._traffic.routes[0].waypoints[0].flyby
     assert not sim.stack("ADDWPT A TAKEOFF")
     assert "not supported" in errors_of(sim)[-1]
 
 
 def test_addwpt_turn_modes_and_values(sim):
     sim.stack("CRE A EC35 0 0 0 1000 100")
-    route = sim.traffic.routes[0]
+    route = sim._traffic.routes[0]
     for line in ("ADDWPT A FLYTURN", "ADDWPT A 0.1 0", "ADDWPT A TURNSPD 30", "A ADDWPT TURNRAD 0.5",
                  "ADDWPT A 0.2 0", "ADDWPT A TURNBANK 120", "ADDWPT A 0.3 0", "ADDWPT A TURNRAD OFF",
                  "ADDWPT A 0.4 0", "ADDWPT A FLY-BY", "ADDWPT A 0.5 0"):
@@ -109,39 +109,39 @@ def test_direct_delwpt_delrte_lnav_vnav(sim):
     for k in range(1, 4):
         sim.stack(f"ADDWPT A {0.1 * k} 0")
     sim.stack("DIRECT A A003")
-    assert sim.traffic.routes[0].iactwp == 2
+    assert sim._traffic.routes[0].iactwp == 2
     sim.stack("DELWPT A A002")
-    assert sim.traffic.routes[0].names == ["A001", "A003"]
+    assert sim._traffic.routes[0].names == ["A001", "A003"]
     assert not sim.stack("DELWPT A NOPE")
     sim.stack("LNAV A OFF")
-    assert not sim.traffic.B[f.B_SWLNAV, 0]
+    assert not sim._traffic.B[f.B_SWLNAV, 0]
     assert not sim.stack("VNAV A ON")  # needs LNAV
     sim.stack("LNAV A ON; VNAV A ON")
-    assert sim.traffic.B[f.B_SWLNAV, 0] and sim.traffic.B[f.B_SWVNAV, 0]
+    assert sim._traffic.B[f.B_SWLNAV, 0] and sim._traffic.B[f.B_SWVNAV, 0]
     sim.stack("DELRTE A")
-    assert len(sim.traffic.routes[0]) == 0 and not sim.traffic.B[f.B_SWLNAV, 0]
+    assert len(sim._traffic.routes[0]) == 0 and not sim._traffic.B[f.B_SWLNAV, 0]
 
 
 def test_orig_dest_bookkeeping(sim):
     sim.stack("CRE A EC35 0 0 0 1000 100; DEFWPT VPA 0 0; DEFWPT VPB 0.2 0")
     sim.stack("ORIG A VPA; DEST A VPB")
-    rec = sim.traffic.flights[0]
+    rec = sim._traffic.flights[0]
     assert rec.origin == "VPA" and rec.destination == "VPB"
-    route = sim.traffic.routes[0]
+    route = sim._traffic.routes[0]
     assert route.names == ["VPA", "VPB"] and route.iactwp == 1
-    assert sim.traffic.B[f.B_SWVNAV, 0]
+    assert sim._traffic.B[f.B_SWVNAV, 0]
 
 
 def test_at_constraints_and_do_commands(sim):
     sim.stack("CRE A EC35 0 0 0 1000 100; ADDWPT A 0.01 0; ADDWPT A 0.05 0")
     sim.stack("A AT A001 DO SPD 60")
     sim.stack("AT A A002 FL020/80")
-    route = sim.traffic.routes[0]
+    route = sim._traffic.routes[0]
     assert route.waypoints[0].stack == ["SPD A 60"]
     assert route.waypoints[1].alt == pytest.approx(2000 * FT)
     assert route.waypoints[1].spd == pytest.approx(80 * KTS)
     sim.run_until(60.0)
-    assert sim.traffic.F[f.SELSPD, 0] == pytest.approx(60 * KTS)
+    assert sim._traffic.F[f.SELSPD, 0] == pytest.approx(60 * KTS)
     sim.stack("AT A A002 DEL BOTH")
     assert math.isnan(route.waypoints[1].alt) and math.isnan(route.waypoints[1].spd)
 
@@ -155,10 +155,10 @@ def test_conditional_commands_fire_once(sim):
         "00:00:00.00>A ATDIST 0.1 0 1 DEL A\n"
     )
     sim.run_until(30.0)
-    assert sim.traffic.F[f.SELSPD, 0] == pytest.approx(50 * KTS)
+    assert sim._traffic.F[f.SELSPD, 0] == pytest.approx(50 * KTS)
     assert sum(m.text == "slowed" for m in sim.reporter.messages) == 1
     sim.run_until(400.0)
-    assert "A" not in sim.traffic
+    assert "A" not in sim.view
     # Deleted by ATDIST within 1 NM of (0.1, 0): 11.1 km - 1.852 km flown north.
     rec = sim.flight_log[0]
     assert rec.distance_m == pytest.approx(0.1 * math.pi / 180 * 6371000 - 1 * NM, abs=60)
@@ -176,11 +176,11 @@ def test_schedule_delay_pcall_rel_abs(tmp_path):
     )
     sim = Simulation(use_bluesky_navdata=False)
     created = {}
-    sim.hooks.created.add(lambda s, i: created.setdefault(s.traffic.ids[i], s.simt))
+    sim.hooks.created.add(lambda s, i: created.setdefault(s.view.ids[i], s.simt))
     sim.load_scenario(main)
     sim.run_until(30.0)
     assert created == {"R2": 10.0, "R1": 15.0, "D": 15.0, "S": 20.0}
-    assert sim.traffic.cas[sim.traffic.index("R1")] == pytest.approx(100 * KTS)
+    assert sim.view.cas[sim.view.slot("R1")] == pytest.approx(100 * KTS)
 
 
 def test_dt_hold_op_reset_ic(tmp_path, sim):
@@ -195,12 +195,12 @@ def test_dt_hold_op_reset_ic(tmp_path, sim):
     sim.run_until(10.0)
     assert sim.simt == pytest.approx(10.0)
     sim.stack("RESET")
-    assert sim.simt == 0.0 and sim.traffic.n == 0
+    assert sim.simt == 0.0 and sim.view.n == 0
     scn = tmp_path / "x.scn"
     scn.write_text("00:00:01.00>CRE B EC35 0 0 0 1000 100\n")
     sim.stack(f"IC {scn}")
     sim.run_until(2.0)
-    assert sim.traffic.ids == ["B"] and sim.scenario_name == "x"
+    assert sim.view.ids == ("B",) and sim.scenario_name == "x"
 
 
 def test_asas_settings_are_stored(sim):
@@ -257,7 +257,7 @@ def test_autodelete_and_arrival(sim):
     sim.load_text("00:00:00.00>AUTODELETE ON\n00:00:00.00>CRE A EC35 0 0 0 1000 100\n"
                   "00:00:00.00>DEST A 0.05 0\n00:00:00.00>VNAV A OFF\n")
     sim.run_until(200.0)
-    assert sim.traffic.n == 0
+    assert sim.view.n == 0
     rec = sim.flight_log[0]
     assert rec.arrived and rec.destination == "0.050000,0.000000"
     # 0.05 deg of latitude is 5559.7 m on the 6371 km sphere; TAS at 1000 ft for 100 kt CAS.

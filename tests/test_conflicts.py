@@ -42,7 +42,7 @@ def test_head_on_same_altitude_one_nmac_one_lowc():
     ev = [e for e in sim.services.start().conflicts.events if e.volume == "nmac"][0]
     assert ev.min_dist_m < 5.0
     # They meet after 2000 m at the same TAS; the NMAC sphere (150 m) is entered 75 m before.
-    tas = float(sim.traffic.tas[0])
+    tas = float(sim.view.tas[0])
     assert ev.start_s == pytest.approx((2000 - 75) / tas, abs=0.05)
     assert ev.end_s == pytest.approx((2000 + 75) / tas, abs=0.05)
     assert ev.encounter == "head-on"
@@ -127,7 +127,7 @@ def test_deleted_aircraft_closes_only_its_own_events():
                   f"00:00:00.00>CRE C EC35 0.5 0 0 1000 100\n00:00:00.00>CRE D EC35 0.5 {dlon} 0 1000 100\n"
                   "00:00:37.70>DEL A\n")
     sim.run_until(60.0)
-    tas = float(sim.traffic.tas[0])
+    tas = float(sim.view.tas[0])
     ab = [e for e in service.events if e.volume == "nmac"]
     assert [(e.ac1, e.ac2) for e in ab] == [("A", "B")]
     assert 4000 - 2 * tas * 37.0 < 150 and 4000 - 2 * tas * 38.0 > 0  # inside NMAC at 37 s, not met at 38 s
@@ -177,7 +177,7 @@ def test_statebased_cd_flags_and_switch():
     assert st_.pairs == (("A", "B"),)
     assert list(st_.inconf) == [True, True, False]
     # tcpa: 20 km closing at 2 x TAS, minus the 4 s flown
-    tas = float(sim.traffic.tas[0])
+    tas = float(sim.view.tas[0])
     assert st_.tcpa_s[0] == pytest.approx((20000 - 4 * 2 * tas) / (2 * tas), rel=1e-3)
     sim.stack("DTLOOK 60")
     sim.run_until(6.0)
@@ -207,7 +207,7 @@ def _sim_with(traffic) -> Simulation:
     sim = Simulation(seed=1, use_bluesky_navdata=False)
     for k, (lat, lon, alt, trk, gs, vs) in enumerate(traffic):
         i = sim.create_aircraft(f"X{k}", "EC35", 40.7 + lat, -74 + lon, trk, alt)
-        F = sim.traffic.F
+        F = sim._traffic.F
         from aamsim.traffic import fields as f
         F[f.GS, i] = gs
         F[f.TRK, i] = trk
@@ -273,7 +273,7 @@ def test_fused_check_equals_brute_force(traffic, rpz, tlook, lookback, cylinder,
     back = np.full(n, lookback)
     radii, half = np.array([150.0, 450.0]), np.array([60.0, 150.0])
     cyl = np.array([cylinder, False])
-    out = detect_all(sim.traffic.F, n, _SNAPSHOT_ROWS, R_EARTH, back, True, rpz, 150.0, tlook, radii, cyl, half,
+    out = detect_all(sim._traffic.F, n, _SNAPSHOT_ROWS, R_EARTH, back, True, rpz, 150.0, tlook, radii, cyl, half,
                      1000.0, cap_hint)
     ci, cj, tcpa, li, lj = out.conflict_i, out.conflict_j, out.tcpa, out.los_i, out.los_j
     inconf, tcpamax, eq, ei, ej = out.inconf, out.tcpamax, out.event_volume, out.event_i, out.event_j
@@ -365,7 +365,7 @@ def test_fused_check_agrees_with_statebased_at_the_zone_edge(rel):
     for k in (0, 5):  # the head-on pair (0, 1) and the crossing pair (2, 3)
         rpz = float(dcpa[k]) * (1.0 + rel)
         conf = statebased(s.lat, s.lon, s.alt, s.u, s.v, s.w, ai, aj, rpz, 150.0, 600.0)[0]
-        found = detect_all(sim.traffic.F, 4, _SNAPSHOT_ROWS, R_EARTH, np.zeros(4), True, rpz, 150.0, 600.0, lo,
+        found = detect_all(sim._traffic.F, 4, _SNAPSHOT_ROWS, R_EARTH, np.zeros(4), True, rpz, 150.0, 600.0, lo,
                            np.zeros(2, bool), hi, 1000.0, 0)
         ci, cj = found.conflict_i, found.conflict_j
         assert set(zip(ci.tolist(), cj.tolist())) == set(zip(ai[conf].tolist(), aj[conf].tolist()))

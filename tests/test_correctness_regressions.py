@@ -47,7 +47,7 @@ def test_at_do_with_and_without_the_callsign_both_work_as_in_bluesky() -> None:
     sim.load_scenario("at.scn", text=AT_SCN)
     sim.run_until(120.0)
     assert errors_of(sim) == []
-    speeds = {acid: sim.traffic.cas[sim.traffic.index(acid)] / KTS for acid in ("A001", "B001")}
+    speeds = {acid: sim.view.cas[sim.view.slot(acid)] / KTS for acid in ("A001", "B001")}
     assert speeds["A001"] == pytest.approx(50.0, abs=0.1) and speeds["B001"] == pytest.approx(40.0, abs=0.1)
 
 

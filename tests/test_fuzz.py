@@ -157,5 +157,5 @@ def test_the_fuzz_line_no_longer_fails_under_the_fuzz_harness(tmp_path: Path) ->
     harness = Harness(tmp_path)
     harness.run("00:00:00.76>MCRE 100000,")
     assert harness.failures == [] and harness.unconfirmed_slow == [] and harness.heavy_lines == 0
-    assert harness._sim is not None and harness._sim.traffic.n == 2  # the harness's two setup aircraft
+    assert harness._sim is not None and harness._sim.view.n == 2  # the harness's two setup aircraft
     assert "MCRE 100,000: this simulation flies at most 20,000" in [m.text for m in harness._sim.reporter.errors()][-1]

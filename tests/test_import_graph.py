@@ -11,21 +11,18 @@ import-linter does not): ``import aamsim.x.y`` is an edge to ``aamsim.x.y`` only
 
 from __future__ import annotations
 
-import ast
 import sys
 from pathlib import Path
+
+from ast_sources import import_statements, module_name, package_of, parse, python_files
 
 ROOT = Path(__file__).resolve().parents[1]
 
 
 def module_files(package_dir: Path) -> dict[str, tuple[Path, bool]]:
     """Dotted module name -> (file, is a package's ``__init__``)."""
-    files = {}
-    for path in sorted(package_dir.rglob("*.py")):
-        parts = list(path.relative_to(package_dir.parent).with_suffix("").parts)
-        is_package = parts[-1] == "__init__"
-        files[".".join(parts[:-1] if is_package else parts)] = (path, is_package)
-    return files
+    return {name: (path, is_package) for path in python_files(package_dir)
+            for name, is_package in [module_name(path, package_dir.parent)]}
 
 
 def import_graph(package_dir: Path) -> dict[str, set[str]]:
@@ -39,22 +36,15 @@ def import_graph(package_dir: Path) -> dict[str, set[str]]:
         return name or None
 
     graph: dict[str, set[str]] = {name: set() for name in files}
-    for name, (path, is_package) in files.items():
-        for node in ast.walk(ast.parse(path.read_text(), filename=str(path))):
-            targets: list[str | None] = []
-            if isinstance(node, ast.Import):
-                targets = [known(alias.name) for alias in node.names if alias.name.split(".")[0] == root]
-            elif isinstance(node, ast.ImportFrom):
-                base = node.module or ""
-                if node.level:
-                    anchor = name if is_package else name.rpartition(".")[0]
-                    for _ in range(node.level - 1):
-                        anchor = anchor.rpartition(".")[0]
-                    base = f"{anchor}.{base}" if base else anchor
-                if base.split(".")[0] != root:
-                    continue
-                targets = [known(f"{base}.{alias.name}") if f"{base}.{alias.name}" in files else known(base)
-                           for alias in node.names]
+    for name, (path, _) in files.items():
+        for st in import_statements(parse(path), package_of(path, package_dir.parent)):
+            if st.module.split(".")[0] != root:
+                continue
+            if st.from_import:
+                targets = [known(f"{st.module}.{alias}") if f"{st.module}.{alias}" in files else known(st.module)
+                           for alias in st.names]
+            else:
+                targets = [known(st.module)]
             graph[name].update(t for t in targets if t is not None and t != name)
     return graph
 

@@ -24,10 +24,10 @@ def test_straight_flight_100_kts_east_600_s():
     # 100 * 0.514444 * 600 = 30866.64 m along the 6371 km sphere.
     sim = make("CRE A EC35 0 0 90 0 100")
     sim.run_until(600.0)
-    assert sim.traffic.tas[0] == pytest.approx(51.4444, rel=1e-9)
-    assert sim.traffic.F[f.DISTFLOWN, 0] == pytest.approx(30866.64, rel=1e-9)
-    assert math.radians(sim.traffic.lon[0]) * R_EARTH == pytest.approx(30866.64, rel=1e-9)
-    assert sim.traffic.lat[0] == pytest.approx(0.0, abs=1e-12)
+    assert sim.view.tas[0] == pytest.approx(51.4444, rel=1e-9)
+    assert sim._traffic.F[f.DISTFLOWN, 0] == pytest.approx(30866.64, rel=1e-9)
+    assert math.radians(sim.view.lon[0]) * R_EARTH == pytest.approx(30866.64, rel=1e-9)
+    assert sim.view.lat[0] == pytest.approx(0.0, abs=1e-12)
 
 
 def test_isa_speed_conversions():
@@ -42,19 +42,19 @@ def test_speed_ramps_at_axmax_after_first_performance_refresh():
     # Created at t=0: the refresh at t=0 gives the EC135 its 3.5 m/s^2.
     sim = make("CRE A EC35 0 0 90 0 0", "SPD A 100")
     sim.run_until(2.0)
-    assert sim.traffic.tas[0] == pytest.approx(7.0)
+    assert sim.view.tas[0] == pytest.approx(7.0)
     # Created between refreshes: 2 m/s^2 (BlueSky's default) until the next one.
     sim2 = make("CRE A EC35 0 0 90 0 0")
     sim2.schedule(0.5, "CRE B EC35 0 1 90 0 0; SPD B 100")
     sim2.run_until(1.5)
-    i = sim2.traffic.index("B")
-    assert sim2.traffic.tas[i] == pytest.approx(2.0 * 0.5 + 3.5 * 0.5)
+    i = sim2.view.slot("B")
+    assert sim2.view.tas[i] == pytest.approx(2.0 * 0.5 + 3.5 * 0.5)
 
 
 def test_envelope_caps_ec135_tas():
     sim = make("CRE A EC35 40 -74 90 1500 200")
     sim.run_until(30.0)
-    assert sim.traffic.tas[0] == pytest.approx(71.95)
+    assert sim.view.tas[0] == pytest.approx(71.95)
 
 
 def test_turn_rate_from_bank_angle():
@@ -62,7 +62,7 @@ def test_turn_rate_from_bank_angle():
     sim = make("CRE A EC35 0 0 0 0 100", "HDG A 90")
     sim.run_until(1.0)
     expected = math.degrees(9.80665 * math.tan(math.radians(25)) / (100 * KTS))
-    assert sim.traffic.hdg[0] == pytest.approx(expected, rel=1e-9)
+    assert sim.view.hdg[0] == pytest.approx(expected, rel=1e-9)
 
 
 def test_climb_with_vertical_speed_ramp():
@@ -73,29 +73,29 @@ def test_climb_with_vertical_speed_ramp():
     # 0.05 * (0.0762 * (1 + ... + 80) + 120 * 7.62) = 12.3444 + 45.72 = 58.0644 m.
     sim = make("CRE A EC35 0 0 0 1000 100", "ALT A 5000")
     sim.run_until(10.0)
-    assert sim.traffic.vs[0] == pytest.approx(1500 * FPM)
-    assert sim.traffic.alt[0] - 1000 * FT == pytest.approx(58.0644, abs=1e-6)
+    assert sim.view.vs[0] == pytest.approx(1500 * FPM)
+    assert sim.view.alt[0] - 1000 * FT == pytest.approx(58.0644, abs=1e-6)
     sim.run_until(400.0)
-    assert sim.traffic.alt[0] == pytest.approx(5000 * FT)
-    assert sim.traffic.vs[0] == 0.0
+    assert sim.view.alt[0] == pytest.approx(5000 * FT)
+    assert sim.view.vs[0] == 0.0
 
 
 def test_explicit_vertical_speed_and_ec135_limit():
     sim = make("CRE A EC35 0 0 0 1000 100", "ALT A 9000 3000")
     sim.run_until(60.0)
     # 3000 fpm is above the EC135's 1500 fpm (7.62 m/s) limit.
-    assert sim.traffic.vs[0] == pytest.approx(7.62)
+    assert sim.view.vs[0] == pytest.approx(7.62)
 
 
 def test_route_following_passes_waypoints_and_ends_on_last_track():
     sim = make("CRE A EC35 40.70 -74.00 0 1500 120", "ADDWPT A 40.72 -74.00", "ADDWPT A 40.72 -73.97")
     sim.run_until(1.0)
-    assert sim.traffic.B[f.B_SWLNAV, 0]
+    assert sim._traffic.B[f.B_SWLNAV, 0]
     sim.run_until(400.0)
     # Past the last waypoint: LNAV off, flying east along the last leg.
-    assert not sim.traffic.B[f.B_SWLNAV, 0]
-    assert sim.traffic.hdg[0] == pytest.approx(90.0, abs=0.5)
-    assert sim.traffic.lat[0] == pytest.approx(40.72, abs=0.002)
+    assert not sim._traffic.B[f.B_SWLNAV, 0]
+    assert sim.view.hdg[0] == pytest.approx(90.0, abs=0.5)
+    assert sim.view.lat[0] == pytest.approx(40.72, abs=0.002)
 
 
 def test_flyby_cuts_the_corner_and_flyover_does_not():
@@ -105,7 +105,7 @@ def test_flyby_cuts_the_corner_and_flyover_does_not():
         best = 1e9
         while sim.simt < 300:
             sim.run_until(sim.simt + 0.05)
-            best = min(best, qdrdist(sim.traffic.lat[0], sim.traffic.lon[0], 40.72, -74.00)[1])
+            best = min(best, qdrdist(sim.view.lat[0], sim.view.lon[0], 40.72, -74.00)[1])
         return best
     flyby, flyover = closest_approach("FLYBY"), closest_approach("FLYOVER")
     # Fly-by anticipates by R tan(45 deg) = V^2/(g tan 25) ~ 800 m; passes ~330 m inside the corner.
@@ -118,11 +118,11 @@ def test_dest_descends_with_vnav_at_three_degree_gradient():
     # destination (11.1 km north) is that close.
     sim = make("CRE A EC35 40.70 -74.00 0 1500 100", "DEST A 40.80 -74.00")
     sim.run_until(20.0)
-    assert sim.traffic.alt[0] == pytest.approx(1500 * FT)
+    assert sim.view.alt[0] == pytest.approx(1500 * FT)
     sim.run_until(100.0)
     # The V/S is planned when the leg is activated, from the ground speed then.
     gs0 = float(cas2tas(100 * KTS, 1500 * FT))
-    assert sim.traffic.vs[0] == pytest.approx(-gs0 * 3000 * FT / (10 * 1852), rel=1e-9)
+    assert sim.view.vs[0] == pytest.approx(-gs0 * 3000 * FT / (10 * 1852), rel=1e-9)
 
 
 def test_speed_conversions_of_floats_and_arrays_agree_bit_for_bit():

@@ -19,7 +19,7 @@ def make() -> Simulation:
 
 
 def state(sim: Simulation, acid: str) -> tuple[float, float, float, float]:
-    t = sim.traffic
+    t = sim._traffic
     i = t.index(acid)
     return float(t.lat[i]), float(t.lon[i]), float(t.alt[i]), float(t.tas[i])
 
@@ -41,7 +41,7 @@ def test_a_moderate_overspeed_is_flown_as_bluesky_does() -> None:
     sim = make()
     sim.stack("CRE A EC35 40.7 -74 90 1000 200")  # above 140 kts, below twice that: BlueSky keeps it
     assert [m for m in sim.reporter.messages if m.kind == "warning"] == []
-    assert sim.traffic.cas[0] == pytest.approx(200 * KTS)
+    assert sim.view.cas[0] == pytest.approx(200 * KTS)
 
 
 @pytest.mark.parametrize("line, fragment", [
@@ -53,7 +53,7 @@ def test_a_moderate_overspeed_is_flown_as_bluesky_does() -> None:
 def test_positions_and_altitudes_no_aircraft_can_have_are_refused(line: str, fragment: str) -> None:
     sim = make()
     assert not sim.stack(line)
-    assert sim.traffic.n == 0 and fragment in errors_of(sim)[0]
+    assert sim.view.n == 0 and fragment in errors_of(sim)[0]
 
 
 def test_crossing_the_antimeridian_wraps_longitude() -> None:
@@ -68,7 +68,7 @@ def test_crossing_the_antimeridian_wraps_longitude() -> None:
 
 
 def sum_distance(sim: Simulation, acid: str) -> float:
-    return float(sim.traffic.F[f.DISTFLOWN, sim.traffic.index(acid)])
+    return float(sim._traffic.F[f.DISTFLOWN, sim.view.slot(acid)])
 
 
 def test_flying_over_a_pole_comes_down_the_other_side() -> None:
@@ -103,7 +103,7 @@ def test_zero_length_legs_and_a_waypoint_on_the_aircraft_stay_finite() -> None:
     sim.run_until(120.0)
     assert errors_of(sim) == []
     assert all(map(math.isfinite, state(sim, "A")))
-    assert sim.traffic.routes[0].iactwp == 3  # it flew the route to its last point
+    assert sim._traffic.routes[0].iactwp == 3  # it flew the route to its last point
 
 
 def test_a_non_finite_state_is_reported_with_the_aircraft_and_its_last_command() -> None:
@@ -112,13 +112,13 @@ def test_a_non_finite_state_is_reported_with_the_aircraft_and_its_last_command()
                                       "00:00:00.00>CRE B EC35 40.8 -74 0 1000 60\n"
                                       "00:00:05.00>SPD A 80\n")
     sim.run_until(6.0)
-    sim.traffic.F[f.LAT, sim.traffic.index("A")] = np.nan  # what a kernel bug would do
+    sim._traffic.F[f.LAT, sim.view.slot("A")] = np.nan  # what a kernel bug would do
     sim.run_until(10.0)
     errors = errors_of(sim)
     assert len(errors) == 1 and errors[0].startswith("nan.scn:3:")
     assert "A: state not finite" in errors[0] and "lat nan" in errors[0] and "SPD A 80" in errors[0]
-    assert "A" not in sim.traffic and "B" in sim.traffic and sim.simt == pytest.approx(10.0)
-    assert np.isfinite(sim.traffic.lat).all()
+    assert "A" not in sim.view and "B" in sim.view and sim.simt == pytest.approx(10.0)
+    assert np.isfinite(sim.view.lat).all()
 
 
 def test_nm_constant_sanity() -> None:
@@ -135,9 +135,9 @@ def test_a_non_finite_value_in_any_state_row_never_stays(row: str, bad: float) -
     sim = make()
     sim.stack("CRE A EC35 40.7 -74 45 1000 60; CRE B EC35 40.8 -74 0 1000 60; VS A 500; ALT A 3000")
     sim.run_until(2.0)
-    sim.traffic.F[f.FLOAT_FIELDS.index(row), sim.traffic.index("A")] = bad
+    sim._traffic.F[f.FLOAT_FIELDS.index(row), sim.view.slot("A")] = bad
     sim.run_until(4.0)
-    assert "B" in sim.traffic
-    assert np.isfinite(sim.traffic.F[f.LAT : f.VS + 1, : sim.traffic.n]).all()
-    if "A" not in sim.traffic:
+    assert "B" in sim.view
+    assert np.isfinite(sim._traffic.F[f.LAT : f.VS + 1, : sim.view.n]).all()
+    if "A" not in sim.view:
         assert any("A: state not finite" in e for e in errors_of(sim))

@@ -49,13 +49,13 @@ def test_flight_phase_rules(alt_ft, roc_fpm, phase):
 def _aircraft(actype: str, alt_ft: float, spd_kts: float) -> tuple[Simulation, int]:
     sim = Simulation(seed=0)
     sim.stack(f"CRE X {actype} 52 4 90 {alt_ft} {spd_kts}")
-    return sim, sim.traffic.index("X")
+    return sim, sim.view.slot("X")
 
 
 def test_standing_on_the_ground_gets_ground_limits_and_the_take_off_gate():
     sim, i = _aircraft("A320", 0, 0)
-    F = sim.traffic.F
-    assert openap.refresh(F, sim.traffic.n)
+    F = sim._traffic.F
+    assert openap.refresh(F, sim.view.n)
     a320 = PerformanceTable().lookup("A320")[0].openap
     assert a320 is not None
     assert F[f.PHASE, i] == openap.PHASE_GD
@@ -66,9 +66,9 @@ def test_standing_on_the_ground_gets_ground_limits_and_the_take_off_gate():
 
 def test_climbing_aircraft_have_no_take_off_gate_and_the_en_route_speed_range():
     sim, i = _aircraft("A320", 20000, 250)
-    F = sim.traffic.F
+    F = sim._traffic.F
     F[f.VS, i] = 2000 * FPM
-    openap.refresh(F, sim.traffic.n)
+    openap.refresh(F, sim.view.n)
     assert F[f.PHASE, i] == openap.PHASE_CL
     assert math.isnan(F[f.TAKEOFF_TAS, i])
     assert (F[f.VMIN, i], F[f.VMAX, i]) == (67.0, 163.0)  # OpenAP's A320 en-route CAS range
@@ -79,15 +79,15 @@ def test_no_airspeed_in_flight_means_no_acceleration_limit():
     # Drag at zero airspeed is 0 x inf: BlueSky's limit becomes NaN and the speed takes its
     # command in one step; aamsim writes that as an infinite limit.
     sim, i = _aircraft("B744", 20000, 0)
-    openap.refresh(sim.traffic.F, sim.traffic.n)
-    assert sim.traffic.F[f.AXMAX, i] == math.inf
+    openap.refresh(sim._traffic.F, sim.view.n)
+    assert sim._traffic.F[f.AXMAX, i] == math.inf
 
 
 def test_slow_aircraft_keep_the_least_acceleration():
     # A B744 near its ceiling at its en-route minimum has more drag than thrust.
     sim, i = _aircraft("B744", 36000, 140)
-    F = sim.traffic.F
-    openap.refresh(F, sim.traffic.n)
+    F = sim._traffic.F
+    openap.refresh(F, sim.view.n)
     assert F[f.AXMAX, i] == openap.MIN_AXMAX
 
 
@@ -101,11 +101,11 @@ def test_rotorcraft_and_custom_fixed_wing_types_are_left_to_their_envelopes(tmp_
     sim = Simulation(seed=0, performance=PerformanceTable(path))
     sim.stack("CRE P PLAIN 52 4 90 FL100 250")
     sim.stack("CRE H EC35 52 4 90 1500 100")
-    assert not openap.refresh(sim.traffic.F, sim.traffic.n)
+    assert not openap.refresh(sim._traffic.F, sim.view.n)
     sim.run_until(5)
-    F = sim.traffic.F
-    assert F[f.AXMAX, sim.traffic.index("P")] == 1.5
-    assert F[f.AXMAX, sim.traffic.index("H")] == 3.5
+    F = sim._traffic.F
+    assert F[f.AXMAX, sim.view.slot("P")] == 1.5
+    assert F[f.AXMAX, sim.view.slot("H")] == 3.5
 
 
 def test_the_limits_follow_the_state_at_every_refresh():
@@ -117,11 +117,11 @@ def test_the_limits_follow_the_state_at_every_refresh():
     seen = []
     for t in range(1, 40):
         sim.run_until(t)
-        seen.append(sim.traffic.F[f.AXMAX, i])
+        seen.append(sim._traffic.F[f.AXMAX, i])
     accelerating = [a for a in seen if a < 1.0]
     assert accelerating[0] > accelerating[-1]
     assert 0.85 < accelerating[0] < 0.90 and 0.63 < accelerating[-1] < 0.70
-    assert sim.traffic.F[f.CAS, i] == pytest.approx(300 * KTS, abs=0.01)
+    assert sim._traffic.F[f.CAS, i] == pytest.approx(300 * KTS, abs=0.01)
 
 
 def test_an_aircraft_on_the_ground_does_not_climb_below_its_take_off_speed():
@@ -129,7 +129,7 @@ def test_an_aircraft_on_the_ground_does_not_climb_below_its_take_off_speed():
     sim.stack("ALT X FL60")
     sim.stack("SPD X 180")
     vminto = PerformanceTable().lookup("B738")[0].openap.vminto_mps  # type: ignore[union-attr]
-    F = sim.traffic.F
+    F = sim._traffic.F
     while F[f.TAS, i] < vminto - 1.0:
         sim.run_until(sim.simt + 0.5)
         assert F[f.ALT, i] == 0.0 and F[f.VS, i] == 0.0
@@ -164,7 +164,7 @@ def test_refresh_agrees_with_bluesky(bluesky_coefficients, actype, alt, tas, vs)
     if actype not in _ONE_AIRCRAFT:
         _ONE_AIRCRAFT[actype] = Simulation(seed=0)
         _ONE_AIRCRAFT[actype].stack(f"CRE X {actype} 52 4 90 1000 250")
-    F = _ONE_AIRCRAFT[actype].traffic.F
+    F = _ONE_AIRCRAFT[actype]._traffic.F
     F[f.ALT, 0], F[f.TAS, 0], F[f.VS, 0] = alt, tas, vs
     assert openap.refresh(F, 1)
 

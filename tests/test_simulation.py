@@ -24,8 +24,8 @@ def run_demo(per_step_hook: bool = False, seed: int = 7) -> Simulation:
 
 
 def state(sim):
-    n = sim.traffic.n
-    return sim.traffic.ids[:], sim.traffic.F[:, :n].copy(), sim.traffic.B[:, :n].copy()
+    n = sim.view.n
+    return sim.view.ids[:], sim._traffic.F[:, :n].copy(), sim._traffic.B[:, :n].copy()
 
 
 def test_batched_stepping_is_bit_identical_to_single_steps():
@@ -54,25 +54,25 @@ def test_two_simulations_in_one_process_are_independent():
     s1.stack("CRE A EC35 0 0 90 1000 100")
     s1.stack("DEFWPT P1 1 1")
     s1.stack("ASAS ON")
-    assert s2.traffic.n == 0 and not s2.navdb.known("P1") and s2.settings.cd_method == "OFF"
+    assert s2.view.n == 0 and not s2.navdb.known("P1") and s2.settings.cd_method == "OFF"
     s2.stack("CRE A EC35 10 10 0 1000 50")
     s1.run_until(10.0)
-    assert s2.simt == 0.0 and s2.traffic.lat[0] == 10.0
-    assert s1.traffic.lat[0] == pytest.approx(0.0)
+    assert s2.simt == 0.0 and s2.view.lat[0] == 10.0
+    assert s1.view.lat[0] == pytest.approx(0.0)
 
 
 def test_create_delete_keeps_callsign_map_consistent(sim):
     for k in range(50):
         sim.stack(f"CRE A{k} EC35 0 {k * 0.01} 90 1000 100")
     sim.stack("DEL A0 A10 A49 A25")
-    assert sim.traffic.n == 46
+    assert sim.view.n == 46
     for k in range(50):
         acid = f"A{k}"
         if k in (0, 10, 25, 49):
-            assert acid not in sim.traffic
+            assert acid not in sim.view
         else:
-            i = sim.traffic.index(acid)
-            assert sim.traffic.lon[i] == pytest.approx(k * 0.01)
+            i = sim.view.slot(acid)
+            assert sim.view.lon[i] == pytest.approx(k * 0.01)
     assert [r.acid for r in sim.flight_log] == ["A0", "A10", "A49", "A25"]
 
 
@@ -82,7 +82,7 @@ def test_duplicate_callsign_is_an_error_and_run_goes_on(sim):
     sim.run_until(3.0)
     errs = errors_of(sim)
     assert len(errs) == 1 and "A already exists" in errs[0] and errs[0].startswith("<scenario>:2:")
-    assert sim.traffic.lat[0] != 1.0
+    assert sim.view.lat[0] != 1.0
     assert any(m.text == "still running" for m in sim.reporter.messages)
 
 
@@ -90,14 +90,14 @@ def test_quiescent_when_everything_is_done(sim):
     sim.load_text("00:00:00.00>CRE A EC35 0 0 90 1000 100\n00:00:00.00>ADDWPT A 0 0.01\n")
     sim.run()
     # The aircraft passed its only waypoint and flies on without a route: nothing left to happen.
-    assert sim.traffic.n == 1 and sim.simt <= 60.0  # checked every 60 s of sim time
+    assert sim.view.n == 1 and sim.simt <= 60.0  # checked every 60 s of sim time
 
 
 def test_run_ends_when_only_unfireable_conditions_wait(sim):
     # The aircraft flies away from the ATDIST point: the condition can never fire.
     sim.load_text("00:00:00.00>CRE A EC35 0 0 90 1000 100\n00:00:00.00>A ATDIST 1 1 0.05 DEL A\n")
     sim.run()
-    assert sim.traffic.n == 1 and 3600.0 <= sim.simt <= 3700.0
+    assert sim.view.n == 1 and 3600.0 <= sim.simt <= 3700.0
     assert any("never fired" in m.text for m in sim.reporter.messages)
 
 

@@ -62,9 +62,9 @@ def test_scenario_files_and_dt_live_in_their_parts(tmp_path):
     assert sim.files.search_path[0] == tmp_path and "CRE A" in sim.files.text
     assert sim.find_file("a") == tmp_path / "a.scn"
     sim.stack("DT 0.2")
-    assert sim.clock.dt_s == sim.dt == 0.2 and not hasattr(sim.settings, "dt_s")  # one owner of the step
+    assert sim._clock.dt_s == sim.dt == 0.2 and not hasattr(sim.settings, "dt_s")  # one owner of the step
     sim.run_until(1.0)
-    assert sim.simt_us == sim.clock.simt_us == 1_000_000
+    assert sim.simt_us == sim._clock.simt_us == 1_000_000
 
 
 def test_simulation_is_a_command_context_and_handlers_get_only_that():

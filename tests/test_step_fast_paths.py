@@ -33,7 +33,7 @@ from rlbridge.core import EpisodeCore
 # ----------------------------------------------------------------------------- route arrays
 def _route_arrays_reference(sim: Simulation, nw: int, slots: list[int]) -> tuple[np.ndarray, ...]:
     """The corridor use case's destination and next waypoints, one value at a time (the code before)."""
-    t, view = sim.traffic, sim.view
+    t, view = sim._traffic, sim.view
     n = t.n
     dest_lat, dest_lon = np.full(n, np.nan), np.full(n, np.nan)
     wlat, wlon = np.full((n, nw), np.nan), np.full((n, nw), np.nan)
@@ -67,11 +67,11 @@ def test_route_arrays_are_the_per_aircraft_reference(nw):
     sim = core.sim
     # An aircraft without a route, one whose LNAV is off, and one past the end of its route's waypoints.
     sim.stack("CRE NOROUTE EC35 40.70 -74.00 90 1000 60")
-    ids = list(sim.traffic.ids)
+    ids = list(sim.view.ids)
     sim.stack(f"LNAV {ids[0]} OFF")
-    assert sim.traffic.n > 10
+    assert sim.view.n > 10
     uc = core.usecase
-    n = sim.traffic.n
+    n = sim.view.n
     rng = np.random.default_rng(0)
     for slots in (None, np.array([n - 1], dtype=np.int64), np.sort(rng.choice(n, 7, replace=False)),
                   np.arange(n, dtype=np.int64)):
@@ -83,7 +83,7 @@ def test_route_arrays_are_the_per_aircraft_reference(nw):
         others = np.setdiff1d(np.arange(n), which)
         assert np.isnan(dest_lat[others]).all() and np.isnan(ddest[others]).all()
         assert np.isfinite(ddest[which]).all()
-    noroute = sim.traffic.index("NOROUTE")
+    noroute = sim.view.slot("NOROUTE")
     _, wlat, wlon, dest_lat, dest_lon = uc._route_arrays(sim, None)
     assert dest_lat[noroute] == sim.view.lat[noroute] and (wlon[noroute] == sim.view.lon[noroute]).all()
 
@@ -186,8 +186,8 @@ def test_joint_conditions_are_reused_until_a_world_changes_them():
     worlds[1][0].conditions.add(_condition(worlds[1][1][2], 800.0))
     third, _ = joint.arrays(parts())
     assert third is not first and len(third[0]) == 3
-    assert third[0].tolist() == [worlds[0][0].traffic.index("W0A0"), pool.block + worlds[1][0].traffic.index("W1A0"),
-                                 pool.block + worlds[1][0].traffic.index("W1A2")]
+    assert third[0].tolist() == [worlds[0][0].view.slot("W0A0"), pool.block + worlds[1][0].view.slot("W1A0"),
+                                 pool.block + worlds[1][0].view.slot("W1A2")]
     assert third[2].tolist() == [500.0, 500.0, 800.0]
     # An aircraft created in world 0 moves no slot but changes its layout: rebuilt again, same values.
     worlds[0][0].stack("CRE W0A9 EC35 40.9 -74.0 90 1000 60")
@@ -212,7 +212,7 @@ def test_record_advisories_by_slot_counts_as_record_advisory_by_callsign():
     given_ = [("A2", "decelerate"), ("A0", "hold"), ("A3", "accelerate"), ("A2", "accelerate")]
     for acid, action in given_:
         record_advisory(one, acid, action)
-    record_advisories(many, [many.traffic.index(a) for a, _ in given_], [action for _, action in given_])
-    got = [(f.advisories, f.last_advisory) for f in many.traffic.flights]
-    assert got == [(f.advisories, f.last_advisory) for f in one.traffic.flights]
+    record_advisories(many, [many.view.slot(a) for a, _ in given_], [action for _, action in given_])
+    got = [(f.advisories, f.last_advisory) for f in many._traffic.flights]
+    assert got == [(f.advisories, f.last_advisory) for f in one._traffic.flights]
     assert got == [(0, ""), (0, ""), (2, "accelerate at 12 s"), (1, "accelerate at 12 s")]

@@ -158,4 +158,4 @@ def test_every_od_pair_of_the_new_york_network_arrives_at_full_speed(tmp_path: P
     sim.load_text(convert(Schedule("pairs", rows, [], len(rows)), NET, ConvertOptions(alt_noise_ft=0.0)).text)
     sim.run(until_s=3600.0)
     missed = [(r.origin, r.destination) for r in sim.flight_log if not r.arrived]
-    assert sim.traffic.n == 0 and not missed and len(sim.flight_log) == len(rows)
+    assert sim.view.n == 0 and not missed and len(sim.flight_log) == len(rows)

@@ -29,9 +29,9 @@ def scene():
     sim.stack("ADDWPT O 0 0.01; ADDWPT O 0 0.02; ADDWPT O 0.01 0.03")
     sim.stack("CRE A EC35 0.005 0 180 1148.29 80")  # 350 m
     sim.stack("CRE B EC35 0 -0.02 90 984.25 120")
-    F = sim.traffic.F
+    F = sim._traffic.F
     for acid, ax, gs, alt in (("O", 1.0, 50.0, 300.0), ("A", -2.0, 40.0, 350.0), ("B", 0.0, 60.0, 300.0)):
-        i = sim.traffic.index(acid)
+        i = sim.view.slot(acid)
         F[f.AX, i] = ax
         F[f.GS, i] = gs
         F[f.ALT, i] = F[f.SELALT, i] = alt
@@ -106,7 +106,7 @@ def test_reward_branches():
 
 def test_action_effects_on_target_speed(scene):
     uc = make_usecase("corridor_sa")
-    t = scene.traffic
+    t = scene._traffic
     cas_b = float(t.cas[t.index("B")])
     uc.apply_actions(scene, {"O": DECELERATE, "A": ACCELERATE, "B": HOLD})
     assert t.F[f.SELSPD, t.index("O")] == 0.0
@@ -160,21 +160,21 @@ def test_altitude_noise_added_or_redrawn_around_the_lane(lanes):
         sim = Simulation(seed=seed, use_bluesky_navdata=False)
         uc.attach(sim)
         sim.stack("CRE X EC35 40.7 -74.0 0 1290 0")
-        i = sim.traffic.index("X")
-        alt_ft = sim.traffic.F[f.ALT, i] / FT
-        assert sim.traffic.F[f.SELALT, i] == sim.traffic.F[f.ALT, i]
+        i = sim.view.slot("X")
+        alt_ft = sim._traffic.F[f.ALT, i] / FT
+        assert sim._traffic.F[f.SELALT, i] == sim._traffic.F[f.ALT, i]
         offsets.append(alt_ft - (1200.0 if lanes else 1290.0))
     assert max(abs(o) for o in offsets) <= 100.0 + 1e-6
     assert min(offsets) < -80 and max(offsets) > 80  # the whole band is used
     again = Simulation(seed=7, use_bluesky_navdata=False)
     uc.attach(again)
     again.stack("CRE X EC35 40.7 -74.0 0 1290 0")
-    assert again.traffic.F[f.ALT, 0] / FT == pytest.approx(offsets[7] + (1200.0 if lanes else 1290.0))
+    assert again._traffic.F[f.ALT, 0] / FT == pytest.approx(offsets[7] + (1200.0 if lanes else 1290.0))
     # Off the lanes (another scenario's 3,000 ft): the noise is added, whatever the lanes.
     off_lane = Simulation(seed=7, use_bluesky_navdata=False)
     uc.attach(off_lane)
     off_lane.stack("CRE Y EC35 40.7 -74.0 0 3000 0")
-    assert off_lane.traffic.F[f.ALT, 0] / FT == pytest.approx(3000.0 + offsets[7])  # the same draw, added
+    assert off_lane._traffic.F[f.ALT, 0] / FT == pytest.approx(3000.0 + offsets[7])  # the same draw, added
 
 
 def test_variant_v1_charges_hovering_and_the_paper_does_not(scene):

@@ -62,7 +62,7 @@ def test_cre_refuses_a_callsign_longer_than_a_callsign_can_be() -> None:
     sim = Simulation(use_bluesky_navdata=False)
     sim.stack(f"CRE {'L' * MAX_CALLSIGN_CHARS} EC35 40.7 -74.0 0 500 10")
     sim.stack(f"CRE {'X' * 20_000} EC35 40.7 -74.0 0 500 10")
-    assert sim.traffic.n == 1
+    assert sim.view.n == 1
     assert sim.reporter.errors()[-1].text.endswith(
         f"a callsign has at most {MAX_CALLSIGN_CHARS} characters, not 20,000")
 

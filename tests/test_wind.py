@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
 import pytest
 from conftest import errors_of
 from hypothesis import given, settings
@@ -91,13 +92,31 @@ def test_profile_altitudes_in_any_order():
     assert a.get(0.0, 0.0, 400.0) == b.get(0.0, 0.0, 400.0)
 
 
+def test_the_wind_api_is_the_wind_command():
+    # From the west (270 deg) at 10 m/s: the air moves east, 10 m/s east and 0 north, at every altitude.
+    sim = Simulation(seed=1, use_bluesky_navdata=False)
+    assert sim.wind_at(52.0, 4.0, 0.0) == (0.0, 0.0)
+    sim.add_wind_point(52.0, 4.0, 270.0, 10.0)
+    vn, ve = sim.wind_at(52.0, 4.0, 500.0)
+    assert vn == pytest.approx(0.0, abs=1e-12) and ve == pytest.approx(10.0)
+    cmd = make("WIND 52,4,,270,10")  # kt, the command's unit
+    assert cmd.wind_at(52.0, 4.0, 500.0) == pytest.approx((0.0, 10 * KTS), abs=1e-12)
+    # A profile: 100 m from the south at 4 m/s, 300 m from the south at 8 m/s; halfway between, 6 m/s north.
+    sim.clear_wind()
+    sim.add_wind_profile(52.0, 4.0, np.array([100.0, 300.0]), np.array([180.0, 180.0]), np.array([4.0, 8.0]))
+    vn, ve = sim.wind_at(52.0, 4.0, 200.0)
+    assert vn == pytest.approx(6.0) and ve == pytest.approx(0.0, abs=1e-12)
+    sim.clear_wind()
+    assert sim.wind_at(52.0, 4.0, 200.0) == (0.0, 0.0)
+
+
 def test_wind_and_getwind_commands():
     sim = make("WIND 52,4,,300,100")  # empty altitude: no profile
-    assert sim.wind.dim == 1
+    assert sim._wind.dim == 1
     assert sim.stack("GETWIND 52 4")
     assert sim.reporter.messages[-1].text == "WIND AT 52.00000, 4.00000: 300/100"
     sim.stack("WIND 52,4,0,270,50,10000,300,400")  # BlueSky's test_wind.scn
-    assert sim.wind.dim == 3
+    assert sim._wind.dim == 3
     sim.stack("GETWIND 52 4 FL050")
     # Equal weights of the two points at 5000 ft: 300/100 and the profile's midpoint.
     p = WindField()
@@ -106,7 +125,7 @@ def test_wind_and_getwind_commands():
     vn2, ve2 = wind_vector(300.0, 100 * KTS)
     direction, speed = wind_from((vn + vn2) / 2, (ve + ve2) / 2)
     assert sim.reporter.messages[-1].text == f"WIND AT 52.00000, 4.00000: {round(direction):03d}/{round(speed / KTS)}"
-    assert sim.stack("DEL WIND") and sim.wind.dim == 0 and len(sim.wind) == 0
+    assert sim.stack("DEL WIND") and sim._wind.dim == 0 and len(sim._wind) == 0
 
 
 @pytest.mark.parametrize("line, fragment", [
@@ -121,12 +140,12 @@ def test_wind_errors_name_the_field(line, fragment):
     sim = Simulation(seed=0, use_bluesky_navdata=False)
     assert not sim.stack(line)
     assert fragment in errors_of(sim)[-1]
-    assert sim.wind.dim == 0
+    assert sim._wind.dim == 0
 
 
 def test_del_wind_keeps_an_aircraft_called_wind_first():
     sim = make("WIND 0 0 90 10", "CRE WIND EC35 0 0 0 1000 100", "DEL WIND")
-    assert "WIND" not in sim.traffic and sim.wind.dim == 1
+    assert "WIND" not in sim.view and sim._wind.dim == 1
 
 
 @settings(max_examples=40, deadline=None)
@@ -192,4 +211,4 @@ def test_wind_after_del_wind_and_reset():
     assert windy.view.trk[0] == pytest.approx(90.0 + math.degrees(math.atan2(30 * KTS, calm.view.tas[0])), abs=1e-6)
     windy.stack("WIND 0 0 0 30")
     windy.reset()
-    assert windy.wind.dim == 0
+    assert windy._wind.dim == 0

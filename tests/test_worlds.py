@@ -42,11 +42,11 @@ def _fresh(sim: Simulation, text: str) -> Simulation:
 
 
 def _state(sim: Simulation):
-    n = sim.traffic.n
+    n = sim.view.n
     records = [(r.acid, r.deleted_s, r.arrived, r.distance_m) for r in sim.flight_log]
     conflicts = sim.services.conflicts
     events = [repr(e) for e in conflicts.events]  # every field, NaN included
-    return (sim.simt_us, list(sim.traffic.ids), sim.traffic.F[:, :n].copy(), sim.traffic.B[:, :n].copy(), records,
+    return (sim.simt_us, list(sim.view.ids), sim._traffic.F[:, :n].copy(), sim._traffic.B[:, :n].copy(), records,
             events)
 
 
@@ -111,7 +111,7 @@ def test_worlds_in_a_wind_field_take_their_own_kernel_call():
     _fresh(worlds.new_simulation(0, seed=3, use_bluesky_navdata=False), wind + text)
     _fresh(worlds.new_simulation(1, seed=3, use_bluesky_navdata=False), text)
     worlds.run_until({0: 60.0, 1: 60.0})
-    assert worlds.sim(0).wind.active
+    assert worlds.sim(0)._wind.active
     _same(_state(worlds.sim(0)), _state(ref))
 
 
@@ -155,6 +155,6 @@ def test_worlds_on_two_threads_give_the_bits_of_one_thread():
             _fresh(worlds.new_simulation(k, seed=k, use_bluesky_navdata=False), text)
         worlds.run_until({0: 45.0, 1: 50.0})
         runs.append([_state(worlds.sim(k)) for k in range(2)])
-    assert sum(s.traffic.n for s in worlds.sims if s is not None) >= PARALLEL_MIN_AIRCRAFT
+    assert sum(s.view.n for s in worlds.sims if s is not None) >= PARALLEL_MIN_AIRCRAFT
     for a, b in zip(*runs):
         _same(a, b)

@@ -95,7 +95,7 @@ class TrafficSnapshot:
 
 def traffic_snapshot(sim: SimulationCore) -> TrafficSnapshot:
     """Positions, velocities (east, north, up) and the local frame of all aircraft now."""
-    t = sim.traffic
+    t = sim._traffic
     matrix, rows = kinematic_matrix(t, _KINEMATIC_FIELDS)
     lat, lon, alt, u, v, w, x, y, err, *frame = snapshot_arrays(matrix, t.n, rows, R_EARTH)
     return TrafficSnapshot(list(t.ids), lat, lon, alt, u, v, w, x, y, err, tuple(frame))  # type: ignore[arg-type]
@@ -197,7 +197,7 @@ class ConflictService:
             self._check(sim)
 
     def _check(self, sim: SimulationCore) -> None:
-        t = sim.traffic
+        t = sim._traffic
         st = sim.settings
         n = t.n
         cd_on = st.cd_method != "OFF"
@@ -327,7 +327,7 @@ class ConflictService:
                 hi = lo + int(count[q])
                 log = self._log(vol.name)
                 if hi > lo or len(log.open_keys):
-                    self._merge_events(log, sim.simt, sim.traffic, ei[lo:hi], ej[lo:hi], e_in[lo:hi],
+                    self._merge_events(log, sim.simt, sim._traffic, ei[lo:hi], ej[lo:hi], e_in[lo:hi],
                                        e_out[lo:hi], e_dmin[lo:hi], e_tmin[lo:hi], e_pos[lo:hi], acid)
                 lo = hi
             self.min_separation_m = min(self.min_separation_m, dnow)
@@ -387,7 +387,7 @@ def closest_intruders(sim: SimulationCore, max_range_m: float = 3000.0) -> tuple
     Beyond ``max_range_m`` the distance is ``inf`` and the slot -1.
     """
     pi, pj, d = pairs_within(sim, max_range_m)
-    return nearest_per_aircraft(sim.traffic.n, pi, pj, d, max_range_m)
+    return nearest_per_aircraft(sim._traffic.n, pi, pj, d, max_range_m)
 
 
 def pairs_within(sim: SimulationCore, radius_m: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -396,7 +396,7 @@ def pairs_within(sim: SimulationCore, radius_m: float) -> tuple[np.ndarray, np.n
     The pair search is a superset: filter on the distances for an exact radius. It stops at
     :data:`MAX_PAIRS_PER_CHECK` pairs, with an error the first time (aircraft piled on one spot).
     """
-    t = sim.traffic
+    t = sim._traffic
     matrix, rows = kinematic_matrix(t, _KINEMATIC_FIELDS)
     pi, pj, d = pairs_now(matrix, t.n, rows, R_EARTH, radius_m, MAX_PAIRS_PER_CHECK)
     if len(pi) >= MAX_PAIRS_PER_CHECK:

@@ -88,7 +88,7 @@ def record_advisory(sim: SimulationCore, acid: str, action: str) -> None:
     """Count an advisory given to an aircraft; ``hold`` advisories are not alerts."""
     if action.lower() == "hold":
         return
-    i = sim.traffic.find(acid)
+    i = sim._traffic.find(acid)
     if i is not None:
         record_advisories(sim, (i,), (action,))
 
@@ -96,7 +96,7 @@ def record_advisory(sim: SimulationCore, acid: str, action: str) -> None:
 def record_advisories(sim: SimulationCore, slots: Sequence[int], actions: Sequence[str]) -> None:
     """:func:`record_advisory` for the aircraft in ``slots`` (one action each), by slot: a use case that
     advises many aircraft per decision has their slots already."""
-    flights = sim.traffic.flights
+    flights = sim._traffic.flights
     at = f" at {sim.simt:.0f} s"
     for i, action in zip(slots, actions):
         if action.lower() == "hold":

@@ -94,9 +94,9 @@ class MVPService:
     # ---------------------------------------------------------------- cycle
     def _reschedule(self, sim: SimulationCore) -> bool:
         """Keep the hook one step before each multiple of the interval; True when now is such a time."""
-        dt_us = sim.clock.dt_us
+        dt_us = sim._clock.dt_us
         interval_us = max(round(sim.settings.cd_interval_s * 1e6), 1)
-        now = sim.clock.simt_us
+        now = sim._clock.simt_us
         on_time = (now + dt_us) % interval_us == 0
         target = ((now + dt_us) // interval_us + 1) * interval_us - dt_us  # the next such boundary
         # The hook list adds one interval to the due time after this call returns.

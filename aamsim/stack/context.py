@@ -32,7 +32,6 @@ if TYPE_CHECKING:
     from aamsim.traffic.route import Route
     from aamsim.traffic.traffic import FlightRecord
     from aamsim.traffic.view import TrafficView
-    from aamsim.traffic.wind import WindField
     from aamsim.units import Speed
 
 
@@ -139,7 +138,6 @@ class CommandContext(Protocol):
     run_outputs: RunOutputs
     pending_work: list[Callable[[], bool]]
     services: Services
-    wind: WindField  # the wind field (WIND, GETWIND, DEL WIND)
 
     # clock, randomness and messages
     @property
@@ -193,3 +191,10 @@ class CommandContext(Protocol):
     def engage_vnav(self, target: str | int) -> None: ...
     def set_climb_profile(self, target: str | int, early_climb: bool | None = None,
                           late_descent: bool | None = None) -> None: ...
+
+    # the wind field (WIND, GETWIND, DEL WIND)
+    def wind_at(self, lat: float, lon: float, alt_m: float) -> tuple[float, float]: ...
+    def add_wind_point(self, lat: float, lon: float, direction_deg: float, speed_mps: float) -> None: ...
+    def add_wind_profile(self, lat: float, lon: float, alts_m: np.ndarray, directions_deg: np.ndarray,
+                         speeds_mps: np.ndarray) -> None: ...
+    def clear_wind(self) -> None: ...

@@ -59,10 +59,10 @@ def run_aamsim(path: Path, times: list[float]) -> dict[int, dict[str, dict[str, 
     def sample(s: Simulation) -> None:
         # post_step hooks run after the step that reached simt, before the commands due at simt.
         if s.simt_us in wanted_set:
-            F = s.traffic.F
+            F = s._traffic.F
             states[s.simt_us] = {
                 acid: {name: float(F[row, i]) for name, row in _STATE.items()}
-                for i, acid in enumerate(s.traffic.ids)
+                for i, acid in enumerate(s.view.ids)
             }
 
     sim.hooks.post_step.add(sample, interval_s=interval_us / 1e6, name="conformance-sample")

@@ -36,7 +36,7 @@ def test_direct_back_to_an_earlier_waypoint_flies_the_rest_of_the_route():
               "00:00:00.00>ADDWPT X 40.72 -74.00\n00:00:00.00>ADDWPT X 40.72 -73.98\n"
               "00:00:00.00>ADDWPT X 40.70 -73.98\n00:02:40.00>DIRECT X X001\n", 320.0)
     # BlueSky at 320 s: LNAV off, flying on at 350 deg past X001; aamsim is on its way to X003.
-    assert sim.traffic.B[f.B_SWLNAV, 0] and sim.traffic.routes[0].iactwp == 2
+    assert sim._traffic.B[f.B_SWLNAV, 0] and sim._traffic.routes[0].iactwp == 2
 
 
 def test_vnav_turn_keeps_the_selected_cas():
@@ -45,8 +45,8 @@ def test_vnav_turn_keeps_the_selected_cas():
     passed: +2.2 % (1.1 kts) at 1500 ft in this scenario, for good."""
     sim = run("00:00:00.00>CRE Y EC35 40.70 -74.00 0 1500 100\n00:00:00.00>ADDWPT Y 40.72 -74.00\n"
               "00:00:00.00>ADDWPT Y 40.72 -73.97\n00:00:00.00>ADDWPT Y 40.75 -73.97\n00:00:00.00>VNAV Y ON\n", 120.0)
-    assert sim.traffic.cas[0] == pytest.approx(100 * KTS, abs=1e-9)
-    assert sim.traffic.routes[0].iactwp == 2  # two turns flown
+    assert sim.view.cas[0] == pytest.approx(100 * KTS, abs=1e-9)
+    assert sim._traffic.routes[0].iactwp == 2  # two turns flown
 
 
 def test_vnav_turn_after_a_speed_constraint_is_flown_at_the_constraint_speed():
@@ -75,8 +75,8 @@ def test_direct_and_delwpt_use_the_true_next_leg():
     sim = run("00:00:00.00>CRE D EC35 40.80 -74.00 90 1500 90\n00:00:00.00>ADDWPT D 40.80 -73.96\n"
               "00:00:00.00>ADDWPT D 40.83 -73.94\n00:00:00.00>ADDWPT D 40.86 -73.96\n"
               "00:00:30.00>DELWPT D D002\n00:00:50.00>DIRECT D D001\n", 50.05)
-    F = sim.traffic.F
-    wp1, wp3 = sim.traffic.routes[0].waypoints
+    F = sim._traffic.F
+    wp1, wp3 = sim._traffic.routes[0].waypoints
     next_leg, _ = qdrdist(wp1.lat, wp1.lon, wp3.lat, wp3.lon)
     assert F[f.WP_NEXTQDR, 0] == pytest.approx(next_leg)  # BlueSky: still towards the deleted D002
     assert F[f.WP_TURNDIST, 0] == pytest.approx(
@@ -91,9 +91,9 @@ def test_pcall_rel_and_abs_mean_what_they_say(tmp_path):
     sim = Simulation(seed=0, use_bluesky_navdata=False)
     sim.load_scenario(main)
     sim.run_until(80.0)
-    assert "AA" in sim.traffic and "RR" not in sim.traffic  # ABS: 00:00:30 has passed, runs at once
+    assert "AA" in sim.view and "RR" not in sim.view  # ABS: 00:00:30 has passed, runs at once
     sim.run_until(95.0)
-    assert sim.traffic.flights[sim.traffic.index("RR")].created_s == pytest.approx(90.0)
+    assert sim._traffic.flights[sim.view.slot("RR")].created_s == pytest.approx(90.0)
 
 
 def test_a_slow_speed_in_knots_is_never_mach():
@@ -101,8 +101,8 @@ def test_a_slow_speed_in_knots_is_never_mach():
     a drone created at 3 kts flies at Mach 1.5 (EC35: 489 m/s TAS)."""
     sim = run("00:00:00.00>CRE Z EC35 40.70 -74.00 90 500 3\n00:00:00.00>CRE W EC35 40.71 -74.00 90 500 20\n"
               "00:00:01.00>SPD W 3.5\n", 30.0)
-    assert sim.traffic.cas[sim.traffic.index("Z")] == pytest.approx(3 * KTS, rel=1e-9)
-    assert sim.traffic.cas[sim.traffic.index("W")] == pytest.approx(3.5 * KTS, rel=1e-9)
+    assert sim.view.cas[sim.view.slot("Z")] == pytest.approx(3 * KTS, rel=1e-9)
+    assert sim.view.cas[sim.view.slot("W")] == pytest.approx(3.5 * KTS, rel=1e-9)
 
 
 def test_at_alt_spd_sets_both_constraints(sim):
@@ -110,7 +110,7 @@ def test_at_alt_spd_sets_both_constraints(sim):
     sim.stack("CRE A EC35 40.70 -74.00 0 1500 100")
     sim.stack("ADDWPT A 40.75 -74.00")
     sim.stack("AT A A001 2000/80")
-    wp = sim.traffic.routes[0].waypoints[0]
+    wp = sim._traffic.routes[0].waypoints[0]
     assert wp.alt == pytest.approx(2000 * 0.3048) and wp.spd == pytest.approx(80 * KTS)
 
 
@@ -119,10 +119,10 @@ def test_ec135_is_the_ec35_and_unknown_types_are_reported(sim):
     whose 72 m/s minimum speed turns a 100 kt helicopter into a 140 kt one."""
     sim.stack("CRE H EC135 40.70 -74.00 90 1500 100")
     sim.stack("CRE U XYZ9 40.70 -74.00 90 1500 100")
-    assert sim.traffic.B[f.B_ROTOR, 0] and sim.traffic.F[f.VMAX, 0] == pytest.approx(71.95)
+    assert sim._traffic.B[f.B_ROTOR, 0] and sim._traffic.F[f.VMAX, 0] == pytest.approx(71.95)
     assert any("unknown aircraft type XYZ9" in str(m) for m in sim.reporter.messages)
     sim.run_until(60.0)
-    assert sim.traffic.cas[0] == pytest.approx(100 * KTS, rel=1e-9)
+    assert sim.view.cas[0] == pytest.approx(100 * KTS, rel=1e-9)
 
 
 def test_short_lines_and_unknown_commands_are_not_dropped_silently(sim):
@@ -147,7 +147,7 @@ def _closest_approach(sim: Simulation, lat: float, lon: float, until: float) -> 
     best = math.inf
     while sim.simt < until:
         sim.run_until(sim.simt + 0.5)
-        best = min(best, qdrdist(sim.traffic.lat[0], sim.traffic.lon[0], lat, lon)[1])
+        best = min(best, qdrdist(sim.view.lat[0], sim.view.lon[0], lat, lon)[1])
     return best
 
 
@@ -162,8 +162,8 @@ def test_flyturn_radius_is_flown_at_the_bank_it_needs():
         assert sim.stack(line)
     radius = 0.2 * 1852.0
     sim.run_until(60)  # on the leg to the fly-turn waypoint
-    tas = sim.traffic.tas[0]
-    assert sim.traffic.F[f.TURNPHI, 0] == pytest.approx(math.atan(tas * tas / (radius * 9.80665)), rel=1e-9)
+    tas = sim.view.tas[0]
+    assert sim._traffic.F[f.TURNPHI, 0] == pytest.approx(math.atan(tas * tas / (radius * 9.80665)), rel=1e-9)
     assert _closest_approach(sim, 40.70, -73.96, 200) == pytest.approx(radius * (math.sqrt(2) - 1), rel=0.05)
 
 
@@ -175,10 +175,10 @@ def test_flyturn_rate_in_degrees_per_second():
                  "ADDWPT A 40.70 -73.96", "ADDWPT A 40.74 -73.96"):
         assert sim.stack(line)
     sim.run_until(20)  # on the leg to the fly-turn waypoint
-    tas = sim.traffic.tas[0]
+    tas = sim.view.tas[0]
     omega = math.radians(3.0)
-    assert sim.traffic.F[f.TURNPHI, 0] == pytest.approx(math.atan(omega * tas / 9.80665), rel=1e-9)
-    assert sim.traffic.F[f.WP_TURNDIST, 0] == pytest.approx(tas / omega, rel=1e-3)  # R tan(45 deg), a right angle
+    assert sim._traffic.F[f.TURNPHI, 0] == pytest.approx(math.atan(omega * tas / 9.80665), rel=1e-9)
+    assert sim._traffic.F[f.WP_TURNDIST, 0] == pytest.approx(tas / omega, rel=1e-3)  # R tan(45 deg), a right angle
 
 
 def test_addwptmode_values_have_addwpt_units():
@@ -191,8 +191,8 @@ def test_addwptmode_values_have_addwpt_units():
                      "ADDWPT A 40.74 -73.93", "VNAV A ON"):
             assert sim.stack(line)
         sim.run_until(300)
-    assert a.traffic.routes[0].waypoints[1].turn.speed_cas == pytest.approx(35 * KTS)
-    assert a.traffic.lat[0] == b.traffic.lat[0] and a.traffic.cas[0] == pytest.approx(35 * KTS)
+    assert a._traffic.routes[0].waypoints[1].turn.speed_cas == pytest.approx(35 * KTS)
+    assert a.view.lat[0] == b.view.lat[0] and a.view.cas[0] == pytest.approx(35 * KTS)
 
 
 def test_flyturn_speed_that_follows_from_the_turn_is_a_cas():
@@ -206,8 +206,8 @@ def test_flyturn_speed_that_follows_from_the_turn_is_a_cas():
         assert sim.stack(line)
     for t in range(10, 400, 10):
         sim.run_until(t)
-        assert sim.traffic.cas[0] == pytest.approx(100 * KTS, abs=1e-6)
-    assert sim.traffic.trk[0] == pytest.approx(0.0, abs=0.5)  # the turn was flown
+        assert sim.view.cas[0] == pytest.approx(100 * KTS, abs=1e-6)
+    assert sim.view.trk[0] == pytest.approx(0.0, abs=0.5)  # the turn was flown
 
 
 def test_flat_earth_position_update_error_against_wgs84():
@@ -219,18 +219,18 @@ def test_flat_earth_position_update_error_against_wgs84():
     t = round(length / (speed_kt * KTS) / 0.05) * 0.05
     sim = run(f"00:00:00.00>CRE N EC35 {lat0} {lon0} 0 0 {speed_kt}\n"
               f"00:00:00.00>CRE E EC35 {lat0} {lon0} 90 0 {speed_kt}\n", t)
-    flown = sim.traffic.F[f.DISTFLOWN, 0]
+    flown = sim._traffic.F[f.DISTFLOWN, 0]
     # North: the meridian is both the rhumb line and the geodesic.
     north = geodesic_forward(lat0, lon0, 0.0, flown)
-    _, err_n = geodesic_inverse(*north, sim.traffic.lat[0], sim.traffic.lon[0])
+    _, err_n = geodesic_inverse(*north, sim.view.lat[0], sim.view.lon[0])
     # East: a constant heading keeps the latitude; the prime-vertical radius gives the longitude.
     e2 = 1.0 - (WGS84_B / WGS84_A) ** 2
     normal = WGS84_A / math.sqrt(1.0 - e2 * math.sin(math.radians(lat0)) ** 2)
     east_lon = lon0 + math.degrees(flown / (normal * math.cos(math.radians(lat0))))
-    _, err_e = geodesic_inverse(lat0, east_lon, sim.traffic.lat[1], sim.traffic.lon[1])
+    _, err_e = geodesic_inverse(lat0, east_lon, sim.view.lat[1], sim.view.lon[1])
     assert 0.0011 * length < err_n < 0.0014 * length
     assert 0.0024 * length < err_e < 0.0027 * length
-    assert sim.traffic.lat[1] == lat0  # due east stays on the parallel, as with BlueSky
+    assert sim.view.lat[1] == lat0  # due east stays on the parallel, as with BlueSky
 
 
 def test_wind_profile_flight_levels_are_flight_levels():
@@ -238,5 +238,5 @@ def test_wind_profile_flight_levels_are_flight_levels():
     time (FL70 is taken as 650 m). aamsim: FL70 is 7000 ft."""
     sim = Simulation(seed=0, use_bluesky_navdata=False)
     assert sim.stack("WIND 52,4,0,270,10,FL70,270,30")
-    assert sim.wind.get(52.0, 4.0, 7000 * 0.3048)[1] == pytest.approx(30 * KTS)
-    assert sim.wind.get(52.0, 4.0, 3500 * 0.3048)[1] == pytest.approx(20 * KTS)
+    assert sim.wind_at(52.0, 4.0, 7000 * 0.3048)[1] == pytest.approx(30 * KTS)
+    assert sim.wind_at(52.0, 4.0, 3500 * 0.3048)[1] == pytest.approx(20 * KTS)

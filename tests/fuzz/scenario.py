@@ -213,7 +213,7 @@ class Harness:
 
     def _simulation(self) -> Simulation:
         self.warm_up()
-        crowded = self._sim is not None and self._sim.traffic.n > self.max_aircraft
+        crowded = self._sim is not None and self._sim.view.n > self.max_aircraft
         if self._sim is None or crowded or self.lines_run % self.fresh_every == 0:
             self._sim = self._fresh()
         return self._sim
@@ -243,7 +243,7 @@ class Harness:
             if previous is not None:
                 signal.setitimer(signal.ITIMER_REAL, 0)
                 signal.signal(signal.SIGALRM, previous)
-        return time.perf_counter() - t0, False, sim.traffic.n > HEAVY_AIRCRAFT
+        return time.perf_counter() - t0, False, sim.view.n > HEAVY_AIRCRAFT
 
     def _slow_alone(self, line: str) -> str | None:
         """How the line is slow run again alone after the warm-up, None when it is not.
@@ -298,7 +298,7 @@ class Harness:
                 signal.signal(signal.SIGALRM, previous)
         elapsed = time.perf_counter() - t0
         self.slowest_s = max(self.slowest_s, elapsed)
-        crowd = self._sim.traffic.n if self._sim is not None else 0
+        crowd = self._sim.view.n if self._sim is not None else 0
         if timed_out:
             self._slow(line, timed_out, elapsed)
         elif crowd > HEAVY_AIRCRAFT:

@@ -84,7 +84,7 @@ class Session:
 
     def order(self) -> np.ndarray:
         """aamsim slot of each BlueSky position."""
-        key = self.simulation.traffic.layout_version
+        key = self.simulation._traffic.layout_version
         if key != self._order_key:
             view = self.view
             self._order = np.fromiter((view.slot(a) for a in self.ids), dtype=np.int64, count=len(self.ids))
@@ -141,7 +141,7 @@ class Session:
         """BlueSky's ``sim.step()``: run the stacked commands, then advance one time step when operating."""
         self.before_change()
         sim = self.simulation
-        if self.state == INIT and (sim.traffic.n or len(sim.queue)):
+        if self.state == INIT and (sim._traffic.n or len(sim.queue)):
             self.set_state(OP)
         self.process()
         if self.state == OP:
@@ -210,7 +210,7 @@ class Session:
         self.before_change()
         sim = self.simulation
         self.delete_all()
-        sim.wind.clear()
+        sim._wind.clear()
         sim.conditions.clear()
         sim.stack("NOISE OFF")
         self.changed()

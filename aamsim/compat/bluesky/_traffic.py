@@ -41,7 +41,7 @@ def _atmosphere(k: int) -> Source:
 
 def _wind(k: int) -> Source:
     def get(view: TrafficView, order: np.ndarray, session: ArraySession) -> np.ndarray:
-        wind = session.simulation.wind
+        wind = session.simulation._wind
         lat, lon, alt = view.lat[order], view.lon[order], view.alt[order]
         if not wind.active:
             return np.zeros(len(order))
@@ -231,7 +231,7 @@ class Wind(_Part):
     @property
     def winddim(self) -> int:
         """0: no wind, 1: one point (everywhere the same), 2: several points, 3: with altitude profiles."""
-        return int(self._session.simulation.wind.dim)
+        return int(self._session.simulation._wind.dim)
 
     def getdata(self, userlat: Any, userlon: Any, useralt: Any = 0.0) -> tuple[Any, Any]:
         """North and east wind [m/s]: arrays for arrays, lists for lists, floats otherwise (as BlueSky).
@@ -248,7 +248,7 @@ class Wind(_Part):
             alt = np.full(lat.shape, useralt)
         else:
             alt = np.zeros(lat.shape)
-        wind = self._session.simulation.wind
+        wind = self._session.simulation._wind
         vn, ve = np.zeros(lat.shape), np.zeros(lat.shape)
         if wind.active:
             for i in range(lat.shape[0]):
@@ -263,7 +263,7 @@ class Wind(_Part):
         """Wind from ``winddir`` [deg] at ``windspd`` [m/s] at a point; with ``windalt`` [m] a profile."""
         s = self._session
         s.before_change()
-        wind = s.simulation.wind
+        wind = s.simulation._wind
         if windalt is None:
             idx = wind.add_point(float(lat), float(lon), float(winddir), float(windspd))
         else:
@@ -295,7 +295,7 @@ class Wind(_Part):
         """No wind."""
         s = self._session
         s.before_change()
-        s.simulation.wind.clear()
+        s.simulation._wind.clear()
         s.changed()
 
 

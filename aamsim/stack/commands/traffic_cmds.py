@@ -103,7 +103,7 @@ def delete(sim: CommandContext, *targets: Word) -> None:
         raise CommandError("DEL needs a callsign (or * for all aircraft)")
     names = [t.upper() for t in targets if t]
     if names[:1] == ["WIND"] and "WIND" not in sim.view:  # an aircraft called WIND goes first, as in BlueSky
-        sim.wind.clear()
+        sim.clear_wind()
         return
     if "*" in names:
         for slot in range(sim.view.n - 1, -1, -1):

@@ -73,17 +73,17 @@ def wind(sim: CommandContext, argtext: RestOfLine) -> None:
     """
     lat, lon, profile, direction, speed = parse_wind(argtext, LiveContext(sim))
     if profile is None:
-        sim.wind.add_point(lat, lon, direction, speed)
+        sim.add_wind_point(lat, lon, direction, speed)
     else:
         alts, dirs, spds = zip(*profile)
-        sim.wind.add_profile(lat, lon, np.asarray(alts, dtype=float), np.asarray(dirs, dtype=float),
+        sim.add_wind_profile(lat, lon, np.asarray(alts, dtype=float), np.asarray(dirs, dtype=float),
                              np.asarray(spds, dtype=float))
 
 
 @command("GETWIND", group="simulation")
 def getwind(sim: CommandContext, pos: PositionValue, alt: Altitude | None = None) -> str:
     """GETWIND lat,lon,[alt]: the wind at a position (at the ground when no altitude is given)."""
-    vn, ve = sim.wind.get(pos.lat, pos.lon, 0.0 if alt is None else alt)
+    vn, ve = sim.wind_at(pos.lat, pos.lon, 0.0 if alt is None else alt)
     direction, speed = wind_from(vn, ve)
     return f"WIND AT {pos.lat:.5f}, {pos.lon:.5f}: {round(direction):03d}/{round(speed / KTS)}"
 
