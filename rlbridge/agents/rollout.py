@@ -34,6 +34,7 @@ from rlbridge.backends import BACKENDS, EpisodeBackend, make_backend
 from rlbridge.core import StepResult
 from rlbridge.policies import make_usecase_with_policies
 from rlbridge.usecases.registry import Observations
+from rlbridge.usecases.targets import reads_action_targets
 from rlbridge.vector.engine import VectorEngine
 
 if TYPE_CHECKING:
@@ -328,10 +329,13 @@ class RolloutWorker:
         cores: list[Any]
         if engine is not None:
             cores = engine.cores
+            for core in cores:
+                core.publish_targets = reads_action_targets(act)
             started = engine.reset(dict(enumerate(seeds)))
             results = [started[k] for k in range(len(seeds))]
         else:
             cores = [self._core_for(act)]
+            cores[0].publish_targets = reads_action_targets(act)  # the action targets only for an actor that reads them
             results = [cores[0].reset(seeds[0])]
         runs = [_EpisodeRun(self, core, int(s), record, result, t0) for core, s, result in zip(cores, seeds, results)]
         active = list(range(len(runs)))

@@ -3,9 +3,14 @@
 A baseline that steers with a use case's own heading and altitude actions (``mvp``) needs to
 know what each action would set: a use case computes it from its routes and its per-episode
 state (:meth:`rlbridge.usecases.protocol.UseCaseBase.action_targets`), which only exist where
-the simulation runs. The episode engine therefore adds them to every step result of a use
+the simulation runs. The episode engine therefore adds them to the step results of a use
 case with such actions (``info["action_targets"]``), so they cross the wire with the result
 and the baseline acts on the result and a traffic snapshot, on every backend.
+
+They cost a computation per decision, which a learner never reads: an actor asks for them
+by ``reads_action_targets = True`` (:func:`reads_action_targets`), and the episode engine
+publishes them only while such an actor plays (``EpisodeCore.publish_targets``; over ZeroMQ
+the ``targets`` field of a ``reset``).
 """
 
 from __future__ import annotations
@@ -18,6 +23,11 @@ from rlbridge.usecases.spec import spec_of
 
 MANOEUVRE_KINDS = ("heading", "altitude")
 TARGETS_KEY = "action_targets"  # the step result's info key
+
+
+def reads_action_targets(actor: Any) -> bool:
+    """Whether ``actor`` reads the published action targets (its ``reads_action_targets``; False when absent)."""
+    return bool(getattr(actor, "reads_action_targets", False))
 
 
 def action_target_info(usecase: Any, sim: Any, agents: list[str]) -> dict[str, Any]:
