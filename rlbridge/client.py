@@ -158,6 +158,9 @@ class RemoteEpisode:
         self.seed: int | None = None
         self._session = False  # the server holds a session (an opened scenario) for our socket
         self._ready = False  # reset() has run in that session
+        # Whether the server's step results carry the action targets (EpisodeCore.publish_targets),
+        # sent with each reset.
+        self.publish_targets = False
         try:
             hello = self.connection.call("hello", client="rlbridge")
             if hello.get("protocol") != PROTOCOL_VERSION:
@@ -197,6 +200,8 @@ class RemoteEpisode:
     # --------------------------------------------------------------------- API
     def reset(self, seed: int | None = None) -> StepResult:
         fields: dict[str, Any] = {"seed": None if seed is None else int(seed)}
+        if self.publish_targets:  # only then: a server from before the field knows none
+            fields["targets"] = True
         if not self._session:
             fields.update(self._open_fields())  # reopen: a fresh socket has no session yet
         try:

@@ -144,6 +144,10 @@ class EpisodeCore:
         # Agents whose observations and rewards are computed (None: every agent). A single-agent
         # view needs its ego's only; the others fly on unobserved (observing changes nothing).
         self.watch: Collection[str] | None = None
+        # Whether step results carry the heading/altitude action targets (rlbridge.usecases.targets):
+        # set while an actor that reads them plays; a learner never does, and they cost a
+        # computation per decision.
+        self.publish_targets = False
         template = Simulation(use_bluesky_navdata=True)
         self._parsed = template.parse(self.text, str(path))
         self.parse_errors = [str(e) for e in self._parsed.errors]
@@ -309,7 +313,7 @@ class EpisodeCore:
         done = self._scenario_over() and not self.agents
         return StepResult(reported, obs, np.zeros(n), np.zeros(n, bool), np.zeros(n, bool),
                           list(self.agents), self.sim.simt, done,
-                          info=step_info(self.usecase, self.sim, self.agents),
+                          info=self._target_info(self.sim),
                           agent_info=empty_info(self.usecase.info_fields, n), discovered=self._take_discovered())
 
     def step_steps(self, actions: dict[str, Any]) -> Steps:
@@ -381,8 +385,13 @@ class EpisodeCore:
         self.agents = [] if truncate else list(now_alive)
         self._reported = set(self._watched(self.agents))
         return StepResult(reported, obs, rewards, terminated, truncated, list(self.agents), sim.simt, over,
-                          info=step_info(self.usecase, sim, self.agents), agent_info=info,
+                          info=self._target_info(sim), agent_info=info,
                           discovered=self._take_discovered())
+
+    def _target_info(self, sim: Simulation) -> dict[str, Any]:
+        """The step result's ``info``: the alive agents' action targets when asked (:attr:`publish_targets`),
+        the departure planner's request for a departure-slot use case (rlbridge.usecases.targets)."""
+        return step_info(self.usecase, sim, self.agents, targets=self.publish_targets)
 
     def _conform(self, obs: Observations) -> Observations:
         """The use case's observation arrays in its space's dtypes (no copy when they already are)."""

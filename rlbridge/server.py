@@ -173,7 +173,8 @@ _OPEN_FIELDS: dict[str, tuple[tuple[type, ...], bool]] = {
 SCHEMAS: dict[str, dict[str, tuple[tuple[type, ...], bool]]] = {
     "hello": {"client": (_STR, False)},
     "open": _OPEN_FIELDS,
-    "reset": {**{k: (kinds, False) for k, (kinds, _) in _OPEN_FIELDS.items()}, "seed": (_INT + _NIL, False)},
+    "reset": {**{k: (kinds, False) for k, (kinds, _) in _OPEN_FIELDS.items()}, "seed": (_INT + _NIL, False),
+              "targets": ((bool,), False)},
     "step": {"actions": ((dict, np.ndarray), False), "agents": ((list,), False)},
     "stack": {"text": (_STR, True)},
     "state": {"fields": ((list,), False)},
@@ -393,6 +394,7 @@ class SimulationServer:
         elif set(message) & set(_OPEN_FIELDS):
             raise ProtocolError("reset: usecase, params, time_limit_s and dt need a scenario")
         core = self._need_core(session)
+        core.publish_targets = bool(message.get("targets", False))  # asked for at each reset
         return {**step_result_to_payload(core.reset(message.get("seed"))), **opened}
 
     def _step(self, session: Session | None, identity: bytes, message: dict[str, Any]) -> dict[str, Any]:

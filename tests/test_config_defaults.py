@@ -109,3 +109,26 @@ def test_aamgym_train_refuses_a_mistyped_override_before_starting(tmp_path):
     assert done.returncode == 2
     assert done.stderr.strip().splitlines() == ["aamgym train: error: algorithm.params.lr=abc: expected a number"]
     assert not any(tmp_path.iterdir())  # no run directory
+
+
+@pytest.mark.parametrize("command", ["config", "evaluate"])
+def test_the_app_yaml_lists_no_key_of_its_dataclass(command):
+    """``config.yaml``/``evaluate.yaml`` name their presets and Hydra's settings only: every other key and
+    its default is the dataclass's (rlbridge.experiment.schema.SCHEMAS), which is not repeated there."""
+    from rlbridge.experiment.schema import SCHEMAS
+
+    listed = yaml.safe_load((CONF / f"{command}.yaml").read_text())
+    assert set(listed) == {"defaults", "hydra"}
+    assert f"/schema/app/{command}@_here_" in listed["defaults"]
+    assert {f.name for f in fields(SCHEMAS[command])} - {"algorithm", "usecase"} <= set(RECORDED[command])
+
+
+@pytest.mark.parametrize("command", ["config", "evaluate"])
+def test_the_app_dataclass_defaults_are_the_recorded_values(command):
+    """A drifted default of TrainConfig / EvaluateConfig (or one of their sections) fails here, naming the key."""
+    from rlbridge.experiment.schema import SCHEMAS, config_defaults
+
+    defaults = config_defaults(SCHEMAS[command])
+    recorded = {k: v for k, v in RECORDED[command].items() if k not in ("algorithm", "usecase")}
+    for key in sorted(set(defaults) | set(recorded)):
+        assert defaults.get(key) == recorded.get(key), f"{command}: {key}"

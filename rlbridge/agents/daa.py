@@ -96,6 +96,7 @@ class DAAActor:
     snapshot_fields: tuple[str, ...] = (*AXIS_FIELDS, "selspd", "selalt")
     # Speed actions of either layout (it steers with their targets), or heading / altitude actions.
     needs: ClassVar[Needs] = Needs(any_of=ADVISORY_KINDS)
+    reads_action_targets: ClassVar[bool] = True  # the episode engine publishes them while it plays
 
     def __init__(self, config: DAAPolicyConfig | None = None):
         self.config = config or DAAPolicyConfig()

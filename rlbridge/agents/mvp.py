@@ -46,13 +46,15 @@ class MVPActor:
     """Heading and altitude MVP on a use case's discrete advisories (see the module docstring).
 
     It acts on the step result (the targets of each action, ``info["action_targets"]``:
-    :mod:`rlbridge.usecases.targets`) and a traffic snapshot, so it runs on every backend.
+    :mod:`rlbridge.usecases.targets`, published because it asks, ``reads_action_targets``) and
+    a traffic snapshot, so it runs on every backend.
     """
 
     obs_format: str | None = None
     snapshot_fields: tuple[str, ...] = (*KINEMATIC_FIELDS, "trk", "gs", "created_s", "selalt", "ap_vs", "vmin",
                                         "vmax", "vsmin", "vsmax")
     needs: ClassVar[Needs] = Needs(any_of=MANOEUVRE_KINDS)  # heading or altitude actions
+    reads_action_targets: ClassVar[bool] = True  # the episode engine publishes them while it plays
 
     def __init__(self, config: MVPConfig | None = None):
         self.config = config or MVPConfig()
@@ -92,7 +94,8 @@ class MVPActor:
         published = result.info.get(TARGETS_KEY)
         if published is None:
             raise ValueError(f"baseline mvp reads the action targets of the step result (info[{TARGETS_KEY!r}]), "
-                             "which the episode engine adds for use cases with heading or altitude actions")
+                             "which the episode engine adds for use cases with heading or altitude actions while an "
+                             "actor with reads_action_targets = True plays")
         c = self.config
         rpz_m, hpz_m = protected_zone(c.rpz_m, c.hpz_m, snap.separation)
         conf = detect_on(snap, conflict_geometry(snap) if len(snap.ids) > 1 else None, rpz_m, hpz_m, c.lookahead_s)

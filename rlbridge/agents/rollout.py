@@ -34,6 +34,8 @@ from rlbridge.backends import BACKENDS, EpisodeBackend, make_backend
 from rlbridge.core import StepResult
 from rlbridge.policies import make_usecase_with_policies
 from rlbridge.usecases.registry import Observations
+from rlbridge.usecases.spec import metric_node, spec_of
+from rlbridge.usecases.targets import reads_action_targets
 from rlbridge.vector.engine import VectorEngine
 
 if TYPE_CHECKING:
@@ -87,14 +89,21 @@ class EpisodeStats:
     transitions: int  # aircraft-states generated for learning (agent decisions)
     reward_total: float  # sum of every agent's rewards
     reward_per_aircraft: float  # reward_total / aircraft (the learning-curve reward)
+    # The separation counts of the standard safety group (metrics["safety"]), kept as fields: the
+    # evaluation's episodes.csv and evaluation.json are written from them.
     nmac_events: int
     lowc_events: int
     sim_s: float
     wall_s: float
-    metrics: dict[str, Any] = field(default_factory=dict)  # standard safety/operational groups
+    metrics: dict[str, Any] = field(default_factory=dict)  # standard groups and the use case's extra_metrics
     # Environment steps: decisions of the multi-agent environment (one advances every aircraft by the
     # decision interval), what RLlib counts by default (count_steps_by="env_steps").
     env_steps: int = 0
+    # The metrics the use case declares (UseCaseSpec.declared_metrics: its learning-curve columns'
+    # and its extra_metrics), dotted path -> this episode's value as its metrics hold it (a number, a
+    # list of them; None where it has none), whatever the use case: "safety.nmac_events" for the
+    # corridor, "reach_destination.arrivals", "strategic_planning.mean_delay_s", ...
+    declared: dict[str, Any] = field(default_factory=dict)
 
     def to_dict(self) -> dict[str, Any]:
         return asdict(self)
@@ -234,6 +243,9 @@ class RolloutWorker:
         if text is None and path is not None:
             text = Path(path).read_text(encoding="utf-8", errors="replace")
         self.scenario_name = Path(path or env.scenario).stem
+        # The metrics the use case declares, recorded in each episode's statistics (EpisodeStats.declared).
+        usecase = getattr(first, "usecase", None) or make_usecase_with_policies(env.usecase, **env.params)
+        self.declared_metrics = spec_of(usecase).declared_metrics(usecase.name)
         # "" where the scenario is known to the server only (backend zmq).
         self.scenario_sha256 = hashlib.sha256(text.encode("utf-8")).hexdigest() if text is not None else ""
 
@@ -299,10 +311,13 @@ class RolloutWorker:
         cores: list[Any]
         if engine is not None:
             cores = engine.cores
+            for core in cores:
+                core.publish_targets = reads_action_targets(act)
             started = engine.reset(dict(enumerate(seeds)))
             results = [started[k] for k in range(len(seeds))]
         else:
             cores = [self._core_for(act)]
+            cores[0].publish_targets = reads_action_targets(act)  # the action targets only for an actor that reads them
             results = [cores[0].reset(seeds[0])]
         runs = [_EpisodeRun(self, core, int(s), record, result, t0) for core, s, result in zip(cores, seeds, results)]
         active = list(range(len(runs)))
@@ -427,7 +442,7 @@ class _EpisodeRun:
             reward_per_aircraft=self.reward_total / max(aircraft, 1),
             nmac_events=int(safety.get("nmac_events", 0)), lowc_events=int(safety.get("lowc_events", 0)),
             sim_s=float(result.simt), wall_s=time.perf_counter() - self.t0, metrics=metrics,
-            env_steps=self.env_steps)
+            env_steps=self.env_steps, declared={path: metric_node(metrics, path) for path in w.declared_metrics})
         self._batch = self.rec.batch(stats) if self.rec is not None else EpisodeBatch.empty(stats)
         self.finished = True
 

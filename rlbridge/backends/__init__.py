@@ -28,6 +28,8 @@ class EpisodeBackend(Protocol):
 
     possible_agents: list[str]
     agents: list[str]
+    # Whether step results carry the use case's action targets (rlbridge.usecases.targets), from the next reset.
+    publish_targets: bool
 
     def reset(self, seed: int | None = None) -> StepResult: ...
 

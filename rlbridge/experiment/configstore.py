@@ -10,6 +10,14 @@ Hydra's ConfigStore under ``schema/algorithm/<learner kind>`` and ``schema/useca
 dataclass itself and checks every override's type against the field
 (``algorithm.params.lr=abc`` is refused naming ``algorithm.params.lr``).
 
+The rest of ``config.yaml`` and ``evaluate.yaml`` (``scenario``, ``workers``, the ``train``,
+``env`` and ``ray`` sections, ...) comes the same way from
+:class:`rlbridge.experiment.schema.TrainConfig` and
+:class:`~rlbridge.experiment.schema.EvaluateConfig`, stored under ``schema/app/config`` and
+``schema/app/evaluate`` (``- /schema/app/config@_here_`` in the defaults list): as their
+defaults only, not typed nodes, because OmegaConf has no ``int | Literal["auto"]``; the types
+are checked by :func:`rlbridge.experiment.schema.check_config` before a job starts.
+
 Registration is a call, not an import side effect: the Hydra apps (``aamgym train``,
 ``aamgym evaluate``) call it before composing, and :func:`compose_config` composes for
 everything else (``aamgym study``, the preflight check, tests).
@@ -34,8 +42,16 @@ def schema_classes() -> dict[str, type]:
     return out
 
 
+def app_classes() -> dict[str, type]:
+    """The dataclass of each Hydra app's own keys, by its ConfigStore path (``schema/app/config``, ...)."""
+    from rlbridge.experiment.schema import SCHEMAS
+
+    return {f"{SCHEMA_GROUP}/app/{name}": cls for name, cls in SCHEMAS.items()}
+
+
 def register_configs() -> None:
-    """Store every learner's and use case's parameter dataclass in Hydra's ConfigStore (idempotent)."""
+    """Store every learner's and use case's parameter dataclass, and the apps' defaults, in Hydra's
+    ConfigStore (idempotent)."""
     from hydra.core.config_store import ConfigStore
     from omegaconf import OmegaConf
 
@@ -47,6 +63,11 @@ def register_configs() -> None:
         # (the dataclass itself stays frozen: the job builds it from the composed values).
         OmegaConf.set_readonly(node, False)
         store.store(group=group, name=name, node=node)
+    from rlbridge.experiment.schema import config_defaults
+
+    for path, cls in app_classes().items():
+        group, _, name = path.rpartition("/")
+        store.store(group=group, name=name, node=OmegaConf.create(config_defaults(cls)))
 
 
 def compose_config(config_name: str, overrides: Sequence[str] = ()) -> Any:
@@ -62,4 +83,4 @@ def compose_config(config_name: str, overrides: Sequence[str] = ()) -> Any:
         return compose(config_name, overrides=list(overrides))
 
 
-__all__ = ["compose_config", "register_configs", "schema_classes"]
+__all__ = ["app_classes", "compose_config", "register_configs", "schema_classes"]

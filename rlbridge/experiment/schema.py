@@ -20,7 +20,7 @@ from __future__ import annotations
 import types
 import typing
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, field, fields, is_dataclass
+from dataclasses import MISSING, dataclass, field, fields, is_dataclass
 from typing import Any, Literal, Union
 
 # ---- the sections of rlbridge/conf/config.yaml and evaluate.yaml ----------------------------------
@@ -46,88 +46,132 @@ class UsecaseSection:
 
 @dataclass
 class TrainSection:
-    """``train`` of ``config.yaml`` (the meaning of each key is commented there)."""
+    """``train`` of ``aamgym train``: the training loop's budget, checkpoints and learner threads."""
 
-    iterations: int | None = None
-    hours: float | None = None
-    aircraft_states: int | None = None
-    episodes_per_worker: int = 1
-    checkpoint_every: int = 10
-    best_window: int = 25
-    baseline_episodes: int = 2
-    resume: str | None = None
+    iterations: int | None = None  # training iterations; one iteration = workers x episodes_per_worker episodes
+    hours: float | None = None  # wall-clock budget [h]; with neither set, 100 iterations
+    aircraft_states: int | None = None  # budget of aircraft-states: no iteration starts once this many were collected
+    episodes_per_worker: int = 1  # episodes each worker returns per iteration (the paper: 1)
+    checkpoint_every: int = 10  # iterations between checkpoints/last.pt
+    best_window: int = 25  # rolling-mean window [iterations] choosing checkpoints/best.pt (the paper: 25)
+    baseline_episodes: int = 2  # unequipped episodes on the training scenario, the learning curves' reference
+    resume: str | None = None  # a run directory or checkpoint file to continue from
+    # PyTorch threads of the learner; auto = the CPUs the workers leave free (at least 1).
     torch_threads: int | Literal["auto"] = 1
+    # auto: on cuda the fixed-shape update captured in CUDA graphs, on a cpu the eager one (the same
+    # losses); true / false force it (true on a cpu: run eagerly, for tests).
     static_learner: bool | Literal["auto"] = "auto"
+    # serial: workers play, then the learner updates (the paper's loop); overlap: workers play
+    # iteration k+1 while the learner updates on k (policy lag 1).
     mode: Literal["serial", "overlap"] = "serial"
 
 
 @dataclass
 class EnvSection:
-    time_limit_s: float | None = None  # [s of sim time]
-    dt: float = 0.05  # [s]
+    """``env`` of ``aamgym train``: the episodes' simulation."""
+
+    time_limit_s: float | None = None  # episode limit [s of sim time]; null = last scenario command + 2 h
+    dt: float = 0.05  # simulation step [s]
 
 
 @dataclass
 class EvalEnvSection:
+    """``env`` of ``aamgym evaluate``."""
+
     time_limit_s: float | None = None  # [s of sim time]; null: the training run's
     dt: float | None = None  # [s]; null: the training run's
 
 
 @dataclass
 class RaySection:
-    address: str | None = None
-    num_cpus: int | None = None
-    cpus_per_worker: float = 1.0
+    """``ray``: where the rollout workers run."""
+
+    address: str | None = None  # a Ray cluster (auto, ray://head:10001); null = start a local Ray
+    num_cpus: int | None = None  # CPUs of the local Ray (null: max(cpu count, workers))
+    cpus_per_worker: float = 1  # (an integer: the value the YAML composed before)
+
+
+def _standard_metrics() -> list[str]:
+    return ["safety", "operational"]
 
 
 @dataclass
 class TrainConfig:
-    """``aamgym train`` (``rlbridge/conf/config.yaml``)."""
+    """``aamgym train`` (``rlbridge/conf/config.yaml``: its defaults list; every default is here)."""
 
     algorithm: AlgorithmSection
     usecase: UsecaseSection
-    scenario: str = "nyc_train_100"
+    scenario: str = "nyc_train_100"  # a scenario shipped in aamsim/scn (as `aamsim run` resolves it) or a path
+    # Rollout workers as Ray actors; 0 = one in-process worker (debugging); auto = the cores the
+    # learner leaves (cuda: all but one; cpu: half).
     workers: int | Literal["auto"] = 2
+    # Where the episodes run: local (aamsim in this process), zmq (a simulation server at address,
+    # from `aamsim serve`), bluesky (BlueSky flies the aircraft).
     backend: Literal["local", "zmq", "bluesky"] = "local"
-    address: str | None = None  # backend=zmq: tcp://host:port
-    timeout_s: float = 30.0  # backend=zmq: the longest wait for one reply [s]
-    seed: int = 0
-    device: str = "cpu"
-    out_dir: str = "runs"
-    metrics: list[str] = field(default_factory=list)
+    address: str | None = None  # backend=zmq: the server's address, tcp://host:port (as `aamsim serve` prints it)
+    timeout_s: float = 30.0  # backend=zmq: the longest wait for one reply [s] (a server's first reset compiles)
+    seed: int = 0  # run seed: network init, episode seeds (seed, iteration, worker), sampling
+    device: str = "cpu"  # cpu | cuda | auto (cuda when available)
+    out_dir: str = "runs"  # runs land in ${out_dir}/train/<time>_<algorithm>_s<seed>
+    metrics: list[str] = field(default_factory=_standard_metrics)  # metric groups computed for every episode
     train: TrainSection = field(default_factory=TrainSection)
     env: EnvSection = field(default_factory=EnvSection)
     ray: RaySection = field(default_factory=RaySection)
 
 
+def _evaluation_lanes_ft() -> list[float]:
+    return [500.0, 1200.0, 1900.0]
+
+
 @dataclass
 class EvaluateConfig:
-    """``aamgym evaluate`` (``rlbridge/conf/evaluate.yaml``)."""
+    """``aamgym evaluate`` (``rlbridge/conf/evaluate.yaml``: its defaults list; every default is here)."""
 
-    usecase: UsecaseSection
-    run: str | None = None
-    policy: str | None = None  # pretrained:<name> or an exported policy folder
-    baseline: str | None = None
-    checkpoint: str = "best"
-    scenario: str | None = None
+    usecase: UsecaseSection  # the use case of a baseline evaluation (a training run brings its own)
+    run: str | None = None  # training run directory (or a checkpoint file) ...
+    policy: str | None = None  # ... or a pretrained policy: pretrained:<name> or an exported policy folder ...
+    baseline: str | None = None  # ... or a baseline evaluated on its own: unequipped | mvp_speed | daa
+    checkpoint: str = "best"  # best | last | a checkpoint path
+    scenario: str | None = None  # null = the training scenario (a baseline evaluation needs one)
+    # local (aamsim) | bluesky (BlueSky flies the aircraft: the policy checked on BlueSky itself)
     backend: Literal["local", "bluesky"] = "local"
-    episodes: int = 100
+    episodes: int = 100  # episodes per policy, seeds seed .. seed + episodes - 1
     seed: int = 0
-    workers: int = 2
-    alt_noise_ft: float = 100.0
-    alt_noise_lanes_ft: list[float] = field(default_factory=list)
+    workers: int = 2  # Ray workers (0 = in-process)
+    alt_noise_ft: float = 100.0  # the scenario's altitude noise, drawn per episode seed [ft] ...
+    # ... around these lanes, replacing the converted noise [ft]
+    alt_noise_lanes_ft: list[float] = field(default_factory=_evaluation_lanes_ft)
+    # Evaluated on the same seeds (unequipped always); null = the use case's own (its spec's baselines).
     baselines: list[str] | None = None
-    greedy: bool | None = None
-    sampled_epsilon: float = 0.05  # epsilon of a value-based policy evaluated with greedy=false
-    name: str | None = None
-    metrics: list[str] = field(default_factory=list)
+    greedy: bool | None = None  # null = the algorithm's choice (DDQN: greedy; D2MAV-A: its greedy_eval)
+    # greedy=false on a value-based policy (DDQN): epsilon-greedy with this epsilon (Mnih et al. 2015's protocol)
+    sampled_epsilon: float = 0.05
+    name: str | None = None  # the policy's label in reports (null = the algorithm's label)
+    metrics: list[str] = field(default_factory=_standard_metrics)
+    # true: the first seed's episode of each policy beside the unequipped one, as MP4s in videos/
+    # (its run directory in episodes/<policy>/seed-NNNN/, replayable: aamsim view)
     video: bool = False
-    video_speed: float = 60.0
+    video_speed: float = 60.0  # sim seconds per second of video
     video_fps: float = 10.0
     device: str = "cpu"
     out_dir: str = "runs"
     env: EvalEnvSection = field(default_factory=EvalEnvSection)
     ray: RaySection = field(default_factory=RaySection)
+
+
+def config_defaults(cls: type) -> dict[str, Any]:
+    """The defaults of a configuration dataclass as plain data (nested sections included); fields
+    without a default (``algorithm``, ``usecase``: the defaults list's groups) are left out."""
+    out: dict[str, Any] = {}
+    for f in fields(cls):
+        if f.default is not MISSING:
+            value = f.default
+        elif f.default_factory is not MISSING:
+            value = f.default_factory()
+        else:
+            continue
+        out[f.name] = config_defaults(type(value)) if is_dataclass(value) else value
+    return out
 
 
 SCHEMAS: dict[str, type] = {"config": TrainConfig, "evaluate": EvaluateConfig}
@@ -240,4 +284,4 @@ def _show(value: Any) -> str:
 
 
 __all__ = ["SCHEMAS", "AlgorithmSection", "EvaluateConfig", "TrainConfig", "UsecaseSection", "check_config",
-           "check_mapping", "check_value", "describe", "fits"]
+           "check_mapping", "check_value", "config_defaults", "describe", "fits"]

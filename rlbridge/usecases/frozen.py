@@ -26,7 +26,7 @@ import numpy as np
 
 from aamsim.snapshots import take_snapshot
 from rlbridge.usecases.protocol import Observations
-from rlbridge.usecases.targets import step_info
+from rlbridge.usecases.targets import reads_action_targets, step_info
 
 if TYPE_CHECKING:
     from aamsim import Simulation
@@ -72,8 +72,10 @@ class FrozenPolicy:
             return None
 
         n = len(agents)
+        # The action targets only for an actor that reads them (a learner never does; they cost a computation).
+        info = step_info(handle.usecase, handle.sim, agents, targets=reads_action_targets(self.actor))
         result = StepResult(agents, obs, np.zeros(n), np.zeros(n, bool), np.zeros(n, bool), list(agents),
-                            handle.sim.simt, False, info=step_info(handle.usecase, handle.sim, agents))
+                            handle.sim.simt, False, info=info)
         if handle.usecase is not self._checked:
             check = getattr(self.actor, "check_usecase", None)
             if check is not None:

@@ -56,12 +56,22 @@ class CurveColumn:
 
     def value(self, metrics: dict[str, Any], aircraft: int) -> float:
         """This column's value for one episode (NaN when the episode has no such metric)."""
-        node: Any = metrics
-        for key in self.metric.split("."):
-            node = node.get(key) if isinstance(node, dict) else None
-        if node is None:
-            return float("nan")
-        return float(node) / max(aircraft, 1) if self.per_aircraft else float(node)
+        total = metric_at(metrics, self.metric)
+        return total / max(aircraft, 1) if self.per_aircraft else total
+
+
+def metric_node(metrics: dict[str, Any], path: str) -> Any:
+    """What an episode's metrics hold at a dotted ``path`` (``safety.nmac_events``), as is; None when absent."""
+    node: Any = metrics
+    for key in path.split("."):
+        node = node.get(key) if isinstance(node, dict) else None
+    return node
+
+
+def metric_at(metrics: dict[str, Any], path: str) -> float:
+    """The number at a dotted ``path`` of an episode's metrics (``safety.nmac_events``); NaN when absent."""
+    node = metric_node(metrics, path)
+    return float("nan") if node is None else float(node)
 
 
 # The separation columns every use case flying aircraft shares (the corridor's learning curve).
@@ -108,6 +118,12 @@ class UseCaseSpec:
     plans_departures: bool = False
     policy_params: tuple[str, ...] = ()
     curve: tuple[CurveColumn, ...] = SEPARATION_CURVE
+
+    def declared_metrics(self, name: str) -> tuple[str, ...]:
+        """The dotted paths of the episode metrics it declares, for a use case registered as ``name``:
+        its curve columns' metrics, then its ``extra_metrics`` (``name.key``), each once."""
+        paths = [c.metric for c in self.curve] + [f"{name}.{key}" for key in self.metrics]
+        return tuple(dict.fromkeys(paths))
 
     def __post_init__(self) -> None:
         if not (isinstance(self.params_class, type) and is_dataclass(self.params_class)):

@@ -12,6 +12,11 @@ result and a traffic snapshot, on every backend:
   (:meth:`rlbridge.usecases.protocol.UseCaseBase.action_targets`);
 * ``info["departure_request"]`` for a use case with departure-slot actions
   (:func:`departure_request_info`).
+
+Both cost a computation per decision, which a learner never reads: the action targets are
+published only while an actor that asks for them plays (``reads_action_targets = True``,
+:func:`reads_action_targets`; ``EpisodeCore.publish_targets``; over ZeroMQ the ``targets``
+field of a ``reset``). The departure request is published for departure-slot use cases only.
 """
 
 from __future__ import annotations
@@ -26,6 +31,11 @@ MANOEUVRE_KINDS = ("heading", "altitude")
 TARGET_KINDS = ("speed", *MANOEUVRE_KINDS)  # the kinds whose action targets are published
 TARGETS_KEY = "action_targets"  # the step result's info key
 REQUEST_KEY = "departure_request"  # the step result's info key of the departure planner's request
+
+
+def reads_action_targets(actor: Any) -> bool:
+    """Whether ``actor`` reads the published action targets (its ``reads_action_targets``; False when absent)."""
+    return bool(getattr(actor, "reads_action_targets", False))
 
 
 def action_target_info(usecase: Any, sim: Any, agents: list[str]) -> dict[str, Any]:
@@ -82,6 +92,7 @@ def departure_request_info(usecase: Any) -> dict[str, Any]:
     return {REQUEST_KEY: out}
 
 
-def step_info(usecase: Any, sim: Any, agents: list[str]) -> dict[str, Any]:
-    """Everything the episode engine publishes in a step result's ``info`` (the module docstring)."""
-    return {**action_target_info(usecase, sim, agents), **departure_request_info(usecase)}
+def step_info(usecase: Any, sim: Any, agents: list[str], targets: bool = True) -> dict[str, Any]:
+    """Everything the episode engine publishes in a step result's ``info`` (the module docstring);
+    ``targets``: whether the action targets are asked for (an acting policy reads them)."""
+    return {**(action_target_info(usecase, sim, agents) if targets else {}), **departure_request_info(usecase)}
