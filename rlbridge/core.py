@@ -148,6 +148,7 @@ class EpisodeCore:
         # set while an actor that reads them plays; a learner never does, and they cost a
         # computation per decision.
         self.publish_targets = False
+        self._cut_at_limit: list[str] = []  # the agents the time limit cut at the episode's last step
         template = Simulation(use_bluesky_navdata=True)
         self._parsed = template.parse(self.text, str(path))
         self.parse_errors = [str(e) for e in self._parsed.errors]
@@ -298,6 +299,7 @@ class EpisodeCore:
         self.seed = seed
         self.agents = []
         self._reported = set()
+        self._cut_at_limit = []
         self._left = {}
         self._live = dict.fromkeys(self.usecase.standing_agents)
         self.sim = self._new_simulation(seed)
@@ -382,6 +384,8 @@ class EpisodeCore:
             if a not in watched_before:  # an agent's first observation comes with no reward
                 rewards[k] = 0.0
         truncated = np.array([truncate and a in alive_set for a in reported], bool)
+        if truncate:
+            self._cut_at_limit = [a for a, t in zip(reported, truncated) if t]
         self.agents = [] if truncate else list(now_alive)
         self._reported = set(self._watched(self.agents))
         return StepResult(reported, obs, rewards, terminated, truncated, list(self.agents), sim.simt, over,
@@ -463,6 +467,8 @@ class EpisodeCore:
         if self._scenario_over():
             self.sim.services.conflicts.finish(self.sim)
         out = self.sim.services.metrics.compute(self.sim, groups)
+        if "operational" in out:
+            out["operational"].update(self._time_limit_counts())
         extra = self.usecase.extra_metrics(self.sim)
         undeclared = sorted(set(extra) - set(self.spec.metrics))
         if undeclared:
@@ -471,6 +477,22 @@ class EpisodeCore:
         if extra:
             out[self.usecase.name] = extra
         return out
+
+    def _time_limit_counts(self) -> dict[str, int]:
+        """Aircraft still flying when the time limit cut the episode, and of them those hovering.
+
+        ``parked_at_time_limit`` counts the aircraft cut by the limit with a ground speed under the
+        simulation's holding threshold (``hold_speed_mps``, 5 kt): a policy that parks aircraft in
+        the air rather than resolve a conflict leaves them there (the corridor use case's "hold"
+        keeps 0 kt for free). Computed where the simulation runs, so a ZeroMQ client gets them too;
+        agents without an aircraft (a departure planner) are not counted. Both 0 before the end.
+        """
+        assert self.sim is not None
+        view = self.sim.view
+        slots = [slot for slot in (view.find(a) for a in self._cut_at_limit) if slot is not None]
+        threshold = float(self.sim.settings.hold_speed_mps)
+        parked = sum(1 for slot in slots if abs(float(view.gs[slot])) < threshold)
+        return {"airborne_at_time_limit": len(slots), "parked_at_time_limit": parked}
 
     def stack(self, text: str) -> list[str]:
         """Run stack commands now; returns the messages they produced."""

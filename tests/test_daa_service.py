@@ -161,6 +161,7 @@ def test_daa_policy_acts_on_any_use_case_with_speed_actions():
     actor = make_actor({"kind": "daa", "config": {"daa": {"taumod_s": 20.0}}})
     actor.check_usecase(core.usecase)
     assert actor.daa.params.taumod_s == 20.0
+    core.publish_targets = True  # what a rollout asks for an actor that reads the action targets
     result = core.reset(0)
     rng = np.random.default_rng(0)
     advised = 0
@@ -192,6 +193,7 @@ def test_daa_policy_releases_an_agent_its_actions_cannot_bring_closer_to_its_own
     actor = make_actor({"kind": "daa"})
     actor.check_usecase(core.usecase)
     rng = np.random.default_rng(0)
+    core.publish_targets = True  # what a rollout asks for an actor that reads the action targets
     result = core.reset(0)
     out = actor.act(result, policy_input(actor, core), rng, {})
     assert not out.advise.any()  # parallel, 2 km apart: no alert

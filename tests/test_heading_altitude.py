@@ -24,6 +24,7 @@ from rlbridge.agents.rollout import policy_input
 from rlbridge.core import EpisodeCore
 from rlbridge.usecases.protocol import AdvisoryKindError
 from rlbridge.usecases.spec import CapabilityError
+from rlbridge.usecases.targets import reads_action_targets
 
 HERE = Path(__file__).parent
 ROOT = HERE.parent
@@ -122,6 +123,7 @@ def run_episode(kind: str, seed: int = 0) -> dict:
     if check is not None:
         check(core.usecase)
     rng = np.random.default_rng(0)
+    core.publish_targets = reads_action_targets(actor)  # as a rollout asks for the acting policy
     result = core.reset(seed)
     while not result.done:
         out = actor.act(result, policy_input(actor, core), rng, {})

@@ -135,7 +135,9 @@ class DAAActor:
         published = result.info.get(TARGETS_KEY)
         if published is None:
             raise ValueError(f"baseline daa reads the action targets of the step result (info[{TARGETS_KEY!r}]), "
-                             "which the episode engine adds for use cases with speed, heading or altitude actions")
+                             "which the episode engine adds for use cases with speed, heading or altitude actions when "
+                             "asked (EpisodeCore.publish_targets = True; a rollout asks for an actor with "
+                             "reads_action_targets = True)")
         sim = SnapshotState(snapshot)
         facts = self._usecase
         if "speed" not in facts.kinds:

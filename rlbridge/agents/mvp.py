@@ -94,8 +94,9 @@ class MVPActor:
         published = result.info.get(TARGETS_KEY)
         if published is None:
             raise ValueError(f"baseline mvp reads the action targets of the step result (info[{TARGETS_KEY!r}]), "
-                             "which the episode engine adds for use cases with heading or altitude actions while an "
-                             "actor with reads_action_targets = True plays")
+                             "which the episode engine adds for use cases with heading or altitude actions when "
+                             "asked (EpisodeCore.publish_targets = True; a rollout asks for an actor with "
+                             "reads_action_targets = True)")
         c = self.config
         rpz_m, hpz_m = protected_zone(c.rpz_m, c.hpz_m, snap.separation)
         conf = detect_on(snap, conflict_geometry(snap) if len(snap.ids) > 1 else None, rpz_m, hpz_m, c.lookahead_s)

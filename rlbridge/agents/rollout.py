@@ -432,7 +432,8 @@ class _EpisodeRun:
     def _finish(self) -> None:
         w, core, result = self.worker, self.core, self.result
         metrics = core.metrics(tuple(dict.fromkeys(("safety",) + tuple(w.env.metrics))))
-        if "operational" in metrics:
+        if "operational" in metrics and "airborne_at_time_limit" not in metrics["operational"]:
+            # An engine that does not count them itself (a server from before EpisodeCore did).
             metrics["operational"].update(time_limit_counts(core, result))
         safety = metrics.get("safety", {})
         aircraft = int(metrics.get("operational", {}).get("flights") or len(core.possible_agents))
