@@ -54,7 +54,7 @@ from rlbridge.agents.rollout import ActOutput
 from rlbridge.core import StepResult
 from rlbridge.usecases.protocol import ADVISORY_KINDS
 from rlbridge.usecases.spec import Needs, check_fits, spec_of
-from rlbridge.usecases.targets import TARGETS_KEY
+from rlbridge.usecases.targets import published_targets
 
 
 @dataclass(frozen=True)
@@ -132,12 +132,7 @@ class DAAActor:
         if rng is not self._episode:  # a new episode (each has its own generator): forget the previous aircraft
             self._episode, self._held, self._own = rng, {}, {}
             self._manoeuvre = ManoeuvreDAA(self.daa)
-        published = result.info.get(TARGETS_KEY)
-        if published is None:
-            raise ValueError(f"baseline daa reads the action targets of the step result (info[{TARGETS_KEY!r}]), "
-                             "which the episode engine adds for use cases with speed, heading or altitude actions when "
-                             "asked (EpisodeCore.publish_targets = True; a rollout asks for an actor with "
-                             "reads_action_targets = True)")
+        published = published_targets(result.info, "baseline daa")
         sim = SnapshotState(snapshot)
         facts = self._usecase
         if "speed" not in facts.kinds:

@@ -28,7 +28,7 @@ from rlbridge.agents.baselines import KINEMATIC_FIELDS, conflict_geometry, prote
 from rlbridge.agents.rollout import ActOutput
 from rlbridge.core import StepResult
 from rlbridge.usecases.spec import Needs, check_fits
-from rlbridge.usecases.targets import MANOEUVRE_KINDS, TARGETS_KEY
+from rlbridge.usecases.targets import MANOEUVRE_KINDS, published_targets
 
 
 @dataclass(frozen=True)
@@ -91,12 +91,7 @@ class MVPActor:
         advise = np.zeros(len(result.agents), dtype=bool)
         if not rows:
             return ActOutput(actions, advise=advise)
-        published = result.info.get(TARGETS_KEY)
-        if published is None:
-            raise ValueError(f"baseline mvp reads the action targets of the step result (info[{TARGETS_KEY!r}]), "
-                             "which the episode engine adds for use cases with heading or altitude actions when "
-                             "asked (EpisodeCore.publish_targets = True; a rollout asks for an actor with "
-                             "reads_action_targets = True)")
+        published = published_targets(result.info, "baseline mvp")
         c = self.config
         rpz_m, hpz_m = protected_zone(c.rpz_m, c.hpz_m, snap.separation)
         conf = detect_on(snap, conflict_geometry(snap) if len(snap.ids) > 1 else None, rpz_m, hpz_m, c.lookahead_s)

@@ -38,6 +38,18 @@ def reads_action_targets(actor: Any) -> bool:
     return bool(getattr(actor, "reads_action_targets", False))
 
 
+def published_targets(info: dict[str, Any], who: str) -> dict[str, Any]:
+    """The action targets a step result's ``info`` carries; a ValueError naming ``who`` and how to ask
+    for them when it carries none."""
+    published = info.get(TARGETS_KEY)
+    if published is None:
+        raise ValueError(f"{who} reads the action targets of the step result (info[{TARGETS_KEY!r}]), which the "
+                         "episode engine adds for use cases with speed, heading or altitude actions when asked "
+                         "(EpisodeCore.publish_targets = True; a rollout asks for an actor with "
+                         "reads_action_targets = True)")
+    return dict(published)
+
+
 def action_target_info(usecase: Any, sim: Any, agents: list[str]) -> dict[str, Any]:
     """``{"action_targets": {"agents": [...], kind: (n, n_actions) float64, ...}}`` for the speed, heading
     and altitude kinds the use case declares (CAS [m/s], track [deg], altitude [m]); ``{}`` for a use case
