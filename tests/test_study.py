@@ -142,19 +142,10 @@ def _tiny_plan(**kw) -> StudyPlan:
     return plan
 
 
-def test_a_study_interrupted_inside_a_training_run_continues_it_exactly(tmp_path, monkeypatch):
-    """A slice of the study ends in the middle of a run; the next slice continues from its last checkpoint
-    and ends where an uninterrupted run ends (same curve, same best policy); finished runs are exported."""
-    import numpy as np
-
+def _train_until_the_session_ends(monkeypatch, plan: StudyPlan, work: Path, out: Path) -> None:
+    """The study's training stage, cut right after the last checkpoint of iteration 2 (the slice ends)."""
     from rlbridge.experiment import study as study_module
     from rlbridge.experiment import train as train_module
-
-    plan = _tiny_plan()
-    whole = study_module.run_study(plan, tmp_path / "whole", tmp_path / "whole_out", ("train",))
-    assert whole["training_runs"] == ["train/corridor_sa/d2mava_a_s0"] and whole["evaluations"] == []
-    curve_whole = rows(tmp_path / "whole" / "train/corridor_sa/d2mava_a_s0/learning_curve.csv")
-    assert len(curve_whole) >= 3
 
     real_save = train_module.save_checkpoint
 
@@ -162,10 +153,26 @@ def test_a_study_interrupted_inside_a_training_run_continues_it_exactly(tmp_path
         real_save(path, learner, state, meta)
         if path.name == "last.pt" and state.iteration == 2:
             raise KeyboardInterrupt  # the session ends here
-    monkeypatch.setattr(train_module, "save_checkpoint", save_then_stop)
-    with pytest.raises(KeyboardInterrupt):
-        study_module.run_study(plan, tmp_path / "cut", tmp_path / "cut_out", ("train",))
-    monkeypatch.setattr(train_module, "save_checkpoint", real_save)
+    with monkeypatch.context() as m:
+        m.setattr(train_module, "save_checkpoint", save_then_stop)
+        with pytest.raises(KeyboardInterrupt):
+            study_module.run_study(plan, work, out, ("train",))
+
+
+def test_a_study_interrupted_inside_a_training_run_continues_it_exactly(tmp_path, monkeypatch):
+    """A slice of the study ends in the middle of a run; the next slice continues from its last checkpoint
+    and ends where an uninterrupted run ends (same curve, same best policy); finished runs are exported."""
+    import numpy as np
+
+    from rlbridge.experiment import study as study_module
+
+    plan = _tiny_plan()
+    whole = study_module.run_study(plan, tmp_path / "whole", tmp_path / "whole_out", ("train",))
+    assert whole["training_runs"] == ["train/corridor_sa/d2mava_a_s0"] and whole["evaluations"] == []
+    curve_whole = rows(tmp_path / "whole" / "train/corridor_sa/d2mava_a_s0/learning_curve.csv")
+    assert len(curve_whole) >= 3
+
+    _train_until_the_session_ends(monkeypatch, plan, tmp_path / "cut", tmp_path / "cut_out")
     run = tmp_path / "cut" / "train/corridor_sa/d2mava_a_s0"
     assert not (run / "training_summary.json").exists() and len(rows(run / "learning_curve.csv")) == 2
     study_module.run_study(plan, tmp_path / "cut", tmp_path / "cut_out", ("train",))
@@ -186,6 +193,88 @@ def test_a_study_interrupted_inside_a_training_run_continues_it_exactly(tmp_path
     provenance = json.loads((exported / "policy.json").read_text())["provenance"]
     assert provenance["seed"] == 0 and provenance["aircraft_states_budget"] == 200
     assert provenance["training_scenario"] == "tiny_conflict"
+
+
+def _strings(x) -> list[str]:
+    if isinstance(x, dict):
+        return [s for v in x.values() for s in _strings(v)]
+    if isinstance(x, (list, tuple)):
+        return [s for v in x for s in _strings(v)]
+    return [x] if isinstance(x, str) else []
+
+
+def _without_wall_time(path: Path) -> list[dict[str, str]]:
+    return [{k: v for k, v in r.items() if k != "wall_s"} for r in rows(path)]
+
+
+def test_a_study_continues_on_a_new_machine_from_its_committed_files(tmp_path, monkeypatch):
+    """A session's work directory dies with its machine; the next session has only what was committed
+    under --out. A run parked in the middle (--park) continues from there exactly; a finished run's export
+    is evaluated from its plain-data weights with the figures its checkpoint gives; an exported evaluation
+    is not played again, and the report reads every cost column from the committed files."""
+    import shutil
+
+    import numpy as np
+
+    from rlbridge.experiment import evaluate as evaluate_module
+    from rlbridge.experiment import study as study_module
+    from rlbridge.experiment import train as train_module
+    from rlbridge.experiment.train import load_checkpoint
+
+    plan = _tiny_plan()
+    whole = tmp_path / "whole"  # the reference: one machine, start to end, evaluated from its checkpoint
+    study_module.run_study(plan, whole, tmp_path / "whole_out", ("train", "evaluate"))
+    out = tmp_path / "committed"
+
+    _train_until_the_session_ends(monkeypatch, plan, tmp_path / "machine1", out)
+    proc = run_script(["--park", "--work", str(tmp_path / "machine1"), "--out", str(out), "--contenders", "d2mava_a",
+                       "--usecases", "corridor_sa", "--seeds", "0", "--train-scenario", TINY], timeout=600)
+    parked = out / "in_progress/corridor_sa/d2mava_a_s0"
+    assert "parked corridor_sa/d2mava_a_s0" in proc.stdout
+    assert sorted(str(p.relative_to(parked)) for p in parked.rglob("*") if p.is_file()) == [
+        "baseline.json", "checkpoints/best.pt", "checkpoints/last.pt", "learning_curve.csv", "resolved_config.yaml"]
+    for name in ("last.pt", "best.pt"):  # no path of this machine, in the files or in the checkpoints
+        ckpt = load_checkpoint(parked / "checkpoints" / name)
+        assert not [t for t in _strings(ckpt) if str(tmp_path) in t or str(ROOT) in t], name
+        assert ckpt["run_dir"] == "train/corridor_sa/d2mava_a_s0"
+    assert load_checkpoint(parked / "checkpoints" / "last.pt")["state"]["iteration"] == 2
+    for name in ("baseline.json", "learning_curve.csv", "resolved_config.yaml"):
+        assert str(tmp_path) not in (parked / name).read_text()
+    shutil.rmtree(tmp_path / "machine1")
+
+    study_module.run_study(plan, tmp_path / "machine2", out, ("train",))  # continues from the parked copy
+    run_id = "corridor_sa/d2mava_a_s0"
+    curve, curve_whole = (rows(d / "train" / run_id / "learning_curve.csv") for d in (tmp_path / "machine2", whole))
+    assert [(r["iteration"], r["reward_mean"], r["aircraft_states_total"]) for r in curve] == \
+        [(r["iteration"], r["reward_mean"], r["aircraft_states_total"]) for r in curve_whole]
+    assert not parked.exists()  # the export replaces the parked copy
+    with np.load(out / "runs" / run_id / "policy.npz") as got, \
+            np.load(tmp_path / "whole_out" / "runs" / run_id / "policy.npz") as ref:
+        for k in ref.files:
+            np.testing.assert_array_equal(got[k], ref[k])
+    shutil.rmtree(tmp_path / "machine2")
+
+    index = study_module.run_study(plan, tmp_path / "machine3", out, ("evaluate",))  # from the export only
+    assert index["training_runs"] == [f"train/{run_id}"] and index["evaluations"] == [f"eval/{run_id}/tiny_conflict_greedy"]
+    assert _without_wall_time(out / "evaluations" / run_id / "tiny_conflict_greedy" / "episodes.csv") == \
+        _without_wall_time(whole / "eval" / run_id / "tiny_conflict_greedy" / "episodes.csv")
+    shutil.rmtree(tmp_path / "machine3")
+
+    def must_not_run(*args, **kwargs):
+        raise AssertionError("played again what is committed")
+    monkeypatch.setattr(evaluate_module, "run_evaluation", must_not_run)
+    monkeypatch.setattr(train_module, "run_training", must_not_run)
+    index = study_module.run_study(plan, tmp_path / "machine4", out, ("train", "evaluate", "report"))
+    assert index["evaluations"] == [f"eval/{run_id}/tiny_conflict_greedy"]
+    # The tables from the committed files are the tables from the per-episode folders of the reference.
+    from rlbridge.experiment.report import make_report
+
+    make_report([whole / "eval" / run_id / "tiny_conflict_greedy"], [whole / "train" / run_id], tmp_path / "ref")
+    for name in ("risk_ratio.csv", "lowc_ratio.csv", "operational.csv", "nmac_encounters.csv"):
+        assert (out / name).read_text() == (tmp_path / "ref" / name).read_text(), name
+    learned = next(r for r in rows(out / "risk_ratio.csv") if r["Algorithm"].startswith("D2MAV-A No Shared"))
+    assert learned["flights holding [%] - tiny_conflict"] == "50.0"  # not in episodes.csv: from episode_metrics.csv
+    assert learned["parked at time limit - tiny_conflict"] == "1.00"
 
 
 def test_baseline_episodes_are_played_once_per_study_and_ddqn_sampled_means_epsilon_005(tmp_path, monkeypatch):
@@ -212,8 +301,8 @@ def test_baseline_episodes_are_played_once_per_study_and_ddqn_sampled_means_epsi
     # naming no path of this machine, and the summary's figures are the work directory's.
     for e in index["evaluations"]:
         exported = tmp_path / "out" / "evaluations" / Path(e).relative_to("eval")
-        assert sorted(p.name for p in exported.iterdir()) == ["episodes.csv", "evaluation.json",
-                                                              "resolved_config.yaml"]
+        assert sorted(p.name for p in exported.iterdir()) == ["episode_metrics.csv", "episodes.csv",
+                                                              "evaluation.json", "resolved_config.yaml"]
         for f in exported.iterdir():
             assert str(tmp_path) not in f.read_text(), f
         assert exported.joinpath("episodes.csv").read_text() == (tmp_path / "work" / e / "episodes.csv").read_text()

@@ -7,6 +7,8 @@ altitude noise, ``alt_noise_ft``) of the trained policy loaded from the run's
 * ``episodes/<policy>/seed-NNNN/summary.json`` — the ``aamsim run`` schema, so that
   ``aamsim compare <eval>/episodes/<policy> <eval>/episodes/unequipped`` works too;
 * ``episodes.csv`` — one row per (policy, seed) with the main metrics;
+* ``episode_metrics.csv`` — one row per (policy, seed) with every metric of its ``summary.json``, flat
+  (what ``aamgym report`` reads when the per-episode folders are not there: a committed evaluation);
 * ``evaluation.json`` — risk ratio and LoWC ratio (mean, std and pooled over seed pairs,
   :mod:`aamsim.metrics.compare`) and mean safety/operational metrics per policy.
 
@@ -40,6 +42,7 @@ from omegaconf import DictConfig, OmegaConf
 from aamsim.metrics.compare import compare_runs, expand_runs
 from rlbridge.agents import BASELINE_KINDS
 from rlbridge.agents.rollout import EnvSpec, EpisodeStats
+from rlbridge.experiment.report import write_episode_metrics
 from rlbridge.experiment.train import find_checkpoint, load_checkpoint, resolve_scenario_path
 from rlbridge.experiment.workers import make_pool
 from rlbridge.policies import make_usecase_with_policies
@@ -326,6 +329,8 @@ def play_and_report(cfg: DictConfig, out: Path, env: EnvSpec, name: str, label: 
                              s.transitions, s.sim_s, f"{s.wall_s:.3f}", op.get("flights_completed"),
                              op.get("alert_rate_per_flight_hour"), op.get("airborne_holding_s"),
                              op.get("mean_flight_time_s"), op.get("mean_delay_s"), sa.get("min_separation_m")])
+    write_episode_metrics(out / "episode_metrics.csv",
+                          {policy: [s.summary() for s in got] for policy, got in results.items()})
     base_runs = expand_runs([out / "episodes" / "unequipped"])
     policies: dict[str, Any] = {}
     for policy, got in results.items():

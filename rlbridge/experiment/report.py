@@ -128,24 +128,74 @@ def load_evaluations(dirs: list[Path]) -> tuple[dict[str, dict[str, Cell]], list
     return cells, order, scenarios
 
 
+def flat_episode_metrics(summary: dict[str, Any]) -> dict[str, float]:
+    """One episode's ``summary.json`` (the ``aamsim run`` schema) as the flat numbers the tables read:
+    ``reward_per_aircraft``, ``nmac_events``, ``lowc_events`` and ``<group>.<metric>``."""
+    flights = max(summary.get("flights_created", 1), 1)
+    flat: dict[str, float] = {"reward_per_aircraft": summary.get("reward_total", 0.0) / flights}
+    for group in ("safety", "operational") + PLANNING_GROUPS:
+        for k, v in (summary.get(group) or {}).items():
+            if isinstance(v, (int, float)) and not isinstance(v, bool):
+                flat[f"{'planning' if group in PLANNING_GROUPS else group}.{k}"] = float(v)
+    flat["nmac_events"] = flat.get("safety.nmac_events", float("nan"))
+    flat["lowc_events"] = flat.get("safety.lowc_events", float("nan"))
+    return flat
+
+
+# The columns of an evaluation's episodes.csv, under the names of flat_episode_metrics (evaluations
+# exported before episode_metrics.csv existed carry only these).
+_EPISODES_CSV_KEYS = {"nmac_events": "nmac_events", "lowc_events": "lowc_events",
+                      "reward_per_aircraft": "reward_per_aircraft", "aircraft": "operational.flights",
+                      "flights_completed": "operational.flights_completed",
+                      "alert_rate_per_flight_hour": "operational.alert_rate_per_flight_hour",
+                      "airborne_holding_s": "operational.airborne_holding_s",
+                      "mean_flight_time_s": "operational.mean_flight_time_s",
+                      "mean_delay_s": "operational.mean_delay_s", "min_separation_m": "safety.min_separation_m"}
+
+
+def _number(text: str | None) -> float:
+    return float(text) if text not in (None, "", "None") else float("nan")
+
+
 def _episode_rows(d: Path) -> dict[str, dict[int, dict[str, float]]]:
-    """policy -> seed -> flat metrics, from the per-episode summary.json files."""
+    """policy -> seed -> flat metrics of an evaluation directory.
+
+    From the per-episode ``summary.json`` files where the directory has them (a study's work
+    directory); else from ``episode_metrics.csv`` (the same numbers, exported for committing);
+    else from ``episodes.csv`` (evaluations exported before that file: its columns only).
+    """
     out: dict[str, dict[int, dict[str, float]]] = defaultdict(dict)
     root = d / "episodes"
-    if not root.is_dir():
+    if root.is_dir():
+        for summary in sorted(root.glob("*/seed-*/summary.json")):
+            s = json.loads(summary.read_text())
+            out[summary.parent.parent.name][int(s["seed"])] = flat_episode_metrics(s)
         return out
-    for summary in sorted(root.glob("*/seed-*/summary.json")):
-        s = json.loads(summary.read_text())
-        flights = max(s.get("flights_created", 1), 1)
-        flat: dict[str, float] = {"reward_per_aircraft": s.get("reward_total", 0.0) / flights}
-        for group in ("safety", "operational") + PLANNING_GROUPS:
-            for k, v in (s.get(group) or {}).items():
-                if isinstance(v, (int, float)) and not isinstance(v, bool):
-                    flat[f"{'planning' if group in PLANNING_GROUPS else group}.{k}"] = float(v)
-        flat["nmac_events"] = flat.get("safety.nmac_events", float("nan"))
-        flat["lowc_events"] = flat.get("safety.lowc_events", float("nan"))
-        out[summary.parent.parent.name][int(s["seed"])] = flat
+    table, keys = d / "episode_metrics.csv", None
+    if not table.is_file():
+        table, keys = d / "episodes.csv", _EPISODES_CSV_KEYS
+    if not table.is_file():
+        return out
+    with open(table, newline="") as fh:
+        for row in csv.DictReader(fh):
+            if keys is None:
+                flat = {k: _number(v) for k, v in row.items() if k not in ("policy", "seed")}
+            else:
+                flat = {name: _number(row.get(col)) for col, name in keys.items() if col in row}
+            out[row["policy"]][int(row["seed"])] = flat
     return out
+
+
+def write_episode_metrics(path: Path, summaries: dict[str, list[dict[str, Any]]]) -> None:
+    """``episode_metrics.csv``: one row per (policy, seed), every number of :func:`flat_episode_metrics`
+    (what the tables read, so that an exported evaluation needs no per-episode folders)."""
+    rows = [(policy, int(s["seed"]), flat_episode_metrics(s)) for policy, got in summaries.items() for s in got]
+    columns = sorted({k for _, _, flat in rows for k in flat})
+    with open(path, "w", newline="") as fh:
+        w = csv.writer(fh)
+        w.writerow(["policy", "seed", *columns])
+        for policy, seed, flat in rows:
+            w.writerow([policy, seed, *(repr(flat[k]) if k in flat else "" for k in columns)])
 
 
 def write_table(path: Path, header: list[str], rows: list[list[str]], title: str) -> None:

@@ -18,8 +18,12 @@ seeds) to ``--out`` (``docs/results/study``), with the resolved configuration of
 the paper's published numbers (labelled as the paper's) and the study's plan.
 
 Finished runs are kept under ``--work`` and skipped when the study is started again, so an
-interrupted study resumes where it stopped. Nothing under ``--out`` names a path of the
-machine (paths are written relative to ``--work``).
+interrupted study resumes where it stopped. The study also resumes on another machine, or after
+the work directory is gone, from what is committed under ``--out``: a run exported to
+``runs/`` is finished (its evaluations load the exported weights), an evaluation exported to
+``evaluations/`` is done, and a run parked by ``--park`` in ``in_progress/`` (its last and best
+checkpoints, curve and configuration) continues from its last checkpoint. Nothing under
+``--out`` names a path of the machine (paths are written relative to ``--work``).
 """
 
 from __future__ import annotations
@@ -148,7 +152,10 @@ def eval_overrides(plan: StudyPlan, run: Path, scenario: str, actions: str, labe
     # Baselines once per seed set (with the greedy evaluation); unequipped always (the ratios' reference).
     baselines = plan.baselines if greedy else []
     name = label if greedy else sampled_label(label, algo)
-    return [f"run={run}", f"scenario={scenario}", f"episodes={plan.episodes}", f"workers={evaluation_workers(plan)}",
+    # A run of this work directory has its checkpoints; a committed export (:func:`export_run`) has the
+    # best weights as plain data, which `aamgym evaluate policy=<folder>` loads.
+    source = f"run={run}" if (run / "checkpoints").is_dir() else f"policy={run}"
+    return [source, f"scenario={scenario}", f"episodes={plan.episodes}", f"workers={evaluation_workers(plan)}",
             f"greedy={str(greedy).lower()}", f"baselines=[{','.join(baselines)}]", f"name='{name}'"]
 
 
@@ -173,13 +180,22 @@ def run_study(plan: StudyPlan, work: Path, out: Path, stages: tuple[str, ...] = 
     work.mkdir(parents=True, exist_ok=True)
     train_dirs: list[Path] = []
     eval_dirs: list[Path] = []
+    run_ids: list[str] = []  # train/<use case>/<run>, eval/<use case>/<run>/<scenario>_<actions>
+    eval_ids: list[str] = []
     t0 = time.perf_counter()
     for uc, algo, seed in plan.runs():
-        run = work / "train" / uc / f"{algo}_s{seed}"
+        run_id = f"{uc}/{algo}_s{seed}"
+        run = work / "train" / run_id
+        exported = out / "runs" / run_id
         overrides = train_overrides(plan, uc, algo, seed)
         cfg = _compose("config", overrides)
         finished = (run / "training_summary.json").exists()
-        if "train" in stages and not finished:
+        # A run trained on another machine (or in an earlier session whose work directory is gone)
+        # counts as finished when its export is there: weights, summary, curve, configuration.
+        committed = not finished and is_exported_run(exported)
+        if "train" in stages and not finished and not committed:
+            if not (run / "checkpoints" / "last.pt").exists() and restore_parked_run(out / PARKED / run_id, run):
+                log.info("restored %s from %s (parked at the end of an earlier session)", run_id, out / PARKED)
             if (run / "checkpoints" / "last.pt").exists():
                 log.info("continuing %s on %s (%s), seed %d from its last checkpoint", algo, plan.train_scenario,
                          uc, seed)
@@ -189,29 +205,40 @@ def run_study(plan: StudyPlan, work: Path, out: Path, stages: tuple[str, ...] = 
                          seed, plan.budget)
             run_training(cfg, run)
             finished = True
-        if not finished:
+        if finished:
+            export_run(work, run, exported)
+            drop_parked(out / PARKED / run_id)
+        elif not committed:
             continue
-        train_dirs.append(run)
-        export_run(work, run, out / "runs" / uc / f"{algo}_s{seed}")
+        train_dirs.append(run if finished else exported)
+        run_ids.append(f"train/{run_id}")
         label = str(cfg.algorithm.label)
         for scen in plan.eval_scenarios:
             for actions in plan.actions:
-                ev = work / "eval" / uc / f"{algo}_s{seed}" / f"{Path(scen).stem}_{actions}"
-                if "evaluate" in stages and not (ev / "evaluation.json").exists():
+                ev_id = f"{run_id}/{Path(scen).stem}_{actions}"
+                ev, ev_out = work / "eval" / ev_id, out / "evaluations" / ev_id
+                done_here = (ev / "evaluation.json").exists()
+                if "evaluate" in stages and not done_here and not (ev_out / "evaluation.json").exists():
                     log.info("evaluating %s seed %d on %s (%s actions)", algo, seed, scen, actions)
                     start_ray(plan)
-                    run_evaluation(_compose("evaluate", eval_overrides(plan, run, scen, actions, label, algo)), ev,
+                    policy = run if finished else exported
+                    run_evaluation(_compose("evaluate", eval_overrides(plan, policy, scen, actions, label, algo)), ev,
                                    baseline_cache=work / "baselines")
-                if (ev / "evaluation.json").exists():
+                    done_here = True
+                if done_here:
+                    export_evaluation(work, ev, ev_out)
                     eval_dirs.append(ev)
-                    export_evaluation(work, ev, out / "evaluations" / ev.relative_to(work / "eval"))
+                elif (ev_out / "evaluation.json").exists():
+                    eval_dirs.append(ev_out)  # evaluated in an earlier session: its committed files
+                else:
+                    continue
+                eval_ids.append(f"eval/{ev_id}")
     out.mkdir(parents=True, exist_ok=True)
     if "report" in stages and eval_dirs:
         make_report(eval_dirs, train_dirs, out, plan.smooth, departures(plan))
-        copy_configs(work, train_dirs + eval_dirs, out / "configs")
+        copy_configs(work, train_dirs + eval_dirs, out / "configs", run_ids + eval_ids)
         (out / "paper.md").write_text(paper_tables_md())
-    index = {"plan": asdict(plan), "training_runs": [str(d.relative_to(work)) for d in train_dirs],
-             "evaluations": [str(d.relative_to(work)) for d in eval_dirs],
+    index = {"plan": asdict(plan), "training_runs": run_ids, "evaluations": eval_ids,
              "runs_planned": len(plan.runs()),
              "evaluations_planned": len(plan.runs()) * len(plan.eval_scenarios) * len(plan.actions),
              "wall_s_this_session": time.perf_counter() - t0}
@@ -240,16 +267,135 @@ def export_run(work: Path, run: Path, dest: Path) -> None:
 
 
 def export_evaluation(work: Path, ev: Path, dest: Path) -> None:
-    """A finished evaluation as files to commit: its summary (``evaluation.json``), its episode table
-    (``episodes.csv``, every policy's episodes on the same seeds) and its configuration, with the
-    machine's paths written relative to the study. The per-episode folders (logs, trajectories) stay in
-    the work directory: the report reads only these three files."""
+    """A finished evaluation as files to commit: its summary (``evaluation.json``), its episode tables
+    (``episodes.csv`` and ``episode_metrics.csv``, every policy's episodes on the same seeds) and its
+    configuration, with the machine's paths written relative to the study. The per-episode folders
+    (logs, trajectories) stay in the work directory: the report reads only these files."""
     if (dest / "evaluation.json").exists():
         return
     dest.mkdir(parents=True, exist_ok=True)
-    for name in ("episodes.csv", "resolved_config.yaml", "evaluation.json"):  # evaluation.json last: the marker
+    for name in ("episodes.csv", "episode_metrics.csv", "resolved_config.yaml",
+                 "evaluation.json"):  # evaluation.json last: the marker
         if (ev / name).exists():
             (dest / name).write_text(relative_to_study(work, (ev / name).read_text()))
+
+
+# Where the unfinished training runs are parked for committing at the end of a working session
+# (``--park``), under ``--out``: the next session, on whatever machine, continues them from there.
+PARKED = "in_progress"
+_PARKED_FILES = ("resolved_config.yaml", "learning_curve.csv", "baseline.json")
+_PARKED_CHECKPOINTS = ("last.pt", "best.pt")
+
+
+def is_exported_run(d: Path) -> bool:
+    """A finished run's export (:func:`export_run`): what evaluating and reporting it needs."""
+    return all((d / name).is_file() for name in ("training_summary.json", "policy.npz", "policy.json",
+                                                  "learning_curve.csv", "resolved_config.yaml"))
+
+
+def _map_strings(x: Any, text: Any) -> Any:
+    if isinstance(x, dict):
+        return {k: _map_strings(v, text) for k, v in x.items()}
+    if isinstance(x, list):
+        return [_map_strings(v, text) for v in x]
+    if isinstance(x, tuple):
+        return tuple(_map_strings(v, text) for v in x)
+    return text(x) if isinstance(x, str) else x
+
+
+def _rewrite_checkpoint(src: Path, dst: Path, run_dir: str, scenario: str, text: Any = None) -> None:
+    """``src`` saved as ``dst`` with its machine-specific fields replaced (the run directory, the training
+    scenario's path, and every other string through ``text``); weights, optimiser, counters and RNG state
+    the same."""
+    import torch
+
+    from rlbridge.experiment.train import load_checkpoint
+
+    ckpt = load_checkpoint(src)
+    if text is not None:
+        ckpt = _map_strings(ckpt, text)
+    ckpt["run_dir"] = run_dir
+    ckpt["env"] = {**ckpt["env"], "scenario": scenario}
+    tmp = dst.with_suffix(".tmp")
+    torch.save(ckpt, tmp)
+    tmp.replace(dst)
+
+
+def _portable_scenario(work: Path, path: str) -> str:
+    """A scenario as a name when it is a shipped one (found by name on any machine), else relative to the
+    study (:func:`relative_to_study`: found again when the study runs from the same folder)."""
+    from aamsim.scenarios import resolve_scenario
+
+    name = Path(path).stem
+    found = resolve_scenario(name)
+    return name if found is not None and Path(found).resolve() == Path(path).resolve() else \
+        relative_to_study(work, path)
+
+
+def park_run(work: Path, run: Path, dest: Path) -> bool:
+    """Copy an unfinished run's state (its last and best checkpoints, curve, baseline, configuration) to
+    ``dest`` for committing, with no path of this machine in it; False when it has no checkpoint yet."""
+    from rlbridge.experiment.train import load_checkpoint
+
+    last = run / "checkpoints" / "last.pt"
+    if not last.exists() or (run / "training_summary.json").exists():
+        return False
+    import shutil
+
+    tmp = dest.with_name(dest.name + ".parking")
+    shutil.rmtree(tmp, ignore_errors=True)
+    (tmp / "checkpoints").mkdir(parents=True)
+    run_id = str(run.relative_to(work))
+    for name in _PARKED_CHECKPOINTS:  # last.pt first: a best.pt written meanwhile is newer, never older
+        if (run / "checkpoints" / name).exists():
+            scenario = _portable_scenario(work, str(load_checkpoint(run / "checkpoints" / name)["env"]["scenario"]))
+            _rewrite_checkpoint(run / "checkpoints" / name, tmp / "checkpoints" / name, run_id, scenario,
+                                lambda t: relative_to_study(work, t))
+    for name in _PARKED_FILES:
+        if (run / name).exists():
+            (tmp / name).write_text(relative_to_study(work, (run / name).read_text()))
+    shutil.rmtree(dest, ignore_errors=True)
+    tmp.replace(dest)
+    return True
+
+
+def restore_parked_run(parked: Path, run: Path) -> bool:
+    """A parked run (:func:`park_run`) copied into the work directory ``run``, its checkpoints naming this
+    machine's paths again, so that training continues in place from its last checkpoint."""
+    if not (parked / "checkpoints" / "last.pt").is_file():
+        return False
+    from rlbridge.experiment.train import load_checkpoint, resolve_scenario_path
+
+    (run / "checkpoints").mkdir(parents=True, exist_ok=True)
+    for name in _PARKED_FILES:
+        if (parked / name).exists():
+            (run / name).write_text((parked / name).read_text())
+    for name in ("best.pt", "last.pt"):  # last.pt last: its presence marks a run that can continue
+        if (parked / "checkpoints" / name).exists():
+            scenario = resolve_scenario_path(str(load_checkpoint(parked / "checkpoints" / name)["env"]["scenario"]))
+            _rewrite_checkpoint(parked / "checkpoints" / name, run / "checkpoints" / name, str(run.resolve()),
+                                scenario)
+    return True
+
+
+def drop_parked(parked: Path) -> None:
+    """The parked copy of a run that has finished (its export replaces it)."""
+    import shutil
+
+    if parked.is_dir():
+        shutil.rmtree(parked)
+        if parked.parent.is_dir() and not any(parked.parent.iterdir()):
+            parked.parent.rmdir()
+
+
+def park_study(plan: StudyPlan, work: Path, out: Path) -> list[str]:
+    """``--park``: every unfinished run of ``plan`` with a checkpoint in ``work`` parked under ``out``."""
+    parked = []
+    for uc, algo, seed in plan.runs():
+        run_id = f"{uc}/{algo}_s{seed}"
+        if park_run(work, work / "train" / run_id, out / PARKED / run_id):
+            parked.append(run_id)
+    return parked
 
 
 def relative_to_study(work: Path, text: str) -> str:
@@ -292,10 +438,11 @@ def departures(plan: StudyPlan) -> list[str]:
     return out
 
 
-def copy_configs(work: Path, dirs: list[Path], dest: Path) -> None:
-    """Each run's resolved configuration, with the machine's paths written relative to the study."""
-    for d in dirs:
-        target = dest / d.relative_to(work) / "resolved_config.yaml"
+def copy_configs(work: Path, dirs: list[Path], dest: Path, ids: list[str] | None = None) -> None:
+    """Each run's resolved configuration, with the machine's paths written relative to the study, under
+    ``dest/<id>`` (``ids``: one per directory; by default its path relative to ``work``)."""
+    for d, name in zip(dirs, ids or [str(d.relative_to(work)) for d in dirs]):
+        target = dest / name / "resolved_config.yaml"
         target.parent.mkdir(parents=True, exist_ok=True)
         target.write_text(relative_to_study(work, (d / "resolved_config.yaml").read_text()))
 
@@ -361,6 +508,9 @@ def main(argv: list[str] | None = None) -> None:
     ap.add_argument("--stages", nargs="+", default=list(STAGES), choices=STAGES,
                     help="what runs: train (unfinished runs, continuing interrupted ones), evaluate, report; "
                          "finished runs are exported to OUT/runs in every case")
+    ap.add_argument("--park", action="store_true",
+                    help=f"copy the unfinished runs' last checkpoints to OUT/{PARKED} (no machine paths) for "
+                         "committing, then exit: the next start, on any machine, continues them from there")
     ap.add_argument("overrides", nargs="*", help="more Hydra overrides for every training run")
     args = ap.parse_args(argv)
     plan = StudyPlan(contenders=args.contenders, usecases=args.usecases, seeds=args.seeds, budget=args.budget,
@@ -387,6 +537,10 @@ def main(argv: list[str] | None = None) -> None:
           + (", or --rates" if args.rates else "") + "): " + ", ".join(f"{k} {v:.1f} h" for k, v in est.items()))
     print(machine_line(plan, device, workers, rates))
     if args.plan:
+        return
+    if args.park:
+        for run_id in park_study(plan, args.work, out):
+            print(f"parked {run_id} in {out / PARKED / run_id}")
         return
     logging.basicConfig(level=logging.INFO, format="[%(asctime)s][%(name)s][%(levelname)s] - %(message)s")
     run_study(plan, args.work, out, tuple(args.stages))
