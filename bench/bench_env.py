@@ -97,7 +97,7 @@ def cpu_seconds(pid: int) -> float:
 def run_episode(scenario: Path, interval_s: float, backend: str, address: str | None, server_pid: int | None,
                 seed: int) -> Result:
     env = rlbridge.parallel_env(scenario, backend=backend, address=address, decision_interval_s=interval_s,
-                                timeout_s=120.0)
+                                timeout_s=120.0, **fixed_traffic("corridor_sa"))
     rng = np.random.default_rng(seed)
     t0 = time.perf_counter()
     env.reset(seed=seed)
@@ -116,6 +116,13 @@ def run_episode(scenario: Path, interval_s: float, backend: str, address: str | 
     agents = len(env.possible_agents)
     env.close()
     return Result(backend, interval_s, agents, steps, transitions, reset_s, wall, cpu, sim_s)
+
+
+def fixed_traffic(usecase: str) -> dict:
+    """The parameters that switch a use case's per-seed draws off (none in versions before it had draws)."""
+    from rlbridge.usecases.registry import usecase_class
+
+    return dict(getattr(usecase_class(usecase), "fixed_traffic", {}))
 
 
 def run_planner_episode(env: rlbridge.AamParallelEnv, seed: int) -> tuple[int, int, float, float, float]:
@@ -195,7 +202,9 @@ def main() -> None:
         print(f"\n{'planner env':20} {'decisions':>9} {'flights':>7} {'wall s':>7} {'decisions/s':>11} "
               f"{'decisions/CPU-s':>15} {'ms/flight':>9} {'sim speed-up':>12}")
         for usecase in args.planners:
-            env = rlbridge.parallel_env(scenario, usecase=usecase)
+            # On its fixed traffic (the use case's -v0 settings): the same episode whatever the version, so
+            # that side-by-side runs compare the code, not two draws of altitude noise.
+            env = rlbridge.parallel_env(scenario, usecase=usecase, **fixed_traffic(usecase))
             run_planner_episode(env, args.seed)  # warm-up: the intent probe, compilation
             d, f, wall, cpu, sim_s = run_planner_episode(env, args.seed)
             env.close()

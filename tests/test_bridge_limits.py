@@ -92,6 +92,7 @@ def test_an_mcre_past_the_limit_is_refused_whole() -> None:
 
 def test_a_conflict_check_stops_at_the_pair_bound_with_one_error(monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.setattr(conflict_service, "MAX_PAIRS_PER_CHECK", 100)
+    monkeypatch.setattr(conflict_service, "PAIRS_PER_AIRCRAFT", 1)  # 30 aircraft: the bound is the 100
     sim = Simulation(use_bluesky_navdata=False)
     sim.services.start()
     sim.stack("ASAS ON")
@@ -120,6 +121,42 @@ def test_a_pile_of_aircraft_on_one_spot_costs_a_bounded_check() -> None:
     assert all(cap <= log.n <= cap + 1000 for log in service.logs.values())
     pi, _, _ = conflict_service.pairs_within(sim, 1000.0)
     assert cap <= len(pi) <= cap + 1000
+
+
+def _grid_of_aircraft(side: int, spacing_m: float) -> str:
+    """``side`` x ``side`` EC135s at 500 ft, ``spacing_m`` apart, all flying north at 60 kt: every aircraft has
+    its neighbours within a few hundred metres, and none of them changes for the seconds a test flies."""
+    lines = []
+    for i in range(side):
+        for j in range(side):
+            lat, lon = 40.7 + i * spacing_m / 111195.0, -74.0 + j * spacing_m / (111195.0 * 0.7581)
+            lines.append(f"CRE G{i}_{j} EC35 {lat:.7f} {lon:.7f} 0 500 60")
+    return "; ".join(lines)
+
+
+def _events_on_the_grid(side: int) -> tuple[int, int, int]:
+    sim = Simulation(use_bluesky_navdata=False)
+    sim.services.start()
+    sim.stack(_grid_of_aircraft(side, 400.0))
+    sim.run_until(3.0)
+    service = sim.services.start().conflicts
+    return service.checks_cut, service.count("lowc"), len(sim.reporter.errors())
+
+
+def test_the_pair_bound_grows_with_the_traffic(monkeypatch: pytest.MonkeyPatch) -> None:
+    """The bound is per aircraft beyond its floor, so dense but spread traffic (here 400 aircraft 400 m apart:
+    3,570 pairs within the 1 km search, 760 of them within the 450 m of LoWC) is never cut, while a flat bound
+    would lose its events; one spot still costs a bounded check (the test above)."""
+    assert conflict_service.pair_bound(10) == conflict_service.MAX_PAIRS_PER_CHECK
+    assert conflict_service.pair_bound(20_000) == 20_000 * conflict_service.PAIRS_PER_AIRCRAFT
+    cut, lowc_all, errors = _events_on_the_grid(20)
+    assert (cut, errors, lowc_all) == (0, 0, 2 * 20 * 19)  # each pair of neighbours in a row or a column
+    monkeypatch.setattr(conflict_service, "MAX_PAIRS_PER_CHECK", 500)
+    monkeypatch.setattr(conflict_service, "PAIRS_PER_AIRCRAFT", 50)  # 20,000 for 400 aircraft
+    assert _events_on_the_grid(20) == (0, lowc_all, 0)
+    monkeypatch.setattr(conflict_service, "PAIRS_PER_AIRCRAFT", 0)  # a flat 500: cut, events lost
+    cut, lowc, errors = _events_on_the_grid(20)
+    assert cut > 0 and lowc < lowc_all and errors == 1
 
 
 def test_normal_traffic_never_meets_the_pair_bound() -> None:

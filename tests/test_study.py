@@ -38,6 +38,28 @@ def test_plan_states_the_study_and_its_time_from_the_throughput():
     assert f"this machine: {os.cpu_count()} CPUs, learner on " in proc.stdout
 
 
+def test_plan_states_what_the_committed_runs_took_and_what_is_left(tmp_path):
+    """--plan reads the finished runs' wall clock: 15 M aircraft-states in 27,000 s is 555.6 per second,
+    7.5 h a run; 11 runs are left, 3 of them D2MAV-A's (22.5 h), and D2MAV-A Shared was never measured."""
+    from rlbridge.experiment.study import measured_line
+
+    run = tmp_path / "runs" / "corridor_sa" / "d2mava_a_s0"
+    run.mkdir(parents=True)
+    (run / "training_summary.json").write_text(json.dumps(
+        {"algorithm": "d2mava_a", "aircraft_states": 15_000_000, "wall_s": 27_000.0}))
+    for name in ("policy.npz", "policy.json", "learning_curve.csv", "resolved_config.yaml"):
+        (run / name).write_text("")
+    ddqn = tmp_path / "runs" / "corridor_sa_v1" / "ddqn_s1"  # unfinished export: measured, not done
+    ddqn.mkdir(parents=True)
+    (ddqn / "training_summary.json").write_text(json.dumps(
+        {"algorithm": "ddqn", "aircraft_states": 15_000_000, "wall_s": 10_800.0}))
+    line = measured_line(StudyPlan(), tmp_path)
+    assert "d2mava_a 1 run, 556 aircraft-states/s, 7.5 h per run" in line
+    assert "ddqn 1 run, 1,389 aircraft-states/s, 3.0 h per run" in line
+    assert "the 11 runs not finished: 34.5 h plus those of d2mava_a_shared" in line  # 3 x 7.5 + 4 x 3.0
+    assert measured_line(StudyPlan(), tmp_path / "nothing") is None
+
+
 def test_machine_estimate_is_the_slower_of_rollouts_and_learner():
     from rlbridge.experiment.machine import CUDA_LEARNER_RATES, ROLLOUT_PER_CORE, machine_estimate
 

@@ -40,10 +40,19 @@ if TYPE_CHECKING:
     from aamsim.simapi import SimulationCore
     from aamsim.traffic.traffic import Traffic
 
-# Pairs one check handles, per search (conflicts, losses of separation, pairs near enough for a volume).
-# Normal traffic has far fewer. Aircraft created on one spot put every pair in conflict: 3,000 of them (4.5 million pairs) made one step take 53 s and
-# 4.5 GB; past the bound a check stops, with an error, and the step's work stays bounded.
+# Pairs one check handles, per search (conflicts, losses of separation, pairs near enough for a volume):
+# MAX_PAIRS_PER_CHECK, or PAIRS_PER_AIRCRAFT per aircraft when that is more. Aircraft created on one spot
+# put every pair in conflict: 3,000 of them (4.5 million pairs) made one step take 53 s and 4.5 GB; past the
+# bound a check stops, with an error, and the step's work stays bounded (linear in the aircraft). Dense but
+# real traffic stays below it: 10,000 aircraft in a 60 km box (bench/bench_conflicts.py) have about 35
+# neighbours each within the 1 km search, and a flat 100,000 cut their checks (1.4 % of the NMACs lost).
 MAX_PAIRS_PER_CHECK = 100_000
+PAIRS_PER_AIRCRAFT = 100
+
+
+def pair_bound(n: int) -> int:
+    """The pairs one search of a check among ``n`` aircraft handles before it stops."""
+    return max(MAX_PAIRS_PER_CHECK, PAIRS_PER_AIRCRAFT * n)
 
 # The state the compiled passes read, in the order they expect it.
 _KINEMATIC_FIELDS = ("lat", "lon", "alt", "gseast", "gsnorth", "vs")
@@ -209,7 +218,7 @@ class ConflictService:
             with original_errors():
                 found = detect_all(
                     matrix, n, rows, R_EARTH, self._lookback(sim, n), cd_on, st.zoner_m, st.zonedh_m, st.dtlook_s,
-                    radii, cylinder, half_heights, self.closest_range_m, self._conflicts_hint, MAX_PAIRS_PER_CHECK)
+                    radii, cylinder, half_heights, self.closest_range_m, self._conflicts_hint, pair_bound(n))
         except MemoryError:
             # The next check that fits looks back to the last one that ran (_lookback), so the events of
             # the skipped interval are still found then.
@@ -223,9 +232,9 @@ class ConflictService:
         if found.cut:
             self.checks_cut += 1
             if self.checks_cut == 1:
-                sim.report("error", f"conflict detection: over {MAX_PAIRS_PER_CHECK:,} aircraft pairs close together "
+                sim.report("error", f"conflict detection: over {pair_bound(n):,} aircraft pairs close together "
                                     f"at t = {sim.simt:.2f} s ({n:,} aircraft); each check stops at "
-                                    f"{MAX_PAIRS_PER_CHECK:,} pairs, so conflicts and separation events past them "
+                                    f"{pair_bound(n):,} pairs, so conflicts and separation events past them "
                                     "are missing (traffic created on one spot?)")
         ids_now = tuple(t.ids)
         if cd_on and not self._zone_advised and n:
@@ -394,13 +403,14 @@ def pairs_within(sim: SimulationCore, radius_m: float) -> tuple[np.ndarray, np.n
     """Aircraft pairs (slots ``pi < pj``) now within ``radius_m`` horizontally or closer, and their 3-D distances.
 
     The pair search is a superset: filter on the distances for an exact radius. It stops at
-    :data:`MAX_PAIRS_PER_CHECK` pairs, with an error the first time (aircraft piled on one spot).
+    :func:`pair_bound` pairs, with an error the first time (aircraft piled on one spot).
     """
     t = sim._traffic
     matrix, rows = kinematic_matrix(t, _KINEMATIC_FIELDS)
-    pi, pj, d = pairs_now(matrix, t.n, rows, R_EARTH, radius_m, MAX_PAIRS_PER_CHECK)
-    if len(pi) >= MAX_PAIRS_PER_CHECK:
-        sim.note_once("pairs_within:cut", f"over {MAX_PAIRS_PER_CHECK:,} aircraft pairs within {radius_m:g} m at "
+    bound = pair_bound(t.n)
+    pi, pj, d = pairs_now(matrix, t.n, rows, R_EARTH, radius_m, bound)
+    if len(pi) >= bound:
+        sim.note_once("pairs_within:cut", f"over {bound:,} aircraft pairs within {radius_m:g} m at "
                                           f"t = {sim.simt:.2f} s; searches for near aircraft stop there, so some "
                                           "near aircraft are left out (traffic created on one spot?)")
     return pi, pj, d

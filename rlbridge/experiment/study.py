@@ -481,6 +481,30 @@ def machine_line(plan: StudyPlan, device: str, workers: int, rates: dict[str, fl
                         for a in plan.contenders) + f", all training runs {total:.1f} h")
 
 
+def measured_line(plan: StudyPlan, out: Path) -> str | None:
+    """What the committed runs (``out/runs/*/*/training_summary.json``) took, per contender, and what the
+    runs not finished yet would take at those rates: the estimate from this study's own wall clock
+    (slices share the machine with other runs and evaluations, so it is slower than the benchmarks)."""
+    done: dict[str, list[tuple[float, float]]] = {}
+    for f in sorted(out.glob("runs/*/*/training_summary.json")):
+        s = json.loads(f.read_text())
+        if s.get("wall_s") and s.get("aircraft_states"):
+            done.setdefault(str(s["algorithm"]), []).append((float(s["aircraft_states"]), float(s["wall_s"])))
+    if not done:
+        return None
+    rates = {a: sum(n for n, _ in v) / sum(t for _, t in v) for a, v in done.items()}
+    left = [(uc, a, seed) for uc, a, seed in plan.runs() if not is_exported_run(out / "runs" / uc / f"{a}_s{seed}")]
+    hours = sum(plan.budget / rates[a] / 3600.0 for _, a, _ in left if a in rates)
+    unmeasured = sorted({a for _, a, _ in left if a not in rates})
+    parts = [f"{a} {len(v)} run{'s' * (len(v) != 1)}, {rates[a]:,.0f} aircraft-states/s, "
+             f"{plan.budget / rates[a] / 3600.0:.1f} h per run" for a, v in sorted(done.items())]
+    text = (f"measured in the committed runs ({out / 'runs'}, wall clock of their slices): " + "; ".join(parts)
+            + f"; the {len(left)} run{'s' * (len(left) != 1)} not finished: {hours:.1f} h")
+    if unmeasured:
+        text += f" plus those of {', '.join(unmeasured)} (no run of it finished yet)"
+    return text
+
+
 def main(argv: list[str] | None = None) -> None:
     plan = StudyPlan()
     ap = argparse.ArgumentParser(prog="aamgym study", description=__doc__.split("\n\n")[0],
@@ -536,6 +560,9 @@ def main(argv: list[str] | None = None) -> None:
     print("estimated training time (rates measured on the 2-core development machine, overlap, 1 worker"
           + (", or --rates" if args.rates else "") + "): " + ", ".join(f"{k} {v:.1f} h" for k, v in est.items()))
     print(machine_line(plan, device, workers, rates))
+    measured = measured_line(plan, out)
+    if measured:
+        print(measured)
     if args.plan:
         return
     if args.park:
