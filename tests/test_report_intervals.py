@@ -85,3 +85,23 @@ def test_a_learned_ratio_interval_is_over_training_runs_a_baseline_over_episodes
     baseline = {("", 1): 0.5, ("", 2): 0.7, ("", 3): None}
     assert "over 2 episodes" in ratio_interval(baseline)
     assert "n/a (1 training run)" in ratio_interval({("runA", 1): 0.1, ("runA", 2): 0.3})
+
+
+def test_a_cost_measured_on_some_episodes_says_on_how_many():
+    """A cell pooling an evaluation recorded before a metric existed with one that has it: the mean of the
+    episodes that have it, marked as theirs (here 2 of 4), never read as the whole cell's."""
+    from rlbridge.experiment.report import Cell, cost_cells, parking_note
+
+    c = Cell()
+    c.seen.update({"old|0", "old|1", "new|0", "new|1"})
+    for v in (100.0, 100.0, 98.0, 100.0):
+        c.values["operational.flights_completed"].append(v)
+    c.values["operational.holding_flight_share"] += [0.05, 0.15]
+    c.values["operational.parked_at_time_limit"] += [2.0, 0.0]
+    cells = dict(zip(("flights completed", "airborne holding", "flights holding", "parked", "delay", "advisories"),
+                     cost_cells(c)))
+    assert cells["flights completed"] == "99.5"
+    assert cells["flights holding"] == "10.0 (2 of 4 episodes)"
+    assert cells["parked"] == "1.00 (2 of 4 episodes)"
+    assert cells["airborne holding"] == "n/a"
+    assert parking_note({"x": c}, ["x"]) == " — PARKS AIRCRAFT: 1.00 per episode hovering (2 of 4 episodes) at the time limit on x"

@@ -228,7 +228,7 @@ def parked_per_episode(c: Cell) -> tuple[float, str] | None:
     """
     parked = [v for v in c.values.get("operational.parked_at_time_limit", []) if not math.isnan(v)]
     if parked:
-        return float(np.mean(parked)), "parked"
+        return float(np.mean(parked)), "parked" + _part(len(parked), c)
     flights = c.values.get("operational.flights", [])
     done = c.values.get("operational.flights_completed", [])
     if flights and len(flights) == len(done):
@@ -245,12 +245,19 @@ def cost_cells(c: Cell | None) -> list[str]:
             continue
         if key == "operational.parked_at_time_limit":
             p = parked_per_episode(c)
-            out.append("n/a" if p is None else f"{p[0]:.{digits}f}" + (" (airborne)" if p[1] == "airborne" else ""))
+            out.append("n/a" if p is None else f"{p[0]:.{digits}f}" + (" (airborne)" if p[1] == "airborne" else
+                                                                      p[1].removeprefix("parked")))
             continue
         ms = mean_std(c.values.get(key, []))
         scale = 100.0 if key.endswith("share") else 1.0
-        out.append("n/a" if ms is None else f"{ms[0] * scale:.{digits}f}")
+        out.append("n/a" if ms is None else f"{ms[0] * scale:.{digits}f}" + _part(len(c.values.get(key, [])), c))
     return out
+
+
+def _part(n: int, c: Cell) -> str:
+    """' (n of N episodes)' when a figure is a mean over only some of the cell's episodes (evaluations
+    recorded before the metric existed lack it), so that it is never read as the whole cell's."""
+    return f" ({n} of {len(c.seen)} episodes)" if 0 < n < len(c.seen) else ""
 
 
 def parking_note(cells: dict[str, Cell], scenarios: list[str]) -> str:
@@ -260,7 +267,7 @@ def parking_note(cells: dict[str, Cell], scenarios: list[str]) -> str:
         c = cells.get(s)
         p = parked_per_episode(c) if c is not None else None
         if p is not None and p[0] > 0:
-            what = "hovering" if p[1] == "parked" else "not arrived"
+            what = "hovering" + p[1].removeprefix("parked") if p[1].startswith("parked") else "not arrived"
             notes.append(f"{p[0]:.2f} per episode {what} at the time limit on {s}")
     return " — PARKS AIRCRAFT: " + "; ".join(notes) if notes else ""
 
