@@ -299,6 +299,20 @@ def test_a_study_continues_on_a_new_machine_from_its_committed_files(tmp_path, m
     assert learned["parked at time limit - tiny_conflict"] == "1.00"
 
 
+def test_a_parked_checkpoint_names_a_shipped_scenario_by_name(tmp_path):
+    """A study run from another checkout (a worktree) trains on that checkout's copy of a shipped scenario:
+    the parked checkpoint names it by its name, which every machine resolves, not by that checkout's path."""
+    from aamsim.scenarios import resolve_scenario
+    from rlbridge.experiment.study import _portable_scenario
+
+    copy = tmp_path / "other-checkout" / "aamsim" / "scn" / "nyc_train_100.scn"
+    copy.parent.mkdir(parents=True)
+    copy.write_bytes(Path(resolve_scenario("nyc_train_100")).read_bytes())
+    assert _portable_scenario(tmp_path / "work", str(copy)) == "nyc_train_100"
+    copy.write_text(copy.read_text() + "\n00:00:00.00>ECHO edited\n")  # no longer the shipped file
+    assert _portable_scenario(tmp_path / "work", str(copy)) == str(copy)
+
+
 def test_baseline_episodes_are_played_once_per_study_and_ddqn_sampled_means_epsilon_005(tmp_path, monkeypatch):
     """The greedy and the sampled evaluation of a run share the unequipped episodes (cached, keyed by the code's
     commit); a DDQN's sampled evaluation is epsilon-greedy 0.05 (before: its training's final 1e-4, i.e. greedy)."""

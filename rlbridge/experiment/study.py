@@ -322,14 +322,16 @@ def _rewrite_checkpoint(src: Path, dst: Path, run_dir: str, scenario: str, text:
 
 
 def _portable_scenario(work: Path, path: str) -> str:
-    """A scenario as a name when it is a shipped one (found by name on any machine), else relative to the
-    study (:func:`relative_to_study`: found again when the study runs from the same folder)."""
+    """A scenario as a name when it is a shipped one (the same file as the one found by that name, which
+    any machine finds), else relative to the study (:func:`relative_to_study`: found again when the study
+    runs from the same folder)."""
     from aamsim.scenarios import resolve_scenario
 
     name = Path(path).stem
     found = resolve_scenario(name)
-    return name if found is not None and Path(found).resolve() == Path(path).resolve() else \
-        relative_to_study(work, path)
+    if found is not None and Path(path).is_file() and Path(found).read_bytes() == Path(path).read_bytes():
+        return name  # the shipped file, here or in another checkout (a study run from a worktree)
+    return relative_to_study(work, path)
 
 
 def park_run(work: Path, run: Path, dest: Path) -> bool:
