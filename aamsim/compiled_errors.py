@@ -12,8 +12,7 @@ boxed ends the same way. :func:`original_errors` raises the exception that start
 
 from __future__ import annotations
 
-from collections.abc import Iterator
-from contextlib import contextmanager
+from contextlib import AbstractContextManager
 
 
 def original_error(exc: SystemError) -> BaseException | None:
@@ -30,13 +29,27 @@ def original_error(exc: SystemError) -> BaseException | None:
     return None if isinstance(cause, SystemError) else cause
 
 
-@contextmanager
-def original_errors() -> Iterator[None]:
+class _OriginalErrors:
+    """The context manager :func:`original_errors` returns: one stateless object, no generator, because it
+    wraps the per-step compiled calls (a conflict check, a kernel batch; some 35,000 per corridor episode)
+    and ``contextlib.contextmanager`` cost a generator and two frames each time."""
+
+    __slots__ = ()
+
+    def __enter__(self) -> None:
+        return None
+
+    def __exit__(self, exc_type: type[BaseException] | None, exc: BaseException | None, tb: object) -> bool:
+        if exc_type is not None and issubclass(exc_type, SystemError) and isinstance(exc, SystemError):
+            cause = original_error(exc)
+            if cause is not None:
+                raise cause.with_traceback(cause.__traceback__) from None
+        return False  # anything else propagates as it is
+
+
+_ORIGINAL_ERRORS = _OriginalErrors()
+
+
+def original_errors() -> AbstractContextManager[None]:
     """Around a compiled call: a ``SystemError`` chained onto another exception raises that exception."""
-    try:
-        yield
-    except SystemError as exc:
-        cause = original_error(exc)
-        if cause is None:
-            raise
-        raise cause.with_traceback(cause.__traceback__) from None
+    return _ORIGINAL_ERRORS
