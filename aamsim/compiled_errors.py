@@ -39,12 +39,12 @@ class _OriginalErrors:
     def __enter__(self) -> None:
         return None
 
-    def __exit__(self, exc_type: type[BaseException] | None, exc: BaseException | None, tb: object) -> bool:
+    def __exit__(self, exc_type: type[BaseException] | None, exc: BaseException | None, tb: object) -> None:
         if exc_type is not None and issubclass(exc_type, SystemError) and isinstance(exc, SystemError):
             cause = original_error(exc)
             if cause is not None:
                 raise cause.with_traceback(cause.__traceback__) from None
-        return False  # anything else propagates as it is
+        # Returning None (falsy): anything else propagates as it is.
 
 
 _ORIGINAL_ERRORS = _OriginalErrors()

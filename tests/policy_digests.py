@@ -33,10 +33,19 @@ CASES: list[tuple[str, str, str, dict[str, Any], dict[str, Any], dict[str, Any],
 ]
 
 
-def batch_digest(batch: Any) -> str:
-    """sha256 of an episode's decisions, observations, rewards and metrics (wall time left out)."""
+NETWORK_OUTPUTS = ("logp", "values")
+
+
+def batch_digest(batch: Any, network_outputs: bool = True) -> str:
+    """sha256 of an episode's decisions, observations, rewards and metrics (wall time left out).
+
+    ``network_outputs=False`` leaves out the log-probabilities and values a learned actor's network
+    computed: their last bits depend on the CPU's BLAS kernels and thread count (they differ between the
+    Intel machine the digests were first recorded on and an AMD EPYC), so :func:`network_sums` checks
+    them to a tolerance instead."""
     h = hashlib.sha256()
-    for name in ("obs_idx", "next_idx", "actions", "logp", "rewards", "terminated", "truncated", "agent", "values"):
+    names = ("obs_idx", "next_idx", "actions", "logp", "rewards", "terminated", "truncated", "agent", "values")
+    for name in names if network_outputs else [n for n in names if n not in NETWORK_OUTPUTS]:
         h.update(name.encode())
         h.update(np.ascontiguousarray(getattr(batch, name)).tobytes())
     for key in sorted(batch.obs):
@@ -49,6 +58,11 @@ def batch_digest(batch: Any) -> str:
     stats.pop("declared", None)
     h.update(json.dumps(stats, sort_keys=True, default=str).encode())
     return h.hexdigest()
+
+
+def network_sums(batch: Any) -> tuple[float, ...]:
+    """The sums of the network's outputs in an episode (log-probabilities, values), in float64."""
+    return tuple(float(np.sum(np.asarray(getattr(batch, name), dtype=np.float64))) for name in NETWORK_OUTPUTS)
 
 
 def learner_spec(kind: str, usecase: str, params: dict[str, Any]) -> tuple[dict[str, Any], Any]:
@@ -77,5 +91,6 @@ if __name__ == "__main__":  # print the digests (to record them in tests/test_po
         spec, weights = learner_spec(kind, "corridor_sa", {})
         worker = RolloutWorker(EnvSpec(str(DATA / "three_way.scn"), "corridor_sa", {}, time_limit_s=900.0),
                                {"policy": spec})
-        out[kind] = [batch_digest(b) for b in worker.collect([0, 1], weights=weights, explore=explore)]
+        out[kind] = [(batch_digest(b, network_outputs=False), *network_sums(b))
+                     for b in worker.collect([0, 1], weights=weights, explore=explore)]
     print(json.dumps(out, indent=1))
