@@ -4,8 +4,8 @@
     python bench/side_by_side.py --before ../old-checkout -- bench/bench_env.py --backends local --planners
 
 The script (a path relative to each tree) runs as ``python SCRIPT ARGS`` with ``PYTHONPATH`` set
-to the tree, first the old tree, then the new one, ``--rounds`` times (so that a change in the
-machine's load hits both alike). Lines are matched by position; each number of a line is shown
+to the tree, ``--rounds`` times, old then new in even rounds and new then old in odd ones (ABBA: a
+change in the machine's load hits both alike, and neither tree always runs first). Lines are matched by position; each number of a line is shown
 as the median over the rounds, old -> new, with the change in percent. The machine's load
 average is printed before and after: on a shared machine a few percent is within the noise.
 """
@@ -47,12 +47,15 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("args", nargs=argparse.REMAINDER)
     a = ap.parse_args(argv)
     args = a.args[1:] if a.args[:1] == ["--"] else a.args
-    print(f"{a.script} {' '.join(args)}: old {a.before}, new {a.after}, {a.rounds} rounds alternating; "
+    print(f"{a.script} {' '.join(args)}: old {a.before}, new {a.after}, {a.rounds} rounds alternating (ABBA); "
           f"load average {os.getloadavg()[0]:.1f}", flush=True)
     outputs: dict[str, list[list[str]]] = {"old": [], "new": []}
-    for _ in range(a.rounds):
-        outputs["old"].append(run(a.before.resolve(), a.script, args))
-        outputs["new"].append(run(a.after.resolve(), a.script, args))
+    trees = {"old": a.before.resolve(), "new": a.after.resolve()}
+    for r in range(a.rounds):
+        # ABBA: old first in even rounds, new first in odd ones, so that a load rising (or falling) over
+        # the rounds does not favour the tree that always runs first.
+        for which in ("old", "new") if r % 2 == 0 else ("new", "old"):
+            outputs[which].append(run(trees[which], a.script, args))
     for k, line in enumerate(outputs["new"][0]):
         olds = [numbers(out[k]) if k < len(out) else [] for out in outputs["old"]]
         news = [numbers(out[k]) for out in outputs["new"]]
