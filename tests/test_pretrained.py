@@ -105,3 +105,38 @@ def test_every_shipped_policy_reproduces_its_published_figures(name):
         assert {k: v for k, v in replayed.items() if k != "reward_total"} == \
             {k: v for k, v in shipped.items() if k != "reward_total"}
         assert replayed["reward_total"] == pytest.approx(shipped["reward_total"], rel=1e-9, abs=1e-9)
+
+
+def test_action_counts_show_a_policy_that_always_accelerates(exported, tmp_path, capsys):
+    from rlbridge.pretrained import action_counts
+    from rlbridge.pretrained.ship import main
+
+    # The DDQN network with its last layer replaced: Q = (0, 0, 5) whatever it sees, so it accelerates in
+    # every decision.
+    forced = tmp_path / "always_accelerate"
+    forced.mkdir()
+    (forced / "policy.json").write_text((exported["ddqn"] / "policy.json").read_text())
+    with np.load(exported["ddqn"] / "policy.npz") as npz:
+        weights = {k: npz[k] for k in npz.files}
+    last = max(k for k in weights if k.endswith(".weight"))
+    weights[last] = np.zeros_like(weights[last])
+    weights[last.replace(".weight", ".bias")] = np.array([0.0, 0.0, 5.0], dtype=weights[last].dtype)
+    np.savez(forced / "policy.npz", **weights)
+    counts = action_counts(load(forced), str(ROOT / TINY), seed=3)
+    assert set(counts) == {0, 1, 2} and counts[0] == counts[1] == 0 and counts[2] > 0
+    # The trained policy's counts add up to its decisions, which the same episode played by hand gives.
+    policy = load(exported["ddqn"])
+    counts = action_counts(policy, str(ROOT / TINY), seed=3)
+    env = rlbridge.parallel_env(str(ROOT / TINY), usecase=policy.usecase, **policy.env_params)
+    obs, _ = env.reset(seed=3)
+    by_hand = [0, 0, 0]
+    while env.agents:
+        acts = policy.actions(obs)
+        for a in acts.values():
+            by_hand[a] += 1
+        obs, *_ = env.step(acts)
+    env.close()
+    assert [counts[a] for a in range(3)] == by_hand
+    main(["actions", str(forced), "--scenario", str(ROOT / TINY), "--seed", "3"])
+    line = capsys.readouterr().out
+    assert "action 0: 0 (0.0 %)" in line and "(100.0 %)" in line and "seed 3:" in line

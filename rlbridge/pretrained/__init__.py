@@ -9,6 +9,7 @@
     aamgym evaluate policy=pretrained:d2mava_a scenario=nyc_eval_678 episodes=100
     aamgym pretrained list                          # what ships, with provenance
     aamgym pretrained ship EXPORT_DIR NAME          # a study's exported run becomes a shipped policy
+    aamgym pretrained actions d2mava_a --scenario nyc_train_100 --seed 5   # which actions it chooses
 
 Each shipped policy is a folder ``rlbridge/pretrained/<name>/`` with ``policy.json`` (actor spec,
 use case and its parameters, provenance: the code that trained it, seed, budget, best iteration),
@@ -95,6 +96,34 @@ class PretrainedPolicy:
                 flat = torch.from_numpy(np.stack([observations[a] for a in agents]).astype(np.float32))
                 scores = self.actor.q(flat)
         return dict(zip(agents, (int(x) for x in scores.argmax(dim=1).tolist())))
+
+
+def action_counts(policy: PretrainedPolicy, scenario: str, seed: int,
+                  time_limit_s: float | None = None) -> dict[int, int]:
+    """How often the policy chose each of its actions in one episode, played greedily in process.
+
+    Every action of the environment's action space is a key (0 when never chosen); the values add up
+    to the episode's agent-decisions. What a ratio table cannot show: whether a policy reacts to the
+    traffic at all (a corridor policy that accelerates in every decision flies at its top speed).
+    """
+    import rlbridge
+    from aamsim.scenarios import resolve_scenario
+
+    path = resolve_scenario(scenario) or Path(scenario)
+    kwargs: dict[str, Any] = {"time_limit_s": time_limit_s} if time_limit_s else {}
+    env = rlbridge.parallel_env(str(path), usecase=policy.usecase, **policy.env_params, **kwargs)
+    try:
+        obs, _ = env.reset(seed=seed)
+        n_actions = int(env.action_space(env.possible_agents[0]).n)
+        counts = dict.fromkeys(range(n_actions), 0)
+        while env.agents:
+            actions = policy.actions(obs)
+            for a in actions.values():
+                counts[a] += 1
+            obs, *_ = env.step(actions)
+    finally:
+        env.close()
+    return counts
 
 
 def load(name_or_path: str | Path) -> PretrainedPolicy:

@@ -1,7 +1,8 @@
-"""``aamgym pretrained``: list the shipped policies, or ship one from a study's exported run.
+"""``aamgym pretrained``: list the shipped policies, ship one from a study's exported run, count its actions.
 
     aamgym pretrained list
     aamgym pretrained ship docs/results/study/runs/corridor_sa/d2mava_a_s0 d2mava_a --scenario nyc_eval_678
+    aamgym pretrained actions d2mava_a --scenario nyc_train_100 --seed 5
 
 Shipping copies ``policy.json`` and ``policy.npz`` into ``rlbridge/pretrained/<name>/`` and records
 ``reference.json``: the greedy policy's figures on a few seeds of a scenario (NMAC and LoWC events,
@@ -22,7 +23,7 @@ from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
-from rlbridge.pretrained import SHIPPED_DIR, available, load, policy_dir
+from rlbridge.pretrained import SHIPPED_DIR, action_counts, available, load, policy_dir
 
 REFERENCE_SEEDS = (1000, 1001, 1002)  # held apart from training (episode seeds there are 31-bit hashes)
 REFERENCE_TIME_LIMIT_S = 1200.0  # each reference episode's first 20 minutes of simulated time
@@ -84,7 +85,19 @@ def main(argv: list[str] | None = None) -> None:
     sp.add_argument("--note", default="", help="a line added to the provenance (e.g. what is interim about it)")
     sp.add_argument("--time-limit", type=float, default=REFERENCE_TIME_LIMIT_S,
                     help="seconds of simulated time of each reference episode (0: the whole episode)")
+    ac = sub.add_parser("actions", help="how often a policy chooses each action in one episode (greedy)")
+    ac.add_argument("policy", help="a shipped name or an exported policy folder")
+    ac.add_argument("--scenario", default="nyc_train_100")
+    ac.add_argument("--seed", type=int, default=REFERENCE_SEEDS[0])
     args = ap.parse_args(argv)
+    if args.command == "actions":
+        pol = load(args.policy)
+        counts = action_counts(pol, args.scenario, args.seed)
+        total = sum(counts.values())
+        shares = ", ".join(f"action {a}: {n:,} ({100 * n / total if total else 0:.1f} %)" for a, n in counts.items())
+        print(f"{args.policy} ({pol.exported.label}) on {Path(args.scenario).stem}, seed {args.seed}: {total:,} decisions; "
+              f"{shares}")
+        return
     if args.command == "list":
         names = available()
         if not names:
