@@ -219,8 +219,9 @@ COST_COLUMNS = (
 )
 
 
-def parked_per_episode(c: Cell) -> tuple[float, str] | None:
-    """Mean aircraft left hovering at the time limit per episode, and what was counted.
+def parked_per_episode(c: Cell) -> tuple[float, str, str] | None:
+    """Mean aircraft left hovering at the time limit per episode, what was counted (``parked`` or
+    ``airborne``) and :func:`_part`'s note when only some of the cell's episodes recorded it.
 
     Episodes recorded before ``parked_at_time_limit`` existed count the flights that had not
     arrived when the time limit cut them (``flights - flights_completed``: airborne, not
@@ -228,11 +229,11 @@ def parked_per_episode(c: Cell) -> tuple[float, str] | None:
     """
     parked = [v for v in c.values.get("operational.parked_at_time_limit", []) if not math.isnan(v)]
     if parked:
-        return float(np.mean(parked)), "parked" + _part(len(parked), c)
+        return float(np.mean(parked)), "parked", _part(len(parked), c)
     flights = c.values.get("operational.flights", [])
     done = c.values.get("operational.flights_completed", [])
     if flights and len(flights) == len(done):
-        return float(np.mean([f - d for f, d in zip(flights, done)])), "airborne"
+        return float(np.mean([f - d for f, d in zip(flights, done)])), "airborne", ""
     return None
 
 
@@ -245,8 +246,7 @@ def cost_cells(c: Cell | None) -> list[str]:
             continue
         if key == "operational.parked_at_time_limit":
             p = parked_per_episode(c)
-            out.append("n/a" if p is None else f"{p[0]:.{digits}f}" + (" (airborne)" if p[1] == "airborne" else
-                                                                      p[1].removeprefix("parked")))
+            out.append("n/a" if p is None else f"{p[0]:.{digits}f}" + (" (airborne)" if p[1] == "airborne" else p[2]))
             continue
         ms = mean_std(c.values.get(key, []))
         scale = 100.0 if key.endswith("share") else 1.0
@@ -267,7 +267,7 @@ def parking_note(cells: dict[str, Cell], scenarios: list[str]) -> str:
         c = cells.get(s)
         p = parked_per_episode(c) if c is not None else None
         if p is not None and p[0] > 0:
-            what = "hovering" + p[1].removeprefix("parked") if p[1].startswith("parked") else "not arrived"
+            what = "hovering" + p[2] if p[1] == "parked" else "not arrived"
             notes.append(f"{p[0]:.2f} per episode {what} at the time limit on {s}")
     return " — PARKS AIRCRAFT: " + "; ".join(notes) if notes else ""
 
