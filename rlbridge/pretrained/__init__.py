@@ -23,6 +23,7 @@ import json
 from pathlib import Path
 from typing import Any
 
+import gymnasium as gym
 import numpy as np
 
 from rlbridge.experiment.export import ExportedPolicy, load_policy
@@ -114,7 +115,10 @@ def action_counts(policy: PretrainedPolicy, scenario: str, seed: int,
     env = rlbridge.parallel_env(str(path), usecase=policy.usecase, **policy.env_params, **kwargs)
     try:
         obs, _ = env.reset(seed=seed)
-        n_actions = int(env.action_space(env.possible_agents[0]).n)
+        space = env.action_space(env.possible_agents[0])
+        if not isinstance(space, gym.spaces.Discrete):
+            raise TypeError(f"action_counts counts discrete actions; {policy.usecase} acts in {space}")
+        n_actions = int(space.n)
         counts = dict.fromkeys(range(n_actions), 0)
         while env.agents:
             actions = policy.actions(obs)
