@@ -7,12 +7,12 @@ outside ``aamsim run``, an alarm that ends a case in a test harness) runs at the
 code after the signal: when the signal came during a long compiled call, that is inside the
 wrapper. The exception is then chained under one ``SystemError`` per array, and the caller sees an
 opaque ``SystemError`` instead of the interruption; a ``MemoryError`` while the arrays are
-boxed ends the same way. :func:`original_errors` raises the exception that started the chain.
+boxed ends the same way. :func:`raise_original` raises the exception that started the chain.
 """
 
 from __future__ import annotations
 
-from contextlib import AbstractContextManager
+from typing import NoReturn
 
 
 def original_error(exc: SystemError) -> BaseException | None:
@@ -29,27 +29,14 @@ def original_error(exc: SystemError) -> BaseException | None:
     return None if isinstance(cause, SystemError) else cause
 
 
-class _OriginalErrors:
-    """The context manager :func:`original_errors` returns: one stateless object, no generator, because it
-    wraps the per-step compiled calls (a conflict check, a kernel batch; some 35,000 per corridor episode)
-    and ``contextlib.contextmanager`` cost a generator and two frames each time."""
+def raise_original(exc: SystemError) -> NoReturn:
+    """Raise the exception behind ``exc`` (:func:`original_error`), or ``exc`` itself when there is none.
 
-    __slots__ = ()
-
-    def __enter__(self) -> None:
-        return None
-
-    def __exit__(self, exc_type: type[BaseException] | None, exc: BaseException | None, tb: object) -> None:
-        if exc_type is not None and issubclass(exc_type, SystemError) and isinstance(exc, SystemError):
-            cause = original_error(exc)
-            if cause is not None:
-                raise cause.with_traceback(cause.__traceback__) from None
-        # Returning None (falsy): anything else propagates as it is.
-
-
-_ORIGINAL_ERRORS = _OriginalErrors()
-
-
-def original_errors() -> AbstractContextManager[None]:
-    """Around a compiled call: a ``SystemError`` chained onto another exception raises that exception."""
-    return _ORIGINAL_ERRORS
+    Used as ``except SystemError as exc: raise_original(exc)`` around a compiled call: the call sites are
+    per-step (a conflict check), and a ``try`` costs nothing until something is raised, where a context
+    manager costs two calls each time.
+    """
+    cause = original_error(exc)
+    if cause is not None:
+        raise cause.with_traceback(cause.__traceback__) from None
+    raise exc

@@ -26,7 +26,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from aamsim.compiled_errors import original_errors
+from aamsim.compiled_errors import raise_original
 from aamsim.conflicts.events import EventLog, SeparationEvent
 from aamsim.conflicts.fused import detect_all, new_pair_count, pairs_now, volume_pass
 from aamsim.conflicts.grid import NO_PAIR_LIMIT, candidate_pairs, snapshot_arrays, swept_boxes
@@ -142,6 +142,7 @@ class ConflictService:
     _serial_array: np.ndarray = field(default_factory=lambda: np.empty(0, dtype=np.int64))
     _rank_array: np.ndarray = field(default_factory=lambda: np.empty(0, dtype=np.int64))  # callsign order per slot
     _volume_cache: tuple | None = None
+    _standard_cache: tuple | None = None  # (volumes, their SeparationStandard): rewards read it every step
     _serial_version: tuple | None = None  # (traffic, layout version) the serial cache was built for
     _conflicts_hint: int = 0  # conflicts at the last check: sizes the next check's output
     _last_check_s: float = -math.inf
@@ -171,11 +172,17 @@ class ConflictService:
     @property
     def standard(self) -> SeparationStandard:
         """The separation standard: this service's ``nmac`` and ``lowc`` volumes (``SEPVOLUME`` changes them)."""
+        vols = self.volumes
+        cache = self._standard_cache
+        if cache is not None and cache[0] is vols:  # volumes change by replacing the tuple (set_volume)
+            return cache[1]
         try:
-            return SeparationStandard.from_volumes(self.volume(NMAC), self.volume(LOWC))
+            standard = SeparationStandard.from_volumes(self.volume(NMAC), self.volume(LOWC))
         except KeyError as exc:
             raise LookupError(f"the conflict service has no {exc.args[0]!r} volume, so no separation standard "
-                              f"(its volumes: {', '.join(v.name for v in self.volumes)})") from None
+                              f"(its volumes: {', '.join(v.name for v in vols)})") from None
+        self._standard_cache = (vols, standard)
+        return standard
 
     def set_standard(self, standard: SeparationStandard) -> None:
         """Use ``standard``'s NMAC and LoWC volumes from now on (other volumes stay)."""
@@ -202,8 +209,10 @@ class ConflictService:
         itself, not as Numba's opaque ``SystemError`` (:mod:`aamsim.compiled_errors`); a MemoryError in the
         detection pass, whose memory grows with the pairs it finds, skips the check with an error instead.
         """
-        with original_errors():
+        try:
             self._check(sim)
+        except SystemError as exc:  # a try costs nothing when nothing is raised; a `with` did, per check
+            raise_original(exc)
 
     def _check(self, sim: SimulationCore) -> None:
         t = sim._traffic
@@ -212,13 +221,16 @@ class ConflictService:
         cd_on = st.cd_method != "OFF"
         radii, cylinder, half_heights = self._volume_arrays()
         matrix, rows = kinematic_matrix(t, _KINEMATIC_FIELDS)
+        max_pairs = pair_bound(n)
         try:
             # An interruption (Ctrl-C, an alarm) or a MemoryError while the compiled pass hands its arrays
             # back arrives as its own exception, not as Numba's opaque SystemError (aamsim.compiled_errors).
-            with original_errors():
+            try:
                 found = detect_all(
                     matrix, n, rows, R_EARTH, self._lookback(sim, n), cd_on, st.zoner_m, st.zonedh_m, st.dtlook_s,
-                    radii, cylinder, half_heights, self.closest_range_m, self._conflicts_hint, pair_bound(n))
+                    radii, cylinder, half_heights, self.closest_range_m, self._conflicts_hint, max_pairs)
+            except SystemError as exc:
+                raise_original(exc)
         except MemoryError:
             # The next check that fits looks back to the last one that ran (_lookback), so the events of
             # the skipped interval are still found then.
@@ -232,9 +244,9 @@ class ConflictService:
         if found.cut:
             self.checks_cut += 1
             if self.checks_cut == 1:
-                sim.report("error", f"conflict detection: over {pair_bound(n):,} aircraft pairs close together "
+                sim.report("error", f"conflict detection: over {max_pairs:,} aircraft pairs close together "
                                     f"at t = {sim.simt:.2f} s ({n:,} aircraft); each check stops at "
-                                    f"{pair_bound(n):,} pairs, so conflicts and separation events past them "
+                                    f"{max_pairs:,} pairs, so conflicts and separation events past them "
                                     "are missing (traffic created on one spot?)")
         ids_now = tuple(t.ids)
         if cd_on and not self._zone_advised and n:
