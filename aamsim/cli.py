@@ -309,9 +309,12 @@ def run(scenario: str, until: str | None, out_dir: Path | None, dt: float, seed:
     if live is not None:
         live.finish(simulated[0] if simulated else None)
         click.echo(f"run finished; the viewer shows its last picture at {live.url} until Ctrl-C", err=True)
+        from aamsim.viewer.server import interrupted_by_signals
+
         try:
-            while True:
-                time.sleep(3600)
+            with interrupted_by_signals():
+                while True:
+                    time.sleep(3600)
         except KeyboardInterrupt:
             live.close()
 

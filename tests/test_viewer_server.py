@@ -256,3 +256,31 @@ def test_a_deeply_nested_message_gets_the_same_answer_on_any_stack():
     assert nested(sys.getrecursionlimit() - 200) == str(shallow.value)
     # Brackets inside strings are text, not nesting.
     assert parse_control('{"op": "pause", "note": "' + "[" * 100 + '"}', "replay", False)["op"] == "pause"
+
+
+@pytest.mark.parametrize("signal_name", ["SIGINT", "SIGTERM"])
+def test_aamsim_view_stops_on_ctrl_c_even_when_started_with_ctrl_c_ignored(run_dir, signal_name):  # noqa: F811
+    # A background job of a script (and all a CI runner starts in the background) inherits SIGINT
+    # ignored; `aamsim view` then served on after Ctrl-C until killed (the browser tests hung 120 s).
+    import re
+    import signal
+    import subprocess
+    import sys
+
+    def ignore_ctrl_c() -> None:
+        signal.signal(signal.SIGINT, signal.SIG_IGN)
+
+    proc = subprocess.Popen([sys.executable, "-m", "aamsim", "view", str(run_dir), "--port", "0"],
+                            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True, preexec_fn=ignore_ctrl_c)
+    try:
+        assert proc.stderr is not None
+        for line in proc.stderr:
+            if re.search(r"http://127\.0\.0\.1:\d+/", line):
+                break
+        else:
+            raise AssertionError(f"no viewer URL; exit {proc.wait(10)}")
+        proc.send_signal(getattr(signal, signal_name))
+        assert proc.wait(60) == 0
+    finally:
+        if proc.poll() is None:
+            proc.kill()

@@ -32,9 +32,12 @@ import ipaddress
 import json
 import math
 import secrets
+import signal
 import threading
 import time
 from collections import deque
+from collections.abc import Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass
 from importlib import resources
 from typing import Any
@@ -509,6 +512,26 @@ async def start_site(viewer: ViewerApp, host: str, port: int) -> tuple[web.AppRu
     return runner, f"http://{shown}:{bound}/"
 
 
+@contextmanager
+def interrupted_by_signals() -> Iterator[None]:
+    """Ctrl-C (SIGINT) and SIGTERM raise KeyboardInterrupt inside the block, whatever the process inherited.
+
+    A process started with SIGINT ignored (a background job of a script: ``aamsim view RUN &`` ignores
+    it, and so does all a CI runner starts in the background) would otherwise serve on after Ctrl-C
+    and ``kill -INT``, and ``asyncio.run`` puts in its own Ctrl-C handler only over Python's default
+    one. Outside the main thread (no handlers there) it changes nothing.
+    """
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    previous = {signum: signal.signal(signum, signal.default_int_handler) for signum in (signal.SIGINT, signal.SIGTERM)}
+    try:
+        yield
+    finally:
+        for signum, handler in previous.items():
+            signal.signal(signum, handler)
+
+
 def serve_replay(run_dir: str, host: str, port: int, on_ready: Any, allow_hosts: tuple[str, ...] = (),
                  on_warning: Any = None) -> None:
     """``aamsim view RUN_DIR``: serve a replay until interrupted (Ctrl-C); ``on_warning(text)`` hears
@@ -528,6 +551,7 @@ def serve_replay(run_dir: str, host: str, port: int, on_ready: Any, allow_hosts:
             await runner.cleanup()
 
     try:
-        asyncio.run(main())
+        with interrupted_by_signals():
+            asyncio.run(main())
     except KeyboardInterrupt:
         pass
