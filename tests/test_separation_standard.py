@@ -43,6 +43,7 @@ def test_the_standard_decides_what_counts_as_a_loss_of_well_clear():
 
 def test_sepvolume_changes_the_standard_and_the_metrics_read_it():
     sim = Simulation(seed=1, use_bluesky_navdata=False)
+    assert sim.separation_standard == SeparationStandard()  # read (and kept by the service) before the change
     sim.stack("SEPVOLUME NMAC 100 30")
     sim.run_until(0.0)
     std = sim.separation_standard
