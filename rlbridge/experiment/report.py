@@ -44,7 +44,7 @@ import math
 from collections import defaultdict
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 
@@ -219,7 +219,15 @@ COST_COLUMNS = (
 )
 
 
-def parked_per_episode(c: Cell) -> tuple[float, str, str] | None:
+class Parked(NamedTuple):
+    """Aircraft left at the time limit per episode (:func:`parked_per_episode`)."""
+
+    per_episode: float
+    kind: str  # "parked" (hovering, recorded) or "airborne" (not arrived: episodes before the record existed)
+    note: str  # _part's "(k of N episodes)" when only some episodes recorded it, else ""
+
+
+def parked_per_episode(c: Cell) -> Parked | None:
     """Mean aircraft left hovering at the time limit per episode, what was counted (``parked`` or
     ``airborne``) and :func:`_part`'s note when only some of the cell's episodes recorded it.
 
@@ -229,11 +237,11 @@ def parked_per_episode(c: Cell) -> tuple[float, str, str] | None:
     """
     parked = [v for v in c.values.get("operational.parked_at_time_limit", []) if not math.isnan(v)]
     if parked:
-        return float(np.mean(parked)), "parked", _part(len(parked), c)
+        return Parked(float(np.mean(parked)), "parked", _part(len(parked), c))
     flights = c.values.get("operational.flights", [])
     done = c.values.get("operational.flights_completed", [])
     if flights and len(flights) == len(done):
-        return float(np.mean([f - d for f, d in zip(flights, done)])), "airborne", ""
+        return Parked(float(np.mean([f - d for f, d in zip(flights, done)])), "airborne", "")
     return None
 
 
@@ -246,7 +254,8 @@ def cost_cells(c: Cell | None) -> list[str]:
             continue
         if key == "operational.parked_at_time_limit":
             p = parked_per_episode(c)
-            out.append("n/a" if p is None else f"{p[0]:.{digits}f}" + (" (airborne)" if p[1] == "airborne" else p[2]))
+            out.append("n/a" if p is None else
+                       f"{p.per_episode:.{digits}f}" + (" (airborne)" if p.kind == "airborne" else p.note))
             continue
         ms = mean_std(c.values.get(key, []))
         scale = 100.0 if key.endswith("share") else 1.0
@@ -266,9 +275,9 @@ def parking_note(cells: dict[str, Cell], scenarios: list[str]) -> str:
     for s in scenarios:
         c = cells.get(s)
         p = parked_per_episode(c) if c is not None else None
-        if p is not None and p[0] > 0:
-            what = "hovering" + p[2] if p[1] == "parked" else "not arrived"
-            notes.append(f"{p[0]:.2f} per episode {what} at the time limit on {s}")
+        if p is not None and p.per_episode > 0:
+            what = "hovering" + p.note if p.kind == "parked" else "not arrived"
+            notes.append(f"{p.per_episode:.2f} per episode {what} at the time limit on {s}")
     return " — PARKS AIRCRAFT: " + "; ".join(notes) if notes else ""
 
 
