@@ -216,12 +216,15 @@ class EventLog:
         self.open_keys, self.open_rows, first, second = _merge(
             self.open_keys, self.open_rows, ii, jj, serial, rank, t_in, t_out, dmin, t_min, cpa, now, last, self.n,
             self.start, self.end, self.dmin, self.tmin, self.cpa, close_unseen is None, filt)
+        n_new = len(first)
+        if not n_new:  # most checks start no event: skip the writes' fixed costs
+            return
         for a, b in zip(first.tolist(), second.tolist()):
             self.ac1.append(ids[a])
             self.ac2.append(ids[b])
-        self.serial1[self.n:self.n + len(first)] = serial[first]
-        self.serial2[self.n:self.n + len(first)] = serial[second]
-        self.n += len(first)
+        self.serial1[self.n:self.n + n_new] = serial[first]
+        self.serial2[self.n:self.n + n_new] = serial[second]
+        self.n += n_new
 
     def _reserve(self, need: int) -> None:
         if need <= len(self.start):
