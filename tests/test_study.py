@@ -378,3 +378,32 @@ def test_the_reference_scores_table_has_every_use_case_its_baselines_and_interva
     bad = subprocess.run([sys.executable, "-m", "rlbridge.experiment", "scores", "--usecases", "nope"], env=env,
                          capture_output=True, text=True, timeout=300, check=False)
     assert bad.returncode == 2 and "unknown use case(s) nope" in bad.stderr
+
+
+def test_code_version_is_dirty_for_changed_package_sources_not_for_results_written_beside_them(tmp_path):
+    """A study writes its results into the checkout it runs from; those files (and a removed parked
+    checkpoint) must not mark its runs "+dirty" or switch the baseline cache off. A changed source file must."""
+    from rlbridge.experiment.train import code_version
+
+    def git(*args: str) -> str:
+        return subprocess.run(["git", "-C", str(tmp_path), *args], capture_output=True, text=True,
+                              check=True).stdout.strip()
+
+    git("init", "-q")
+    (tmp_path / "aamsim").mkdir()
+    (tmp_path / "aamsim" / "kernel.py").write_text("x = 1\n")
+    (tmp_path / "docs").mkdir()
+    (tmp_path / "docs" / "study.json").write_text("{}\n")
+    (tmp_path / "docs" / "parked.pt").write_text("weights\n")
+    git("add", ".")
+    git("-c", "user.name=t", "-c", "user.email=t@example.org", "commit", "-q", "-m", "start")
+    head = git("rev-parse", "HEAD")
+    assert code_version(tmp_path)["commit"] == head
+
+    (tmp_path / "docs" / "study.json").write_text('{"runs": 1}\n')
+    (tmp_path / "docs" / "parked.pt").unlink()
+    (tmp_path / "docs" / "new_eval.json").write_text("{}\n")
+    assert code_version(tmp_path)["commit"] == head
+
+    (tmp_path / "aamsim" / "kernel.py").write_text("x = 2\n")
+    assert code_version(tmp_path)["commit"] == head + "+dirty"

@@ -321,20 +321,26 @@ def discard_after(run_dir: Path, iteration: int) -> None:
         best.unlink()
 
 
-def code_version() -> dict[str, str]:
-    """What code made a run: the package version and, in a git checkout, the commit (``+dirty`` when
-    the working tree had changes)."""
+# What "the code" of a run is: the installed packages' sources and their build files. Results, docs and tests
+# written in the same checkout (a study's own files, a parked checkpoint removed) do not make a run "+dirty".
+CODE_PATHS = ("aamsim", "rlbridge", "uamtoolkit_import", "setup.py", "setup.cfg", "pyproject.toml",
+              "aamsim_bluesky.pth")
+
+
+def code_version(root: Path | None = None) -> dict[str, str]:
+    """What code made a run: the package version and, in a git checkout, the commit (``+dirty`` when the
+    package sources, :data:`CODE_PATHS`, had uncommitted changes). ``root``: the checkout (default: this one)."""
     import subprocess
 
     from aamsim import __version__
 
     out = {"aamsim": __version__}
-    root = Path(__file__).resolve().parents[2]
+    root = Path(__file__).resolve().parents[2] if root is None else Path(root)
     try:
         commit = subprocess.run(["git", "-C", str(root), "rev-parse", "HEAD"], capture_output=True, text=True,
                                 timeout=10, check=True).stdout.strip()
-        dirty = subprocess.run(["git", "-C", str(root), "status", "--porcelain", "--untracked-files=no"],
-                               capture_output=True, text=True, timeout=10, check=True).stdout.strip()
+        dirty = subprocess.run(["git", "-C", str(root), "status", "--porcelain", "--untracked-files=no", "--",
+                                *CODE_PATHS], capture_output=True, text=True, timeout=10, check=True).stdout.strip()
     except (OSError, subprocess.SubprocessError):
         return out
     if commit:
