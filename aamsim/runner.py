@@ -13,13 +13,12 @@ import hashlib
 import math
 import platform
 import signal
-import threading
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from datetime import datetime
 from pathlib import Path
-from typing import Any
+from typing import Any, Self
 
 import aamsim
 from aamsim.errors import ScenarioSyntaxError
@@ -30,6 +29,7 @@ from aamsim.output.summary_file import ProvisionalSummary, write_json_atomic
 from aamsim.scenarios import resolve_scenario
 from aamsim.simulation import Simulation, iter_flights
 from aamsim.stack.validate import validate_scenario
+from aamsim.stop_signals import StopSignals
 
 
 class ScenarioNotFound(FileNotFoundError):
@@ -219,17 +219,13 @@ class StopOnSignal:
     Outside the main thread (where Python cannot install handlers) it does nothing.
     """
 
-    SIGNALS = (signal.SIGINT, signal.SIGTERM)
-
     def __init__(self, sim: Simulation):
         self.sim = sim
         self.signal_name: str | None = None
-        self._previous: dict[int, Any] = {}
+        self._signals = StopSignals(self._handle)
 
-    def __enter__(self) -> StopOnSignal:
-        if threading.current_thread() is threading.main_thread():
-            for signum in self.SIGNALS:
-                self._previous[signum] = signal.signal(signum, self._handle)
+    def __enter__(self) -> Self:
+        self._signals.__enter__()
         return self
 
     def _handle(self, signum: int, frame: Any) -> None:
@@ -237,15 +233,13 @@ class StopOnSignal:
         self.sim.quit_requested = True
 
     def hold(self) -> None:
-        for signum in self._previous:
-            signal.signal(signum, self._handle_late)
+        self._signals.replace(self._handle_late)
 
     def _handle_late(self, signum: int, frame: Any) -> None:
         self.signal_name = self.signal_name or signal.Signals(signum).name
 
     def __exit__(self, *exc: object) -> None:
-        for signum, handler in self._previous.items():
-            signal.signal(signum, handler)
+        self._signals.__exit__(*exc)
 
 
 def make_summary(sim: Simulation, cfg: RunConfig, path: Path, wall_s: float) -> dict[str, Any]:

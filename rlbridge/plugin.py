@@ -14,6 +14,7 @@ from collections.abc import Callable
 from typing import TYPE_CHECKING, Any
 
 from aamsim.stack.registry import command
+from aamsim.stop_signals import StopSignals
 from rlbridge.heap import use_one_arena
 from rlbridge.protocol import DEFAULT_MAX_MESSAGE_BYTES, PROTOCOL_VERSION
 from rlbridge.server import DEFAULT_BIND, ServerOptions, SimulationServer
@@ -52,18 +53,13 @@ def serve(bind: str = DEFAULT_BIND, plugins: tuple[str, ...] = (),
     if owns_process:
         use_one_arena()
     server = SimulationServer(ServerOptions(bind=bind, plugins=tuple(plugins), **options))
-    previous: dict[int, Any] = {}
-    if owns_process:
-        for signum in (signal.SIGINT, signal.SIGTERM):
-            previous[signum] = signal.signal(signum, lambda num, frame: _stop(server, num))
-    try:
-        if on_ready is not None:
-            on_ready(server.endpoint)
-        server.serve_forever()
-    finally:
-        server.close()
-        for number, handler in previous.items():
-            signal.signal(number, handler)
+    with StopSignals(lambda num, frame: _stop(server, num)):  # main thread only: none elsewhere
+        try:
+            if on_ready is not None:
+                on_ready(server.endpoint)
+            server.serve_forever()
+        finally:
+            server.close()
     return 0
 
 

@@ -36,8 +36,6 @@ import signal
 import threading
 import time
 from collections import deque
-from collections.abc import Iterator
-from contextlib import contextmanager
 from dataclasses import dataclass
 from importlib import resources
 from typing import Any
@@ -45,6 +43,7 @@ from urllib.parse import urlsplit
 
 from aiohttp import WSMsgType, web
 
+from aamsim.stop_signals import StopSignals
 from aamsim.viewer.frames import STATUS_COLOURS, STATUS_NAMES, MapLayout, RunReplay, TrafficFrame
 
 FRAME_PERIOD_S = 0.1  # ten frames per second of wall time: what a browser draws smoothly
@@ -512,24 +511,11 @@ async def start_site(viewer: ViewerApp, host: str, port: int) -> tuple[web.AppRu
     return runner, f"http://{shown}:{bound}/"
 
 
-@contextmanager
-def interrupted_by_signals() -> Iterator[None]:
-    """Ctrl-C (SIGINT) and SIGTERM raise KeyboardInterrupt inside the block, whatever the process inherited.
-
-    A process started with SIGINT ignored (a background job of a script: ``aamsim view RUN &`` ignores
-    it, and so does all a CI runner starts in the background) would otherwise serve on after Ctrl-C
-    and ``kill -INT``, and ``asyncio.run`` puts in its own Ctrl-C handler only over Python's default
-    one. Outside the main thread (no handlers there) it changes nothing.
-    """
-    if threading.current_thread() is not threading.main_thread():
-        yield
-        return
-    previous = {signum: signal.signal(signum, signal.default_int_handler) for signum in (signal.SIGINT, signal.SIGTERM)}
-    try:
-        yield
-    finally:
-        for signum, handler in previous.items():
-            signal.signal(signum, handler)
+def interrupted_by_signals() -> StopSignals:
+    """Ctrl-C (SIGINT) and SIGTERM raise KeyboardInterrupt inside the ``with`` block, whatever the process
+    inherited (a viewer started as a background job ignores SIGINT, and ``asyncio.run`` puts in its own
+    Ctrl-C handler only over Python's default one)."""
+    return StopSignals(signal.default_int_handler)
 
 
 def serve_replay(run_dir: str, host: str, port: int, on_ready: Any, allow_hosts: tuple[str, ...] = (),
