@@ -21,7 +21,17 @@ def rows(path: Path) -> list[list[str]]:
         return list(csv.reader(fh))
 
 
-def test_paper_and_v1_evaluations_get_separate_tables(tmp_path):
+def test_paper_and_v1_evaluations_get_separate_tables(tmp_path, monkeypatch):
+    import rlbridge.experiment.report as report_module
+
+    drawn: dict[str, list[str]] = {}
+    draw = report_module.reward_figure
+
+    def record(plt, groups, color_of, path, *args):
+        drawn[path.name] = sorted(groups)
+        return draw(plt, groups, color_of, path, *args)
+
+    monkeypatch.setattr(report_module, "reward_figure", record)
     evals = []
     for usecase in ("corridor_sa", "corridor_sa_v1"):
         cfg = compose_config("config", overrides=[*QUICK, f"usecase={usecase}"])
@@ -48,3 +58,17 @@ def test_paper_and_v1_evaluations_get_separate_tables(tmp_path):
     # Learning curves of the two rewards are two curves, not one pooled curve.
     training = rows(out / "training.csv")
     assert {r[0] for r in training[1:]} == {"D2MAV-A No Shared Layers", "D2MAV-A No Shared Layers [v1]"}
+    # Their reward curves are two figures: the rewards measure different things (v1 adds a term).
+    assert drawn == {"reward_curve.png": ["D2MAV-A No Shared Layers"],
+                     "reward_curve_v1.png": ["D2MAV-A No Shared Layers [v1]"]}
+    assert (out / "reward_curve_v1.png").read_bytes()[:4] == b"\x89PNG"
+    assert "(reward_curve.png)" in report and "(reward_curve_v1.png)" in report
+
+
+def test_config_suffix_keeps_every_configuration_in_its_own_files():
+    from rlbridge.experiment.report import config_suffix
+
+    assert config_suffix(("corridor_sa", "paper")) == ""
+    assert config_suffix(("corridor_sa", "v1")) == "_v1"
+    assert config_suffix(("reach_destination", "paper")) == "_reach_destination"
+    assert config_suffix(("reach_destination", "v1")) == "_reach_destination_v1"

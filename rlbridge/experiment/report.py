@@ -22,7 +22,8 @@ training runs, or over the episodes for a baseline):
 
 Figures (PNG, from the training runs' ``learning_curve.csv``):
 
-* ``reward_curve.png`` — mean reward per aircraft per iteration with a 95 % confidence band
+* ``reward_curve.png`` (``reward_curve_<variant>.png`` for another use-case variant: rewards of two
+  variants are never drawn on one axis) — mean reward per aircraft per iteration with a 95 % confidence band
   (Student's t over the training runs of the same algorithm, on the iterations all of them
   reached; for a single run, over the iteration's episodes), zoomed view on top and full view
   below, the unequipped baseline dashed;
@@ -395,6 +396,7 @@ class TrainRun:
     baseline: dict[str, Any] | None
     summary: dict[str, Any] | None
     workers: int  # rollout workers (0: in-process)
+    config: tuple[str, str] = ("corridor_sa", "paper")  # (use case, variant): rewards of two never share axes
 
 
 def load_train_run(d: Path) -> TrainRun:
@@ -409,25 +411,27 @@ def load_train_run(d: Path) -> TrainRun:
 
     summary = json.loads((d / "training_summary.json").read_text()) if (d / "training_summary.json").exists() else None
     baseline = json.loads((d / "baseline.json").read_text()) if (d / "baseline.json").exists() else None
-    label, workers = _from_config(d)
+    label, workers, config = _from_config(d)
     # The configuration's label (it names a use-case variant): runs of two rewards are never one curve.
     if not (d / "resolved_config.yaml").exists():
         label = (summary or {}).get("label") or label
     return TrainRun(d, label, curve, split("episode_rewards"),
-                    split("episode_nmac_per_aircraft"), baseline, summary, workers)
+                    split("episode_nmac_per_aircraft"), baseline, summary, workers, config)
 
 
-def _from_config(d: Path) -> tuple[str, int]:
-    """The algorithm's label and the number of workers of a run (from its resolved configuration)."""
+def _from_config(d: Path) -> tuple[str, int, tuple[str, str]]:
+    """The algorithm's label, the number of workers and the (use case, variant) of a run (from its
+    resolved configuration)."""
     cfg = d / "resolved_config.yaml"
     if cfg.exists():
         from omegaconf import OmegaConf
 
         c: Any = OmegaConf.load(cfg)
-        variant = str(c.get("usecase", {}).get("params", {}).get("variant", "paper"))
+        usecase = c.get("usecase", {})
+        variant = str(usecase.get("params", {}).get("variant", "paper"))
         label = str(c.algorithm.get("label", c.algorithm.name)) + ("" if variant == "paper" else f" [{variant}]")
-        return label, int(c.get("workers", 1))
-    return d.name, 1
+        return label, int(c.get("workers", 1)), (str(usecase.get("name", "corridor_sa")), variant)
+    return d.name, 1, ("corridor_sa", "paper")
 
 
 def smooth(x: np.ndarray, window: int) -> np.ndarray:
@@ -470,28 +474,18 @@ def _baseline_value(runs: list[TrainRun], key: str) -> float | None:
     return float(np.mean(vals)) if vals else None
 
 
-def figures(train: list[TrainRun], out: Path, window: int) -> list[Path]:
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    groups: dict[str, list[TrainRun]] = defaultdict(list)
-    for r in train:
-        groups[r.label].append(r)
-    colors = plt.rcParams["axes.prop_cycle"].by_key()["color"]
-    written = []
-    note = f" (rolling mean over {window} iterations)" if window > 1 else ""
-
-    # Reward: zoomed (top) and full (bottom) views.
+def reward_figure(plt: Any, groups: dict[str, list[TrainRun]], color_of: dict[str, str], path: Path, window: int,
+                  note: str, title: str) -> None:
+    """Mean reward per aircraft of each contender of one use-case configuration: zoomed (top) and full
+    (bottom) views, 95 % band, the unequipped reference of that configuration's training traffic."""
     fig, (ax_zoom, ax_full) = plt.subplots(2, 1, figsize=(9, 8))
     tails = []
-    for ci, (label, runs) in enumerate(groups.items()):
+    for label, runs in groups.items():
         it, m, h, what = band(runs, "reward_mean", "episode_rewards")
         m, h = smooth(m, window), smooth(h, window)
         for ax in (ax_zoom, ax_full):
-            ax.plot(it, m, color=colors[ci % len(colors)], label=f"{label} (band {what})")
-            ax.fill_between(it, m - h, m + h, color=colors[ci % len(colors)], alpha=0.25, linewidth=0)
+            ax.plot(it, m, color=color_of[label], label=f"{label} (band {what})")
+            ax.fill_between(it, m - h, m + h, color=color_of[label], alpha=0.25, linewidth=0)
         # The zoom frames the mean curves after their first fifth (and the unequipped line): with two
         # training runs the Student's t band (t = 12.71) of two runs that disagree spans hundreds of
         # reward units and, framed too, left nothing to see; there it runs off the zoomed view.
@@ -510,22 +504,50 @@ def figures(train: list[TrainRun], out: Path, window: int) -> list[Path]:
         pad = 0.15 * (hi - lo or 1.0)
         ax_zoom.set_ylim(lo - pad, hi + pad)
         ax_full.axhspan(lo - pad, hi + pad, color="grey", alpha=0.12, label="zoomed region")
-    ax_zoom.set_title("Mean reward learning curve, 95 % confidence band (Student's t)\n"
+    head = f"{title}: mean reward" if title else "Mean reward"
+    ax_zoom.set_title(f"{head} learning curve, 95 % confidence band (Student's t)\n"
                       f"zoomed on the mean curves after their first fifth{note}", fontsize=10)
     ax_full.set_title("Full learning curve")
     ax_full.legend(loc="lower right", fontsize=8)
     fig.tight_layout()
-    fig.savefig(out / "reward_curve.png", dpi=130)
+    fig.savefig(path, dpi=130)
     plt.close(fig)
-    written.append(out / "reward_curve.png")
+
+
+def figures(train: list[TrainRun], out: Path, window: int) -> list[Path]:
+    """``reward_curve<sfx>.png`` per use-case configuration (rewards of two configurations measure different
+    things, so they never share axes or an unequipped line), ``nmac_curve.png`` (NMAC counts do not depend on
+    the reward: every run on one chart) and ``states_per_hour.png``."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    groups: dict[str, list[TrainRun]] = defaultdict(list)
+    for r in train:
+        groups[r.label].append(r)
+    colors = plt.rcParams["axes.prop_cycle"].by_key()["color"]
+    color_of = {label: colors[ci % len(colors)] for ci, label in enumerate(groups)}
+    written = []
+    note = f" (rolling mean over {window} iterations)" if window > 1 else ""
+
+    by_config: dict[tuple[str, str], dict[str, list[TrainRun]]] = defaultdict(dict)
+    for label, runs in groups.items():
+        by_config[runs[0].config][label] = runs
+    configs = sorted(by_config, key=lambda c: (c[1] != "paper", c))
+    for config in configs:
+        path = out / f"reward_curve{config_suffix(config)}.png"
+        reward_figure(plt, by_config[config], color_of, path, window, note,
+                      config_title(config) if len(configs) > 1 else "")
+        written.append(path)
 
     # Normalised NMAC.
     fig, ax = plt.subplots(figsize=(9, 4.5))
-    for ci, (label, runs) in enumerate(groups.items()):
+    for label, runs in groups.items():
         it, m, h, what = band(runs, "nmac_per_aircraft", "episode_nmac")
         m, h = smooth(m, window), smooth(h, window)
-        ax.plot(it, m, color=colors[ci % len(colors)], label=f"{label} (band {what})")
-        ax.fill_between(it, np.maximum(m - h, 0), m + h, color=colors[ci % len(colors)], alpha=0.25, linewidth=0)
+        ax.plot(it, m, color=color_of[label], label=f"{label} (band {what})")
+        ax.fill_between(it, np.maximum(m - h, 0), m + h, color=color_of[label], alpha=0.25, linewidth=0)
     b = [x for x in (_baseline_value(runs, "nmac_per_aircraft") for runs in groups.values()) if x is not None]
     if b:
         ax.axhline(float(np.mean(b)), color="k", linestyle="--", label="Unequipped")
@@ -542,10 +564,10 @@ def figures(train: list[TrainRun], out: Path, window: int) -> list[Path]:
     # Aircraft-states per hour.
     fig, (ax_cum, ax_bar) = plt.subplots(1, 2, figsize=(11, 4.5))
     names, rates, per_worker = [], [], []
-    for ci, (label, runs) in enumerate(groups.items()):
+    for label, runs in groups.items():
         for k, r in enumerate(runs):
             ax_cum.plot(r.curve["wall_s"] / 3600.0, r.curve["aircraft_states_total"] / 1e6,
-                        color=colors[ci % len(colors)], label=label if k == 0 else None)
+                        color=color_of[label], label=label if k == 0 else None)
         hourly = [3600.0 * r.curve["aircraft_states_total"][-1] / r.curve["wall_s"][-1] for r in runs
                   if len(r.curve["wall_s"]) and r.curve["wall_s"][-1] > 0]
         workers = [max(r.workers, 1) for r in runs]
@@ -602,8 +624,11 @@ def group_by_config(eval_dirs: list[Path]) -> dict[tuple[str, str], list[Path]]:
 
 
 def config_suffix(config: tuple[str, str]) -> str:
-    """'' for the paper's configuration, ``_<variant>`` for another (file names)."""
-    return "" if config[1] == "paper" else f"_{config[1]}"
+    """File-name suffix of a use-case configuration: '' for the paper's corridor, ``_<variant>`` for a variant
+    of it, ``_<use case>[_<variant>]`` for another use case (two configurations never share a file)."""
+    usecase, variant = config
+    head = "" if usecase == "corridor_sa" else f"_{usecase}"
+    return head + ("" if variant == "paper" else f"_{variant}")
 
 
 def config_title(config: tuple[str, str]) -> str:
@@ -644,10 +669,10 @@ def make_report(eval_dirs: list[Path], train_dirs: list[Path], out: Path, window
         runs = [load_train_run(d) for d in train_dirs]
         training_table(runs, out)
         written += [out / "training.csv", out / "training.md"]
-        written += figures(runs, out, window)
-        parts += [(out / "training.md").read_text(), "",
-                  "![reward](reward_curve.png)", "", "![nmac](nmac_curve.png)", "",
-                  "![states](states_per_hour.png)", ""]
+        drawn = figures(runs, out, window)
+        written += drawn
+        parts += [(out / "training.md").read_text(), ""]
+        parts += [f"![{p.stem.replace('_curve', '')}]({p.name})\n" for p in drawn]
     (out / "report.md").write_text("\n".join(parts))
     written.append(out / "report.md")
     return written
