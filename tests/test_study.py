@@ -379,6 +379,41 @@ def test_the_reference_scores_table_has_every_use_case_its_baselines_and_interva
                          capture_output=True, text=True, timeout=300, check=False)
     assert bad.returncode == 2 and "unknown use case(s) nope" in bad.stderr
 
+    # One more row, a researcher's exported policy (here a copy of a shipped one), on the table's own seeds:
+    # inserted after its environment's rows, the others kept as they were, its figures those of the same
+    # weights' row (same seeds, same episodes).
+    import shutil
+
+    from rlbridge.pretrained import policy_dir
+
+    mine = tmp_path / "my_policy"
+    shutil.copytree(policy_dir("d2mava_a"), mine)
+    add = [sys.executable, "-m", "rlbridge.experiment", "scores", "--work", str(tmp_path / "work"),
+           "--out", str(tmp_path / "out"), "--add"]
+    proc = subprocess.run([*add, str(mine)], env=env, capture_output=True, text=True, timeout=1800, check=False)
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    after = rows(tmp_path / "out" / "scores.csv")
+    corridor = [k for k, r in enumerate(table) if r["environment"] == "aamgym/CorridorSA-v1"]
+    new_row = after[corridor[-1] + 1]
+    assert new_row["contender"] == "D2MAV-A No Shared Layers (`my_policy`)"
+    assert after[:corridor[-1] + 1] + after[corridor[-1] + 2:] == table
+    shipped = next(r for r in table if r["contender"] == "D2MAV-A No Shared Layers (pretrained `d2mava_a`)")
+    assert {k: v for k, v in new_row.items() if k != "contender"} == \
+        {k: v for k, v in shipped.items() if k != "contender"}
+    md = (tmp_path / "out" / "scores.md").read_text()
+    assert "by `aamgym scores --add <exported policy folder my_policy>`" in md and str(tmp_path) not in md
+    # Added again: replaced, not doubled.
+    proc = subprocess.run([*add, str(mine)], env=env, capture_output=True, text=True, timeout=1800, check=False)
+    assert proc.returncode == 0 and rows(tmp_path / "out" / "scores.csv") == after
+    assert (tmp_path / "out" / "scores.md").read_text().count("Row added later") == 1
+    # Nothing to add to, or conditions of its own: refused with what to do.
+    none = subprocess.run([*add[:-3], "--out", str(tmp_path / "empty"), "--add", str(mine)], env=env,
+                          capture_output=True, text=True, timeout=300, check=False)
+    assert none.returncode == 2 and "no scores table to add a row to" in none.stderr
+    own = subprocess.run([*add, str(mine), "--episodes", "5"], env=env, capture_output=True, text=True,
+                         timeout=300, check=False)
+    assert own.returncode == 2 and "the table's own scenario, seeds and episodes" in own.stderr
+
 
 def test_code_version_is_dirty_for_changed_package_sources_not_for_results_written_beside_them(tmp_path):
     """A study writes its results into the checkout it runs from; those files (and a removed parked

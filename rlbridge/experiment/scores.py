@@ -2,14 +2,16 @@
 
     aamgym scores                                   # every use case, held-out traffic, fixed seeds
     aamgym scores --usecases corridor_sa --episodes 20 --out docs/results/scores
+    aamgym scores --add runs/my_policy_export          # one more row, on the table's own seeds
 
 For each use case (its Gymnasium id and version, its ``rlbridge/conf/usecase`` configuration): the
 reference contender (unequipped aircraft, or no planning for a planner), every rule-based baseline
 the use case names, and every shipped pretrained policy trained for it (``aamgym pretrained list``),
 on the same fixed held-out seeds of the held-out scenario. Each figure is a mean with its 95 %
 interval over those episodes (Student's t); every safety figure sits beside what it cost. The
-table (``scores.md``, ``scores.csv``) says how it was made, so a researcher can add a row made the
-same way (the same command with their policy).
+table (``scores.md``, ``scores.csv``, and ``scores.json``: the same as data) says how it was made, and
+``aamgym scores --add <exported policy folder>`` adds a researcher's row made the same way (the table's
+scenario, seeds and episodes) without recomputing the others.
 """
 
 from __future__ import annotations
@@ -108,19 +110,30 @@ def _cell(values: list[float], digits: int) -> str:
     return f"{mi.mean:.{digits}f} ± {mi.half_width:.{digits}f}"
 
 
+TABLE_FILE = "scores.json"  # the table as data: its conditions and rows (scores.csv and scores.md are drawn from it)
+
+
+def contender_row(usecase: str, eval_dir: Path, policy: str, suffix: str) -> dict[str, Any]:
+    """One row of the table: a contender's figures over the episodes of one evaluation."""
+    from rlbridge.usecases.registry import env_id
+
+    ev = json.loads((eval_dir / "evaluation.json").read_text())
+    figures = _episode_figures(eval_dir, policy)
+    return {"environment": env_id(usecase), "contender": ev["policies"][policy]["label"] + suffix,
+            "episodes": len(figures), "identical": same_every_episode(figures),
+            "cells": [_cell([f[k] for f in figures if f.get(k) is not None], dg) for k, _, dg in COLUMNS]}
+
+
 def run_scores(usecases: list[str], scenario: str, episodes: int, out: Path, work: Path, workers: int) -> Path:
     from rlbridge.experiment.evaluate import run_evaluation
     from rlbridge.experiment.study import _compose
     from rlbridge.pretrained import load
-    from rlbridge.usecases.registry import env_id
 
-    rows: list[list[str]] = []
-    identical: set[int] = set()  # rows whose every episode gave the same figures (marked in scores.md)
+    rows: list[dict[str, Any]] = []
     t0 = time.perf_counter()
     for uc in usecases:
         reference, others, learned = usecase_contenders(uc)
-        common = [f"scenario={scenario}", f"episodes={episodes}", f"seed={SEEDS_START}", f"workers={workers}",
-                  f"usecase={uc}"]
+        common = _common(scenario, episodes, workers, uc)
         evals: list[tuple[Path, str, str]] = []  # (evaluation folder, its policy key, the row's name suffix)
         base_dir = work / uc / "baselines"
         if not (base_dir / "evaluation.json").exists():
@@ -136,23 +149,77 @@ def run_scores(usecases: list[str], scenario: str, episodes: int, out: Path, wor
                                baseline_cache=work / "cache")
             # The evaluation names a policy by its algorithm (its episodes folder too), the row by what ships.
             evals.append((d, load(name).name, f" (pretrained `{name}`)"))
-        for d, policy, suffix in evals:
-            ev = json.loads((d / "evaluation.json").read_text())
-            figures = _episode_figures(d, policy)
-            label = ev["policies"][policy]["label"] + suffix
-            if same_every_episode(figures):
-                identical.add(len(rows))
-            rows.append([env_id(uc), label, str(len(figures))]
-                        + [_cell([f[k] for f in figures if f.get(k) is not None], dg) for k, _, dg in COLUMNS])
+        rows += [contender_row(uc, d, policy, suffix) for d, policy, suffix in evals]
+    table = {"scenario": scenario, "episodes": episodes, "seed_start": SEEDS_START, "usecases": list(usecases),
+             "date": time.strftime("%Y-%m-%d"), "wall_min": round((time.perf_counter() - t0) / 60, 1),
+             "rows": rows, "added": []}
+    return write_scores(out, table)
+
+
+def _common(scenario: str, episodes: int, workers: int, usecase: str, seed: int = SEEDS_START) -> list[str]:
+    return [f"scenario={scenario}", f"episodes={episodes}", f"seed={seed}", f"workers={workers}",
+            f"usecase={usecase}"]
+
+
+def add_score(policy: str, out: Path, work: Path, workers: int) -> Path:
+    """``aamgym scores --add POLICY``: one more row (a shipped or exported policy) in the table in ``out``,
+    made exactly as its rows were (the same scenario, seeds and episodes, read from ``scores.json``); a row
+    of the same contender is replaced. The other rows are kept as they are, not recomputed."""
+    from rlbridge.experiment.evaluate import run_evaluation
+    from rlbridge.experiment.study import _compose
+    from rlbridge.pretrained import PREFIX, SHIPPED_DIR, load
+
+    path = out / TABLE_FILE
+    if not path.is_file():
+        raise FileNotFoundError(f"{path}: no scores table to add a row to; make one first (aamgym scores --out {out})")
+    table = json.loads(path.read_text())
+    loaded = load(policy)
+    shipped = loaded.folder.parent == SHIPPED_DIR
+    name = loaded.folder.name
+    # The row names what ships by its name; an exported folder by its own name (not the machine's path).
+    suffix = f" (pretrained `{name}`)" if shipped else f" (`{name}`)"
+    shown = f"{PREFIX}{name}" if shipped else f"<exported policy folder {name}>"
+    uc = loaded.usecase
+    d = work / uc / (f"pretrained_{name}" if shipped else f"exported_{name}")
+    t0 = time.perf_counter()
+    if (d / "evaluation.json").exists():
+        import shutil
+
+        shutil.rmtree(d)  # a folder of this name may hold an older policy: the row is always played anew
+    log.info("%s: %s on %s, %d episodes from seed %d", uc, shown, table["scenario"], table["episodes"],
+             table["seed_start"])
+    common = _common(str(table["scenario"]), int(table["episodes"]), workers, uc, int(table["seed_start"]))
+    run_evaluation(_compose("evaluate", common + [f"policy={loaded.folder if not shipped else PREFIX + name}",
+                                                  "baselines=[]"]), d, baseline_cache=work / "cache")
+    row = contender_row(uc, d, loaded.name, suffix)
+    rows: list[dict[str, Any]] = table["rows"]
+    same = [k for k, r in enumerate(rows) if (r["environment"], r["contender"]) == (row["environment"],
+                                                                                     row["contender"])]
+    if same:
+        rows[same[0]] = row
+    else:  # after the last row of its environment (at the end when the table has none)
+        last = max((k for k, r in enumerate(rows) if r["environment"] == row["environment"]), default=len(rows) - 1)
+        rows.insert(last + 1, row)
+    table["added"] = [a for a in table.get("added", []) if a["contender"] != row["contender"]] + [
+        {"contender": row["contender"], "environment": row["environment"], "command": f"aamgym scores --add {shown}",
+         "date": time.strftime("%Y-%m-%d"), "wall_min": round((time.perf_counter() - t0) / 60, 1)}]
+    return write_scores(out, table)
+
+
+def write_scores(out: Path, table: dict[str, Any]) -> Path:
+    """``scores.json`` (the table as data), ``scores.csv`` and ``scores.md`` (drawn from it)."""
     out.mkdir(parents=True, exist_ok=True)
+    (out / TABLE_FILE).write_text(json.dumps(table, indent=1, ensure_ascii=False) + "\n")
+    rows = table["rows"]
     header = ["environment", "contender", "episodes", *[t for _, t, _ in COLUMNS]]
     with open(out / "scores.csv", "w", newline="") as fh:
         w = csv.writer(fh)
         w.writerow(header)
-        w.writerows(rows)
-    stem = Path(scenario).stem
-    command = (f"aamgym scores --usecases {' '.join(usecases)} --scenario {stem} --episodes {episodes}")
-    intro = (f"Held-out traffic `{stem}`, seeds {SEEDS_START} .. {SEEDS_START + episodes - 1} (the same for every "
+        w.writerows([r["environment"], r["contender"], str(r["episodes"]), *r["cells"]] for r in rows)
+    stem = Path(str(table["scenario"])).stem
+    episodes, seed0 = int(table["episodes"]), int(table["seed_start"])
+    command = f"aamgym scores --usecases {' '.join(table['usecases'])} --scenario {stem} --episodes {episodes}"
+    intro = (f"Held-out traffic `{stem}`, seeds {seed0} .. {seed0 + episodes - 1} (the same for every "
              "contender), each use case with its configuration in `rlbridge/conf/usecase` and the episode variation "
              "of its `-v1` environment (docs/usecases.md, \"Episode variation\"). Each cell: mean ± half-width of "
              "the 95 % interval over the episodes (Student's t). Safety figures sit beside what they cost. Every "
@@ -164,19 +231,23 @@ def run_scores(usecases: list[str], scenario: str, episodes: int, out: Path, wor
              "airborne holding. The delay is against the scheduled arrival (the RTA, at the filed cruise speed): "
              "negative when flights fly faster than filed. The reward is per scheduled flight. A change of an environment's behaviour bumps "
              "its version; compare rows of the same version only.")
-    made = (f"Made by `{command}` ({time.strftime('%Y-%m-%d')}); add your policy's row with "
-            f"`aamgym evaluate policy=<exported policy> scenario={stem} episodes={episodes} seed={SEEDS_START}`.")
+    made = (f"Made by `{command}` ({table['date']}); add your policy's row, played on the same seeds, with "
+            "`aamgym scores --add <exported policy folder>` (or `--add pretrained:<name>`).")
     lines = ["# Reference scores", "", intro, "", made, "",
              "| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
-    lines += ["| " + " | ".join(r[:2] + [r[2] + (IDENTICAL_MARK if k in identical else "")] + r[3:]) + " |"
-              for k, r in enumerate(rows)]
-    if identical:
+    lines += ["| " + " | ".join([r["environment"], r["contender"],
+                                 str(r["episodes"]) + (IDENTICAL_MARK if r["identical"] else ""), *r["cells"]]) + " |"
+              for r in rows]
+    if any(r["identical"] for r in rows):
         lines += ["", (f"{IDENTICAL_MARK.strip()} Every episode of this row gave the same figures: nothing the "
                        "seed draws changed what it did (docs/usecases.md, \"Episode variation\"), so its interval "
                        "does not say how its figures vary with the traffic.")]
-    wall = f"{(time.perf_counter() - t0) / 60:.1f}"
-    note = f"Wall time of this table's evaluations on the machine that made it: {wall} min (cached episodes not counted)."
+    note = (f"Wall time of this table's evaluations on the machine that made it: {table['wall_min']:.1f} min "
+            "(cached episodes not counted).")
     lines += ["", note]
+    for a in table.get("added", []):
+        lines += ["", (f"Row added later: {a['contender']} ({a['environment']}), by `{a['command']}` "
+                       f"({a['date']}, {a['wall_min']:.1f} min).")]
     (out / "scores.md").write_text("\n".join(lines) + "\n")
     return out / "scores.md"
 
@@ -191,7 +262,21 @@ def main(argv: list[str] | None = None) -> None:
     ap.add_argument("--workers", type=int, default=0, help="Ray workers (0: in process)")
     ap.add_argument("--work", type=Path, default=Path("runs/scores"), help="evaluation runs (default runs/scores)")
     ap.add_argument("--out", type=Path, default=Path("docs/results/scores"))
+    ap.add_argument("--add", metavar="POLICY", default=None,
+                    help="add one row to the table in --out: a shipped policy (pretrained:<name>) or an exported "
+                         "policy folder, played on the table's own scenario, seeds and episodes; the other rows "
+                         "stay as they are")
     args = ap.parse_args(argv)
+    if args.add is not None:
+        if args.usecases or args.scenario != ap.get_default("scenario") or args.episodes != ap.get_default("episodes"):
+            ap.error("--add plays the policy on the table's own scenario, seeds and episodes (its scores.json) in "
+                     "its own use case: give no --usecases, --scenario or --episodes with it")
+        logging.basicConfig(level=logging.INFO, format="[%(asctime)s][%(name)s][%(levelname)s] - %(message)s")
+        try:
+            print(add_score(args.add, args.out, args.work, args.workers))
+        except FileNotFoundError as err:
+            ap.exit(2, f"aamgym scores: error: {err}\n")
+        return
     known = available()
     usecases: list[Any] = args.usecases or known
     unknown = [u for u in usecases if u not in known]
