@@ -65,10 +65,10 @@ def test_paper_and_v1_evaluations_get_separate_tables(tmp_path, monkeypatch):
     assert "(reward_curve.png)" in report and "(reward_curve_v1.png)" in report
 
 
-def test_config_suffix_keeps_every_configuration_in_its_own_files():
+def test_config_suffix_names_the_variant_only():
+    """A planner's report keeps its file names (planning.csv, risk_ratio.csv): no use-case name in them."""
     from rlbridge.experiment.report import config_suffix
 
     assert config_suffix(("corridor_sa", "paper")) == ""
     assert config_suffix(("corridor_sa", "v1")) == "_v1"
-    assert config_suffix(("reach_destination", "paper")) == "_reach_destination"
-    assert config_suffix(("reach_destination", "v1")) == "_reach_destination_v1"
+    assert config_suffix(("strategic_planning", "paper")) == ""

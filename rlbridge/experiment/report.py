@@ -624,11 +624,8 @@ def group_by_config(eval_dirs: list[Path]) -> dict[tuple[str, str], list[Path]]:
 
 
 def config_suffix(config: tuple[str, str]) -> str:
-    """File-name suffix of a use-case configuration: '' for the paper's corridor, ``_<variant>`` for a variant
-    of it, ``_<use case>[_<variant>]`` for another use case (two configurations never share a file)."""
-    usecase, variant = config
-    head = "" if usecase == "corridor_sa" else f"_{usecase}"
-    return head + ("" if variant == "paper" else f"_{variant}")
+    """'' for a use case's own configuration, ``_<variant>`` for a variant (file names)."""
+    return "" if config[1] == "paper" else f"_{config[1]}"
 
 
 def config_title(config: tuple[str, str]) -> str:
