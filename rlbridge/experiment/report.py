@@ -534,7 +534,7 @@ def figures(train: list[TrainRun], out: Path, window: int) -> list[Path]:
     by_config: dict[tuple[str, str], dict[str, list[TrainRun]]] = defaultdict(dict)
     for label, runs in groups.items():
         by_config[runs[0].config][label] = runs
-    configs = sorted(by_config, key=lambda c: (c[1] != "paper", c))
+    configs = sorted(by_config, key=config_order)
     for config in configs:
         path = out / f"reward_curve{config_suffix(config)}.png"
         reward_figure(plt, by_config[config], color_of, path, window, note,
@@ -615,12 +615,17 @@ def usecase_config(ev: dict[str, Any]) -> tuple[str, str]:
     return str(uc.get("name", "corridor_sa")), str(uc.get("variant", "paper"))
 
 
+def config_order(config: tuple[str, str]) -> tuple[bool, tuple[str, str]]:
+    """Sort key of use-case configurations: the paper's first, then by name (tables and figures alike)."""
+    return config[1] != "paper", config
+
+
 def group_by_config(eval_dirs: list[Path]) -> dict[tuple[str, str], list[Path]]:
     """Evaluation directories per use-case configuration, the paper's first: their rows never mix."""
     groups: dict[tuple[str, str], list[Path]] = defaultdict(list)
     for d in eval_dirs:
         groups[usecase_config(json.loads((d / "evaluation.json").read_text()))].append(d)
-    return dict(sorted(groups.items(), key=lambda kv: (kv[0][1] != "paper", kv[0])))
+    return dict(sorted(groups.items(), key=lambda kv: config_order(kv[0])))
 
 
 def config_suffix(config: tuple[str, str]) -> str:
