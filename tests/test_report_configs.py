@@ -72,3 +72,18 @@ def test_config_suffix_names_the_variant_only():
     assert config_suffix(("corridor_sa", "paper")) == ""
     assert config_suffix(("corridor_sa", "v1")) == "_v1"
     assert config_suffix(("strategic_planning", "paper")) == ""
+
+
+def test_two_use_cases_in_one_report_never_share_a_file_name():
+    """The variant names the files while it is unique in the report; two use cases' own configurations
+    (both 'paper') or the same variant of two use cases get the use case's name, each once."""
+    from rlbridge.experiment.report import config_suffixes
+
+    assert config_suffixes([("corridor_sa", "paper"), ("corridor_sa", "v1")]) == {
+        ("corridor_sa", "paper"): "", ("corridor_sa", "v1"): "_v1"}
+    assert config_suffixes([("strategic_planning", "paper")] * 3) == {("strategic_planning", "paper"): ""}
+    both = config_suffixes([("corridor_sa", "v1"), ("corridor_sa", "paper"), ("strategic_planning", "paper"),
+                            ("reach_destination", "v1")])
+    assert both == {("corridor_sa", "paper"): "_corridor_sa", ("strategic_planning", "paper"): "_strategic_planning",
+                    ("corridor_sa", "v1"): "_corridor_sa_v1", ("reach_destination", "v1"): "_reach_destination_v1"}
+    assert len(set(both.values())) == len(both)

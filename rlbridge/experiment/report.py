@@ -32,7 +32,9 @@ Figures (PNG, from the training runs' ``learning_curve.csv``):
 
 ``report.md`` gathers everything. Evaluations of different use-case configurations (the
 paper's reward, variant ``v1``, ...) get separate tables (``risk_ratio.md``,
-``risk_ratio_v1.md``, ...): their rows are never mixed. Several evaluation runs of the same algorithm and
+``risk_ratio_v1.md``, ...): their rows are never mixed; where two use cases would get the same
+name (two use cases' own configurations in one report) the use case's name goes before the variant
+(``risk_ratio_corridor_sa.md``, ``risk_ratio_strategic_planning.md``). Several evaluation runs of the same algorithm and
 scenario (e.g. training seeds) are pooled; baselines evaluated twice on a seed count once.
 """
 
@@ -42,7 +44,8 @@ import argparse
 import csv
 import json
 import math
-from collections import defaultdict
+from collections import Counter, defaultdict
+from collections.abc import Iterable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, NamedTuple
@@ -514,7 +517,8 @@ def reward_figure(plt: Any, groups: dict[str, list[TrainRun]], color_of: dict[st
     plt.close(fig)
 
 
-def figures(train: list[TrainRun], out: Path, window: int) -> list[Path]:
+def figures(train: list[TrainRun], out: Path, window: int,
+            suffixes: dict[tuple[str, str], str] | None = None) -> list[Path]:
     """``reward_curve<sfx>.png`` per use-case configuration (rewards of two configurations measure different
     things, so they never share axes or an unequipped line), ``nmac_curve.png`` (NMAC counts do not depend on
     the reward: every run on one chart) and ``states_per_hour.png``."""
@@ -535,8 +539,9 @@ def figures(train: list[TrainRun], out: Path, window: int) -> list[Path]:
     for label, runs in groups.items():
         by_config[runs[0].config][label] = runs
     configs = sorted(by_config, key=config_order)
+    suffixes = suffixes or config_suffixes(configs)
     for config in configs:
-        path = out / f"reward_curve{config_suffix(config)}.png"
+        path = out / f"reward_curve{suffixes[config]}.png"
         reward_figure(plt, by_config[config], color_of, path, window, note,
                       config_title(config) if len(configs) > 1 else "")
         written.append(path)
@@ -633,6 +638,17 @@ def config_suffix(config: tuple[str, str]) -> str:
     return "" if config[1] == "paper" else f"_{config[1]}"
 
 
+def config_suffixes(configs: Iterable[tuple[str, str]]) -> dict[tuple[str, str], str]:
+    """File-name suffix of each configuration of one report: the variant's (``config_suffix``) where no
+    other configuration has it, else the use case's name before it, so two use cases' tables never
+    overwrite each other (a planner's report keeps ``planning.csv``; corridor_sa beside
+    strategic_planning gives ``risk_ratio_corridor_sa.csv`` and ``risk_ratio_strategic_planning.csv``)."""
+    unique = sorted(set(configs), key=config_order)
+    short = {c: config_suffix(c) for c in unique}
+    taken = Counter(short.values())
+    return {c: sfx if taken[sfx] == 1 else f"_{c[0]}{sfx}" for c, sfx in short.items()}
+
+
 def config_title(config: tuple[str, str]) -> str:
     return f"{config[0]} (the paper's reward)" if config[1] == "paper" else f"{config[0]} variant {config[1]}"
 
@@ -646,10 +662,13 @@ def make_report(eval_dirs: list[Path], train_dirs: list[Path], out: Path, window
     departure_text = ["**Departures from the paper in these results:**", ""] + [f"- {d}" for d in departures or []]
     written: list[Path] = []
     groups = group_by_config(eval_dirs)
+    runs = [load_train_run(d) for d in train_dirs]
+    # One naming for tables and figures alike, over every configuration the report shows.
+    suffixes = config_suffixes([*groups, *(r.config for r in runs)])
     for config, dirs in groups.items():
         # One set of tables per use-case configuration: a ratio bought under one reward is not
         # comparable with one bought under another, and a label (an algorithm) appears in both.
-        sfx = config_suffix(config)
+        sfx = suffixes[config]
         cells, labels, scenarios = load_evaluations(dirs)
         written += ratio_tables(cells, labels, scenarios, out, sfx, config_title(config))
         operational_table(cells, labels, scenarios, out, sfx)
@@ -667,11 +686,10 @@ def make_report(eval_dirs: list[Path], train_dirs: list[Path], out: Path, window
                 parts += [*departure_text, ""]
         # Run names only: a report is meant to be committed, the machine's paths are not.
         parts += ["Evaluation runs: " + ", ".join(d.resolve().name for d in dirs), ""]
-    if train_dirs:
-        runs = [load_train_run(d) for d in train_dirs]
+    if runs:
         training_table(runs, out)
         written += [out / "training.csv", out / "training.md"]
-        drawn = figures(runs, out, window)
+        drawn = figures(runs, out, window, suffixes)
         written += drawn
         parts += [(out / "training.md").read_text(), ""]
         parts += [f"![{p.stem.replace('_curve', '')}]({p.name})\n" for p in drawn]
