@@ -328,7 +328,9 @@ def test_baseline_episodes_are_played_once_per_study_and_ddqn_sampled_means_epsi
     assert sampled["policies"]["ddqn"]["label"] == "DDQN (RLlib update ratio), epsilon-greedy 0.05"
     cache = tmp_path / "work" / "baselines"
     kinds = sorted(d.name.split("-")[0] for d in cache.iterdir())
-    assert kinds == ["mvp_speed", "unequipped"]  # one entry each: the sampled evaluation reused unequipped
+    # One entry per baseline (the sampled evaluation reused unequipped); the policy's greedy and sampled
+    # episodes are two (they act differently).
+    assert kinds == ["dqn", "dqn", "mvp_speed", "unequipped"]
     for e in index["evaluations"]:  # the very same unequipped episodes in both evaluations
         assert (tmp_path / "work" / e / "episodes/unequipped/seed-0000/summary.json").read_text() == \
             (tmp_path / "work" / index["evaluations"][0] / "episodes/unequipped/seed-0000/summary.json").read_text()
@@ -345,6 +347,64 @@ def test_baseline_episodes_are_played_once_per_study_and_ddqn_sampled_means_epsi
         ours, theirs = (json.loads(p.read_text()) for p in (exported / "evaluation.json",
                                                              tmp_path / "work" / e / "evaluation.json"))
         assert ours["policies"] == theirs["policies"] and ours["checkpoint"] != theirs["checkpoint"]
+
+
+def test_an_interrupted_evaluation_resumes_with_the_episodes_it_had_finished(tmp_path, monkeypatch):
+    """A slice of the study ends inside an evaluation, after two of the policy's three episodes: the next
+    slice plays only the third (and what had not started), and both evaluations end exactly as an
+    uninterrupted study's do, the sampled one included (each episode draws from its own seed)."""
+    import shutil
+
+    import numpy as np
+
+    from rlbridge.experiment import evaluate as evaluate_module
+    from rlbridge.experiment import study as study_module
+    from rlbridge.experiment import train as train_module
+    from rlbridge.experiment.workers import InProcessPool
+
+    monkeypatch.setattr(train_module, "code_version", lambda: {"aamsim": "test", "commit": "e" * 40})
+    plan = _tiny_plan(actions=["greedy", "sampled"], episodes=3)
+    study_module.run_study(plan, tmp_path / "whole", tmp_path / "whole_out", ("train",))
+    shutil.copytree(tmp_path / "whole", tmp_path / "cut")  # the same trained run in both work folders
+    whole = study_module.run_study(plan, tmp_path / "whole", tmp_path / "whole_out", ("evaluate",))
+
+    real_store, stored = evaluate_module.store_cached_episode, []
+
+    def store_then_stop(cache, stats):
+        real_store(cache, stats)
+        stored.append(cache.name.split("-")[0])
+        if stored.count("d2mava") == 2:
+            raise KeyboardInterrupt  # the session ends here
+    with monkeypatch.context() as m:
+        m.setattr(evaluate_module, "store_cached_episode", store_then_stop)
+        with pytest.raises(KeyboardInterrupt):
+            study_module.run_study(plan, tmp_path / "cut", tmp_path / "cut_out", ("evaluate",))
+
+    played: list[tuple[str, list[int]]] = []
+    real_map = InProcessPool.map_episodes
+
+    def record(self, seeds, actor, *args, **kw):
+        played.append((actor, list(seeds)))
+        return real_map(self, seeds, actor, *args, **kw)
+    monkeypatch.setattr(InProcessPool, "map_episodes", record)
+    cut = study_module.run_study(plan, tmp_path / "cut", tmp_path / "cut_out", ("evaluate",))
+    assert played == [("d2mava_a", [2]), ("unequipped", [0, 1, 2]),  # the greedy evaluation, resumed
+                      ("d2mava_a", [0, 1, 2])]  # the sampled one: its own episodes; unequipped's reused
+    assert cut["evaluations"] == whole["evaluations"] == ["eval/corridor_sa/d2mava_a_s0/tiny_conflict_greedy",
+                                                          "eval/corridor_sa/d2mava_a_s0/tiny_conflict_sampled"]
+    for e in whole["evaluations"]:
+        assert _without_wall_time(tmp_path / "cut" / e / "episodes.csv") == \
+            _without_wall_time(tmp_path / "whole" / e / "episodes.csv")
+    greedy = rows(tmp_path / "whole" / whole["evaluations"][0] / "episodes.csv")
+    assert [r["seed"] for r in greedy if r["policy"] == "d2mava_a"] == ["0", "1", "2"]
+    # Changed weights are another policy: nothing of the old one is reused.
+    weights = {"w": np.zeros(3, dtype=np.float32)}
+    spec = {"kind": "d2mava"}
+    assert evaluate_module.episode_cache_spec(spec, weights, {"greedy": True}) != \
+        evaluate_module.episode_cache_spec(spec, {"w": np.ones(3, dtype=np.float32)}, {"greedy": True})
+    assert evaluate_module.episode_cache_spec(spec, weights, {"greedy": True}) != \
+        evaluate_module.episode_cache_spec(spec, weights, {"greedy": False})
+    assert evaluate_module.episode_cache_spec(spec, None, {}) == spec  # a baseline's key as before
 
 
 def test_the_reference_scores_table_has_every_use_case_its_baselines_and_intervals(tmp_path):

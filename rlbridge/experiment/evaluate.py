@@ -16,9 +16,12 @@ The frozen policy acts greedily by default (D2MAV-A: its most likely action, DDQ
 ``greedy=false`` samples D2MAV-A's stochastic policy instead, and makes DDQN epsilon-greedy with
 ``sampled_epsilon`` (0.05, Mnih et al.'s evaluation protocol; :data:`SAMPLED_EPSILON`).
 
-Baselines (the unequipped aircraft, MVP, DAA, ...) do not depend on the trained policy: with a
-``baseline_cache`` directory, each baseline's episode on a seed is played once and reused by every
-evaluation on the same scenario, use-case parameters and code (``aamgym study`` passes one).
+An episode is decided by its seed, the environment and what acts in it (each episode draws its actions
+from a generator seeded by its seed), so with an ``episode_cache`` directory each one is played once and
+reused: a baseline's (the unequipped aircraft, MVP, DAA, ...) by every evaluation on the same scenario,
+use-case parameters and code, the policy's by a rerun with the same weights and the same way of acting,
+so an evaluation that was interrupted resumes with the episodes it had finished (``aamgym study`` and
+``aamgym scores`` pass one). Nothing is cached while the package's sources differ from their commit.
 
 ``baseline=<name>`` instead of ``run=`` evaluates a baseline (``unequipped``, ``mvp_speed``,
 ``daa``) against the others with no training run: on ``scenario=`` with the use case of
@@ -157,10 +160,32 @@ def evaluation_baselines(cfg: DictConfig, env: EnvSpec) -> list[str]:
     return names
 
 
-def baseline_cache_dir(root: Path, env: EnvSpec, spec: dict[str, Any]) -> Path | None:
-    """Where a baseline's episodes on ``env`` are kept: a digest of everything that decides them (the
-    scenario's text, the use case and its parameters, step, time limit, metrics, backend, the baseline's
-    spec and the code's commit). None when the code has uncommitted changes: nothing is cached then."""
+def weights_digest(weights: dict[str, np.ndarray]) -> str:
+    """SHA-256 of a policy's weights (names, dtypes, shapes and values): the same digest for the same bits."""
+    import hashlib
+
+    h = hashlib.sha256()
+    for name in sorted(weights):
+        a = np.ascontiguousarray(weights[name])
+        h.update(f"{name}|{a.dtype.str}|{a.shape}|".encode())
+        h.update(a.tobytes())
+    return h.hexdigest()
+
+
+def episode_cache_spec(spec: dict[str, Any], weights: dict[str, np.ndarray] | None,
+                       explore: dict[str, Any]) -> dict[str, Any]:
+    """What decides an actor's episodes beside the environment and the seed: a baseline's spec; a learned
+    policy's spec, weights and way of acting (greedy, sampled, epsilon)."""
+    if weights is None:
+        return spec  # a baseline: the key it always had (its cached episodes stay valid)
+    return {**spec, "weights_sha256": weights_digest(weights), "explore": explore}
+
+
+def episode_cache_dir(root: Path, env: EnvSpec, spec: dict[str, Any]) -> Path | None:
+    """Where an actor's episodes on ``env`` are kept: a digest of everything that decides them (the
+    scenario's text, the use case and its parameters, step, time limit, metrics, backend, the actor's
+    spec from :func:`episode_cache_spec` and the code's commit). None when the code has uncommitted changes:
+    nothing is cached then."""
     import hashlib
 
     from rlbridge.experiment.train import code_version
@@ -197,7 +222,7 @@ def store_cached_episode(cache: Path, stats: EpisodeStats) -> None:
     tmp.replace(cache / f"seed-{stats.seed:04d}.json")
 
 
-def run_evaluation(cfg: DictConfig, out_dir: str | Path, baseline_cache: str | Path | None = None) -> dict[str, Any]:
+def run_evaluation(cfg: DictConfig, out_dir: str | Path, episode_cache: str | Path | None = None) -> dict[str, Any]:
     out = Path(out_dir)
     has_run = cfg.get("run") not in (None, "")
     subject = cfg.get("baseline")
@@ -213,7 +238,7 @@ def run_evaluation(cfg: DictConfig, out_dir: str | Path, baseline_cache: str | P
     out.mkdir(parents=True, exist_ok=True)
     (out / "resolved_config.yaml").write_text(OmegaConf.to_yaml(cfg, resolve=True))
     if pretrained:
-        return evaluate_pretrained(cfg, out, str(pretrained), baseline_cache)
+        return evaluate_pretrained(cfg, out, str(pretrained), episode_cache)
     weights: dict[str, np.ndarray] | None = None
     ckpt: dict[str, Any] = {"state": {}}
     ckpt_path: Path | None = None
@@ -242,10 +267,10 @@ def run_evaluation(cfg: DictConfig, out_dir: str | Path, baseline_cache: str | P
         greedy, explore = True, {}
         actors = {name: {"kind": name}}
     return play_and_report(cfg, out, env, name, label, actors, weights, explore, greedy, has_run, ckpt, ckpt_path,
-                           baseline_cache)
+                           episode_cache)
 
 
-def evaluate_pretrained(cfg: DictConfig, out: Path, which: str, baseline_cache: str | Path | None) -> dict[str, Any]:
+def evaluate_pretrained(cfg: DictConfig, out: Path, which: str, episode_cache: str | Path | None) -> dict[str, Any]:
     """``policy=pretrained:<name>`` (or an exported policy folder): the shipped weights against the baselines,
     on ``scenario`` (default: the policy's training scenario), in the use case it was trained for."""
     from rlbridge.experiment.export import policy_env
@@ -267,13 +292,13 @@ def evaluate_pretrained(cfg: DictConfig, out: Path, which: str, baseline_cache: 
     ckpt = {"state": {"best_iteration": prov.get("best_iteration"), "iteration": prov.get("iterations")},
             "run_dir": f"pretrained:{name}" if which.removeprefix("pretrained:") == name else Path(which).name}
     return play_and_report(cfg, out, env, name, label, actors, exported.weights, explore, greedy, True, ckpt, None,
-                           baseline_cache)
+                           episode_cache)
 
 
 def play_and_report(cfg: DictConfig, out: Path, env: EnvSpec, name: str, label: str,
                     actors: dict[str, dict[str, Any]], weights: dict[str, np.ndarray] | None,
                     explore: dict[str, Any], greedy: bool, has_run: bool, ckpt: dict[str, Any],
-                    ckpt_path: Path | None, baseline_cache: str | Path | None) -> dict[str, Any]:
+                    ckpt_path: Path | None, episode_cache: str | Path | None) -> dict[str, Any]:
     """Play the policy and the baselines on the same seeds; write the episodes, episodes.csv, evaluation.json."""
     scenario = env.scenario
     actors.setdefault("unequipped", {"kind": "unequipped"})
@@ -288,16 +313,17 @@ def play_and_report(cfg: DictConfig, out: Path, env: EnvSpec, name: str, label: 
     results: dict[str, list[EpisodeStats]] = {}
     pool = make_pool(int(cfg.workers), env, actors, cfg.ray)
     try:
-        for policy in actors:
+        for policy, spec in actors.items():
             w = weights if policy == name else None
             ex = explore if policy == name else {}
             got: list[EpisodeStats] = []
-            cache = None if policy == name or baseline_cache is None else \
-                baseline_cache_dir(Path(baseline_cache), env, actors[policy])
+            cache = None if episode_cache is None else \
+                episode_cache_dir(Path(episode_cache), env, episode_cache_spec(spec, w, ex))
             cached = [c for c in (load_cached_episode(cache, s) for s in seeds) if c is not None] if cache else []
             todo = [s for s in seeds if s not in {c.seed for c in cached}]
             if cached:
-                log.info("%s: %d of %d episodes reused from the baseline cache", policy, len(cached), len(seeds))
+                log.info("%s: %d of %d episodes reused from the episode cache (%s)", policy, len(cached), len(seeds),
+                         "played before" if w is None else "the same weights played them before")
             bar = tqdm(total=len(seeds), desc=policy, unit="ep", leave=False, disable=None, mininterval=2.0,
                        initial=len(cached))
             for stats in cached:

@@ -139,14 +139,14 @@ def run_scores(usecases: list[str], scenario: str, episodes: int, out: Path, wor
         if not (base_dir / "evaluation.json").exists():
             log.info("%s: %s against %s", uc, reference, ", ".join(others) or "nothing else")
             run_evaluation(_compose("evaluate", common + [f"baseline={reference}", f"baselines=[{','.join(others)}]"]),
-                           base_dir, baseline_cache=work / "cache")
+                           base_dir, episode_cache=work / "cache")
         evals += [(base_dir, p, "") for p in [reference, *others]]
         for name in learned:
             d = work / uc / f"pretrained_{name}"
             if not (d / "evaluation.json").exists():
                 log.info("%s: pretrained %s", uc, name)
                 run_evaluation(_compose("evaluate", common + [f"policy=pretrained:{name}", "baselines=[]"]), d,
-                               baseline_cache=work / "cache")
+                               episode_cache=work / "cache")
             # The evaluation names a policy by its algorithm (its episodes folder too), the row by what ships.
             evals.append((d, load(name).name, f" (pretrained `{name}`)"))
         rows += [contender_row(uc, d, policy, suffix) for d, policy, suffix in evals]
@@ -185,12 +185,12 @@ def add_score(policy: str, out: Path, work: Path, workers: int) -> Path:
     if (d / "evaluation.json").exists():
         import shutil
 
-        shutil.rmtree(d)  # a folder of this name may hold an older policy: the row is always played anew
+        shutil.rmtree(d)  # a folder of this name may hold an older policy (the cache knows its weights)
     log.info("%s: %s on %s, %d episodes from seed %d", uc, shown, table["scenario"], table["episodes"],
              table["seed_start"])
     common = _common(str(table["scenario"]), int(table["episodes"]), workers, uc, int(table["seed_start"]))
     run_evaluation(_compose("evaluate", common + [f"policy={loaded.folder if not shipped else PREFIX + name}",
-                                                  "baselines=[]"]), d, baseline_cache=work / "cache")
+                                                  "baselines=[]"]), d, episode_cache=work / "cache")
     row = contender_row(uc, d, loaded.name, suffix)
     rows: list[dict[str, Any]] = table["rows"]
     same = [k for k, r in enumerate(rows) if (r["environment"], r["contender"]) == (row["environment"],

@@ -223,7 +223,9 @@ def run_study(plan: StudyPlan, work: Path, out: Path, stages: tuple[str, ...] = 
                     start_ray(plan)
                     policy = run if finished else exported
                     run_evaluation(_compose("evaluate", eval_overrides(plan, policy, scen, actions, label, algo)), ev,
-                                   baseline_cache=work / "baselines")
+                                   # "baselines": the name from when only baselines' episodes were kept
+                                   # (a study's work folder keeps its cache); the policies' are there too
+                                   episode_cache=work / "baselines")
                     done_here = True
                 if done_here:
                     export_evaluation(work, ev, ev_out)
