@@ -32,6 +32,7 @@ import argparse
 import json
 import logging
 import os
+import sys
 import time
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
@@ -574,5 +575,23 @@ def main(argv: list[str] | None = None) -> None:
             print(f"parked {run_id} in {out / PARKED / run_id}")
         return
     logging.basicConfig(level=logging.INFO, format="[%(asctime)s][%(name)s][%(levelname)s] - %(message)s")
-    run_study(plan, args.work, out, tuple(args.stages))
+    import signal
+
+    from aamsim.stop_signals import StopSignals
+    from rlbridge.experiment.train import TrainingStopped
+
+    try:
+        # Both stop signals interrupt, also in a background job (started with SIGINT ignored); a training
+        # run installs its own handler (stop at an iteration boundary) for its length.
+        with StopSignals(signal.default_int_handler):
+            run_study(plan, args.work, out, tuple(args.stages))
+    except TrainingStopped as stopped:
+        run = stopped.run_dir.relative_to(args.work) if stopped.run_dir.is_relative_to(args.work) else stopped.run_dir
+        print(f"study stopped by {stopped.signal_name} after iteration {stopped.iteration} of {run}: the same "
+              "command continues it from there (--park first to commit it)", file=sys.stderr)
+        raise SystemExit(130) from None
+    except KeyboardInterrupt:
+        print("study interrupted: the same command continues it (an evaluation keeps the episodes it finished, "
+              "a training run continues from its last checkpoint)", file=sys.stderr)
+        raise SystemExit(130) from None
     print(out)

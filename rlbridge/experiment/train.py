@@ -17,6 +17,12 @@ update; docs/algorithms.md, "Training loop"). The run directory receives:
 
 ``train.resume=<run dir or .pt>`` continues from a checkpoint (iteration, weights,
 optimiser, counters and RNG states; the DDQN replay memory starts empty).
+
+Ctrl-C (SIGINT) or ``kill`` (SIGTERM) stops the run at the next iteration boundary: the iteration being
+played is learned from, ``last.pt`` is written, no ``training_summary.json`` (the run is not finished),
+and :class:`TrainingStopped` is raised (``aamgym train`` and ``aamgym study`` exit with status 130 and
+say how to continue). ``train.resume`` then continues it exactly as if it had not stopped. A second
+signal stops at once (the last ``checkpoint_every`` iterations are lost).
 """
 
 from __future__ import annotations
@@ -27,6 +33,7 @@ import logging
 import os
 import re
 import shutil
+import signal
 import time
 from collections import OrderedDict
 from dataclasses import asdict, dataclass, field
@@ -37,6 +44,7 @@ import numpy as np
 import torch
 from omegaconf import DictConfig, OmegaConf
 
+from aamsim.stop_signals import StopSignals
 from rlbridge.agents import make_learner, usecase_dims
 from rlbridge.agents.capture import check_device
 from rlbridge.agents.core import episode_seed, rolling_mean
@@ -449,9 +457,21 @@ def play_baseline(run: TrainingRun, pool: Any) -> None:
              _curve_text(base_summary, run.columns), len(base))
 
 
+class TrainingStopped(KeyboardInterrupt):
+    """A stop signal ended the run at an iteration boundary: ``last.pt`` holds it, ``train.resume`` continues it.
+
+    A KeyboardInterrupt, so that whatever runs the training (the study, a script) stops as it would on
+    Ctrl-C; ``run_dir`` and ``iteration`` say where the run stands."""
+
+    def __init__(self, run_dir: Path, iteration: int, signal_name: str):
+        super().__init__(f"{signal_name}: training stopped after iteration {iteration}; {run_dir / 'checkpoints'}"
+                         f"/last.pt holds it, train.resume={run_dir} continues it")
+        self.run_dir, self.iteration, self.signal_name = run_dir, iteration, signal_name
+
+
 class Budget:
     """When the run stops: ``train.iterations``, ``train.aircraft_states``, ``train.hours`` (100 iterations
-    when none is set)."""
+    when none is set), or a stop signal (``stop_requested``: its name) before the budget is spent."""
 
     def __init__(self, tc: Any, t_start: float):
         self.max_iter = tc.iterations
@@ -460,6 +480,7 @@ class Budget:
         if self.max_iter is None and self.hours is None and self.states is None:
             self.max_iter = 100
         self.t_start = t_start
+        self.stop_requested: str | None = None
 
     def may_start(self, done_iterations: int, collected: int) -> str | None:
         """None if iteration ``done_iterations + 1`` may start, else why the run stops."""
@@ -469,7 +490,7 @@ class Budget:
             return "aircraft_states"
         if self.hours is not None and time.perf_counter() - self.t_start >= float(self.hours) * 3600.0:
             return "hours"
-        return None
+        return self.stop_requested  # after the budget's own reasons: a spent budget is a finished run
 
 
 def record_iteration(run: TrainingRun, curve: CurveWriter, batches: list[EpisodeBatch], ep: dict[str, Any],
@@ -605,12 +626,33 @@ def run_training(cfg: DictConfig, run_dir: str | Path) -> dict[str, Any]:
              f"{run.n_workers} Ray workers" if run.n_workers else "an in-process worker", run.device, run.run_dir)
     pool = make_pool(run.n_workers, run.env, actors, cfg.ray, 1)  # one PyTorch thread per worker (one CPU each)
     t_start = time.perf_counter()
-    try:
-        play_baseline(run, pool)
-        reason = train_loop(run, pool, Budget(cfg.train, t_start), curve)
-    finally:
-        pool.shutdown()
+    budget = Budget(cfg.train, t_start)
+
+    def stop_at_iteration_boundary(signum: int, frame: Any) -> None:
+        budget.stop_requested = signal.Signals(signum).name
+        log.warning("%s: stopping once the iterations already started are learned from (a checkpoint then); "
+                    "again: stop at once", budget.stop_requested)
+        stops.replace(signal.default_int_handler)
+
+    with StopSignals(stop_at_iteration_boundary) as stops:
+        try:
+            play_baseline(run, pool)
+            reason = train_loop(run, pool, budget, curve)
+        finally:
+            pool.shutdown()
+    if budget.stop_requested is not None and reason == budget.stop_requested:
+        stop_training(run)
+        raise TrainingStopped(run.run_dir, run.state.iteration, reason)
     return finish_training(run, reason, time.perf_counter() - t_start)
+
+
+def stop_training(run: TrainingRun) -> None:
+    """``last.pt`` at the iteration a stop signal ended the run on: what a periodic checkpoint there holds
+    (overlap: the weights the next iteration is to be played with), so that resuming is exact."""
+    meta = {**run.meta, "behaviour_weights": run.behaviour} if run.overlap else run.meta
+    save_checkpoint(run.ckpt_dir / "last.pt", run.learner, run.state, meta)
+    log.warning("stopped after iteration %d: %s written, no training_summary.json (not finished); "
+                "continue with train.resume=%s", run.state.iteration, run.ckpt_dir / "last.pt", run.run_dir)
 
 
 def hydra_entry() -> None:
@@ -626,4 +668,7 @@ def hydra_entry() -> None:
     def _main(cfg: DictConfig) -> None:
         run_training(cfg, HydraConfig.get().runtime.output_dir)
 
-    _main()
+    try:
+        _main()
+    except TrainingStopped:
+        raise SystemExit(130) from None  # 128 + SIGINT, as a shell reports Ctrl-C; the log said where it stands
