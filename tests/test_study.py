@@ -60,6 +60,31 @@ def test_plan_states_what_the_committed_runs_took_and_what_is_left(tmp_path):
     assert measured_line(StudyPlan(), tmp_path / "nothing") is None
 
 
+def test_plan_states_what_the_committed_evaluations_took_and_what_is_left(tmp_path):
+    """--plan reads the committed evaluations' episode times: on nyc_eval_678 the policy's 100 episodes took
+    1,200 s and 1,800 s (median 1,500 s: 25 min), the baselines' 3,000 s (50 min, only where every baseline
+    played); 2 of 48 are committed, 46 left, 22 of them on nyc_eval_678 (22 x 25 min = 9.2 h) and 24 on
+    nyc_train_100, where nothing was measured."""
+    from rlbridge.experiment.study import measured_evaluations_line
+
+    def write(run: str, actions: str, policies: dict) -> None:
+        d = tmp_path / "evaluations" / "corridor_sa" / run / f"nyc_eval_678_{actions}"
+        d.mkdir(parents=True)
+        (d / "evaluation.json").write_text(json.dumps({"episodes": 100, "policies": policies}))
+
+    write("d2mava_a_s0", "greedy", {"d2mava_a": {"learned": True, "wall_s": 1200.0},
+                                    "unequipped": {"learned": False, "wall_s": 1000.0},
+                                    "mvp_speed": {"learned": False, "wall_s": 800.0},
+                                    "daa": {"learned": False, "wall_s": 1200.0}})
+    write("d2mava_a_s0", "sampled", {"d2mava_a": {"learned": True, "wall_s": 1800.0},
+                                     "unequipped": {"learned": False, "wall_s": 1000.0}})
+    line = measured_evaluations_line(StudyPlan(), tmp_path)
+    assert "(2 of 48, their episodes' time): nyc_eval_678 25 min for the policy's 100 episodes, 50 min for " \
+           "the baselines'; the 46 evaluations left: 9.2 h" in line
+    assert line.endswith("and those on nyc_train_100 (no evaluation of it committed yet)")
+    assert measured_evaluations_line(StudyPlan(), tmp_path / "nothing") is None
+
+
 def test_machine_estimate_is_the_slower_of_rollouts_and_learner():
     from rlbridge.experiment.machine import CUDA_LEARNER_RATES, ROLLOUT_PER_CORE, machine_estimate
 

@@ -510,6 +510,43 @@ def measured_line(plan: StudyPlan, out: Path) -> str | None:
     return text
 
 
+def measured_evaluations_line(plan: StudyPlan, out: Path) -> str | None:
+    """What the committed evaluations (``out/evaluations/<use case>/<run>/<traffic>_<actions>/``) took per
+    traffic, and what the evaluations left would take at that pace: the policy's episodes (median time
+    per episode over the committed evaluations of that traffic) and, where their episodes are not cached
+    yet, the baselines' (played once per use-case configuration and traffic)."""
+    import statistics
+
+    policy: dict[str, list[float]] = {}
+    baselines: dict[str, list[float]] = {}
+    done: set[str] = set()
+    for f in sorted(out.glob("evaluations/*/*/*/evaluation.json")):
+        ev = json.loads(f.read_text())
+        done.add(str(f.parent.relative_to(out / "evaluations")))
+        traffic, n = f.parent.name.rsplit("_", 1)[0], max(int(ev.get("episodes") or 1), 1)
+        pols = ev.get("policies", {})
+        policy.setdefault(traffic, []).extend(p["wall_s"] / n for p in pols.values() if p.get("learned"))
+        if len(pols) > 2:  # an evaluation that played every baseline (greedy), not only the unequipped
+            baselines.setdefault(traffic, []).append(sum(p["wall_s"] for p in pols.values() if not p.get("learned")) / n)
+    if not done:
+        return None
+    planned = [f"{uc}/{a}_s{seed}/{Path(scen).stem}_{actions}" for uc, a, seed in plan.runs()
+               for scen in plan.eval_scenarios for actions in plan.actions]
+    left = [e for e in planned if e not in done]
+    per = {t: statistics.median(v) * plan.episodes / 3600.0 for t, v in policy.items() if v}
+    hours = sum(per.get(e.split("/")[-1].rsplit("_", 1)[0], 0.0) for e in left)
+    unmeasured = sorted({e.split("/")[-1].rsplit("_", 1)[0] for e in left} - set(per))
+    parts = [f"{t} {per[t] * 60:.0f} min for the policy's {plan.episodes} episodes"
+             + (f", {statistics.median(baselines[t]) * plan.episodes / 60:.0f} min for the baselines'"
+                if baselines.get(t) else "") for t in sorted(per)]
+    text = (f"measured in the committed evaluations ({len(done)} of {len(planned)}, their episodes' time): "
+            + "; ".join(parts) + f"; the {len(left)} evaluation{'s' * (len(left) != 1)} left: {hours:.1f} h, "
+            "plus the baselines' where their episodes are not cached yet")
+    if unmeasured:
+        text += f" and those on {', '.join(unmeasured)} (no evaluation of it committed yet)"
+    return text
+
+
 def main(argv: list[str] | None = None) -> None:
     plan = StudyPlan()
     ap = argparse.ArgumentParser(prog="aamgym study", description=__doc__.split("\n\n")[0],
@@ -565,9 +602,9 @@ def main(argv: list[str] | None = None) -> None:
     print("estimated training time (rates measured on the 2-core development machine, overlap, 1 worker"
           + (", or --rates" if args.rates else "") + "): " + ", ".join(f"{k} {v:.1f} h" for k, v in est.items()))
     print(machine_line(plan, device, workers, rates))
-    measured = measured_line(plan, out)
-    if measured:
-        print(measured)
+    for measured in (measured_line(plan, out), measured_evaluations_line(plan, out)):
+        if measured:
+            print(measured)
     if args.plan:
         return
     if args.park:
