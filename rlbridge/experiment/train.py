@@ -634,7 +634,8 @@ def run_training(cfg: DictConfig, run_dir: str | Path) -> dict[str, Any]:
                     "again: stop at once", budget.stop_requested)
         stops.replace(signal.default_int_handler)
 
-    with StopSignals(stop_at_iteration_boundary) as stops:
+    stops = StopSignals(stop_at_iteration_boundary)  # bound before a signal can call the handler
+    with stops:
         try:
             play_baseline(run, pool)
             reason = train_loop(run, pool, budget, curve)
