@@ -58,6 +58,8 @@ def test_plan_states_what_the_committed_runs_took_and_what_is_left(tmp_path):
     assert "ddqn 1 run, 1,389 aircraft-states/s, 3.0 h per run" in line
     assert "the 11 runs not finished: 34.5 h plus those of d2mava_a_shared" in line  # 3 x 7.5 + 4 x 3.0
     assert measured_line(StudyPlan(), tmp_path / "nothing") is None
+    assert measured_line(StudyPlan(contenders=["d2mava_a"], usecases=["corridor_sa"], seeds=[0]),
+                         tmp_path).endswith("; every run finished")
 
 
 def test_plan_states_what_the_committed_evaluations_took_and_what_is_left(tmp_path):

@@ -504,7 +504,8 @@ def measured_line(plan: StudyPlan, out: Path) -> str | None:
     parts = [f"{a} {len(v)} run{'s' * (len(v) != 1)}, {rates[a]:,.0f} aircraft-states/s, "
              f"{plan.budget / rates[a] / 3600.0:.1f} h per run" for a, v in sorted(done.items())]
     text = (f"measured in the committed runs ({out / 'runs'}, wall clock of their slices): " + "; ".join(parts)
-            + f"; the {len(left)} run{'s' * (len(left) != 1)} not finished: {hours:.1f} h")
+            + (f"; the {len(left)} run{'s' * (len(left) != 1)} not finished: {hours:.1f} h" if left
+               else "; every run finished"))
     if unmeasured:
         text += f" plus those of {', '.join(unmeasured)} (no run of it finished yet)"
     return text
@@ -540,8 +541,9 @@ def measured_evaluations_line(plan: StudyPlan, out: Path) -> str | None:
              + (f", {statistics.median(baselines[t]) * plan.episodes / 60:.0f} min for the baselines'"
                 if baselines.get(t) else "") for t in sorted(per)]
     text = (f"measured in the committed evaluations ({len(done)} of {len(planned)}, their episodes' time): "
-            + "; ".join(parts) + f"; the {len(left)} evaluation{'s' * (len(left) != 1)} left: {hours:.1f} h, "
-            "plus the baselines' where their episodes are not cached yet")
+            + "; ".join(parts) + (f"; the {len(left)} evaluation{'s' * (len(left) != 1)} left: {hours:.1f} h, "
+                                  "plus the baselines' where their episodes are not cached yet" if left
+                                  else "; every evaluation done"))
     if unmeasured:
         text += f" and those on {', '.join(unmeasured)} (no evaluation of it committed yet)"
     return text
