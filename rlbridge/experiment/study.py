@@ -216,7 +216,7 @@ def run_study(plan: StudyPlan, work: Path, out: Path, stages: tuple[str, ...] = 
         label = str(cfg.algorithm.label)
         for scen in plan.eval_scenarios:
             for actions in plan.actions:
-                ev_id = f"{run_id}/{Path(scen).stem}_{actions}"
+                ev_id = evaluation_id(run_id, scen, actions)
                 ev, ev_out = work / "eval" / ev_id, out / "evaluations" / ev_id
                 done_here = (ev / "evaluation.json").exists()
                 if "evaluate" in stages and not done_here and not (ev_out / "evaluation.json").exists():
@@ -511,6 +511,16 @@ def measured_line(plan: StudyPlan, out: Path) -> str | None:
     return text
 
 
+def evaluation_id(run_id: str, scenario: str, actions: str) -> str:
+    """``<use case>/<run>/<traffic>_<actions>``: an evaluation's folder under ``eval/`` and ``evaluations/``."""
+    return f"{run_id}/{Path(scenario).stem}_{actions}"
+
+
+def evaluation_traffic(ev_id: str) -> str:
+    """The traffic (scenario stem) of an evaluation id."""
+    return ev_id.rsplit("/", 1)[-1].rsplit("_", 1)[0]
+
+
 def measured_evaluations_line(plan: StudyPlan, out: Path) -> str | None:
     """What the committed evaluations (``out/evaluations/<use case>/<run>/<traffic>_<actions>/``) took per
     traffic, and what the evaluations left would take at that pace: the policy's episodes (median time
@@ -523,20 +533,21 @@ def measured_evaluations_line(plan: StudyPlan, out: Path) -> str | None:
     done: set[str] = set()
     for f in sorted(out.glob("evaluations/*/*/*/evaluation.json")):
         ev = json.loads(f.read_text())
-        done.add(str(f.parent.relative_to(out / "evaluations")))
-        traffic, n = f.parent.name.rsplit("_", 1)[0], max(int(ev.get("episodes") or 1), 1)
+        ev_id = str(f.parent.relative_to(out / "evaluations"))
+        done.add(ev_id)
+        traffic, n = evaluation_traffic(ev_id), max(int(ev.get("episodes") or 1), 1)
         pols = ev.get("policies", {})
         policy.setdefault(traffic, []).extend(p["wall_s"] / n for p in pols.values() if p.get("learned"))
         if len(pols) > 2:  # an evaluation that played every baseline (greedy), not only the unequipped
             baselines.setdefault(traffic, []).append(sum(p["wall_s"] for p in pols.values() if not p.get("learned")) / n)
     if not done:
         return None
-    planned = [f"{uc}/{a}_s{seed}/{Path(scen).stem}_{actions}" for uc, a, seed in plan.runs()
+    planned = [evaluation_id(f"{uc}/{a}_s{seed}", scen, actions) for uc, a, seed in plan.runs()
                for scen in plan.eval_scenarios for actions in plan.actions]
     left = [e for e in planned if e not in done]
     per = {t: statistics.median(v) * plan.episodes / 3600.0 for t, v in policy.items() if v}
-    hours = sum(per.get(e.split("/")[-1].rsplit("_", 1)[0], 0.0) for e in left)
-    unmeasured = sorted({e.split("/")[-1].rsplit("_", 1)[0] for e in left} - set(per))
+    hours = sum(per.get(evaluation_traffic(e), 0.0) for e in left)
+    unmeasured = sorted({evaluation_traffic(e) for e in left} - set(per))
     parts = [f"{t} {per[t] * 60:.0f} min for the policy's {plan.episodes} episodes"
              + (f", {statistics.median(baselines[t]) * plan.episodes / 60:.0f} min for the baselines'"
                 if baselines.get(t) else "") for t in sorted(per)]

@@ -493,6 +493,11 @@ class Budget:
         return self.stop_requested  # after the budget's own reasons: a spent budget is a finished run
 
 
+def checkpoint_meta(run: TrainingRun, behaviour: Any) -> dict[str, Any]:
+    """A checkpoint's metadata; overlap: with the weights the next iteration is played with (exact resume)."""
+    return {**run.meta, "behaviour_weights": behaviour} if run.overlap else run.meta
+
+
 def record_iteration(run: TrainingRun, curve: CurveWriter, batches: list[EpisodeBatch], ep: dict[str, Any],
                      lstats: dict[str, Any], times: tuple[float, float, float], behaviour: Any) -> None:
     """After iteration ``run.state.iteration``'s update: its curve row, log line and checkpoints.
@@ -513,20 +518,19 @@ def record_iteration(run: TrainingRun, curve: CurveWriter, batches: list[Episode
            "update_s": _fmt(t2 - t1)}
     row.update({k: _fmt(v) for k, v in lstats.items() if k in LEARNER_STATS})
     curve.write(row)
-    extra = {"behaviour_weights": behaviour} if run.overlap else {}
     window = int(tc.best_window)
     roll = float(rolling_mean(state.rewards, window)[-1])
     improved = len(state.rewards) >= window and roll > state.best
     if improved:
         state.best, state.best_iteration = roll, it
-        save_checkpoint(run.ckpt_dir / "best.pt", run.learner, state, {**run.meta, **extra})
+        save_checkpoint(run.ckpt_dir / "best.pt", run.learner, state, checkpoint_meta(run, behaviour))
     log.info("it %d | episodes %d | reward/ac %.4f%s | states %d | %.0f states/s"
              " | rollout %.1fs update %.1fs | rolling(%d) %.4f%s", it, state.episodes, ep["reward_mean"],
              _curve_text(ep, run.columns, " | "), ep["aircraft_states"],
              ep["aircraft_states"] / max(t2 - t0, 1e-9), t1 - t0, t2 - t1, window, roll,
              " *best*" if improved else "")
     if int(tc.checkpoint_every) > 0 and it % int(tc.checkpoint_every) == 0:
-        save_checkpoint(run.ckpt_dir / "last.pt", run.learner, state, {**run.meta, **extra})
+        save_checkpoint(run.ckpt_dir / "last.pt", run.learner, state, checkpoint_meta(run, behaviour))
 
 
 def train_loop(run: TrainingRun, pool: Any, budget: Budget, curve: CurveWriter) -> str:
@@ -585,9 +589,7 @@ def train_loop(run: TrainingRun, pool: Any, budget: Budget, curve: CurveWriter) 
 def finish_training(run: TrainingRun, reason: str, elapsed: float) -> dict[str, Any]:
     """The final checkpoints (``best.pt`` too when the run was shorter than the rolling window) and
     ``training_summary.json``; returns the summary."""
-    state, meta, tc, ckpt_dir = run.state, run.meta, run.cfg.train, run.ckpt_dir
-    if run.overlap:
-        meta["behaviour_weights"] = run.behaviour
+    state, meta, tc, ckpt_dir = run.state, checkpoint_meta(run, run.behaviour), run.cfg.train, run.ckpt_dir
     save_checkpoint(ckpt_dir / "last.pt", run.learner, state, meta)
     if not (ckpt_dir / "best.pt").exists():
         # Fewer iterations than the rolling window: the final weights stand in for the best.
@@ -650,8 +652,7 @@ def run_training(cfg: DictConfig, run_dir: str | Path) -> dict[str, Any]:
 def stop_training(run: TrainingRun) -> None:
     """``last.pt`` at the iteration a stop signal ended the run on: what a periodic checkpoint there holds
     (overlap: the weights the next iteration is to be played with), so that resuming is exact."""
-    meta = {**run.meta, "behaviour_weights": run.behaviour} if run.overlap else run.meta
-    save_checkpoint(run.ckpt_dir / "last.pt", run.learner, run.state, meta)
+    save_checkpoint(run.ckpt_dir / "last.pt", run.learner, run.state, checkpoint_meta(run, run.behaviour))
     log.warning("stopped after iteration %d: %s written, no training_summary.json (not finished); "
                 "continue with train.resume=%s", run.state.iteration, run.ckpt_dir / "last.pt", run.run_dir)
 
