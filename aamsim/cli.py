@@ -499,14 +499,17 @@ def figure(run_dir: Path, out_path: Path | None, snapshot: str, every: int, titl
 @click.option("--out", "out_path", type=click.Path(dir_okay=False, path_type=Path), default=None,
               help="Write the comparison as JSON here (default: comparison.json in the first run directory).")
 def compare(runs: tuple[str, ...], baselines: tuple[str, ...], out_path: Path | None) -> None:
-    """Risk ratio and LoWC ratio of RUN(s) against the unequipped BASELINE run(s).
+    """Risk ratio and LoWC ratio of RUN(s) against the unequipped BASELINE run(s), beside their cost.
 
     aamsim compare RUN_DIR BASELINE_RUN_DIR compares two runs; folders of runs
     (e.g. 100 evaluation episodes) are paired by seed and reported as mean +- std.
+    Each side's flights completed, unfinished and not departed, airborne holding,
+    mean delay and advisories are printed beside the ratios; a warning says when the
+    two sides did not complete the same number of flights.
     """
     import json
 
-    from aamsim.metrics.compare import ComparisonError, compare_runs, expand_runs, format_ratio
+    from aamsim.metrics.compare import ComparisonError, compare_runs, expand_runs, format_operational, format_ratio
 
     run_args = list(runs)
     base_args = list(baselines)
@@ -522,6 +525,10 @@ def compare(runs: tuple[str, ...], baselines: tuple[str, ...], out_path: Path | 
     click.echo(f"scenario {comparison.scenario}, {comparison.runs} run(s) paired by seed")
     click.echo(f"risk ratio (NMAC): {format_ratio(comparison.risk_ratio)}")
     click.echo(f"LoWC ratio:        {format_ratio(comparison.lowc_ratio)}")
+    for line in format_operational(comparison):
+        click.echo(line)
+    for warning in comparison.warnings:
+        click.echo(f"warning: {warning}", err=True)
     target = out_path or (Path(run_args[0]) / "comparison.json")
     target.write_text(json.dumps(comparison.to_dict(), indent=2) + "\n")
     click.echo(f"written to {target}")

@@ -26,7 +26,7 @@ from aamsim.limits import DEFAULT_LOCAL_MAX_AIRCRAFT
 from aamsim.output.flights import write_flights
 from aamsim.output.recorder import TrajectoryRecorder
 from aamsim.output.summary_file import ProvisionalSummary, write_json_atomic
-from aamsim.scenarios import resolve_scenario
+from aamsim.scenarios import resolve_scenario, shipped_names
 from aamsim.simulation import Simulation, iter_flights
 from aamsim.stack.validate import validate_scenario
 from aamsim.stop_signals import StopSignals
@@ -124,7 +124,8 @@ def run_scenario(
     # With its text given, the scenario needs no file here (a batch job on another node).
     path = Path(cfg.scenario) if cfg.text is not None else resolve_scenario(cfg.scenario)
     if path is None:
-        raise ScenarioNotFound(f"scenario not found: {cfg.scenario} (neither a file nor a shipped scenario)")
+        raise ScenarioNotFound(f"scenario not found: {cfg.scenario} (neither a file nor a shipped scenario; "
+                               f"shipped: {', '.join(shipped_names())})")
     text = cfg.text if cfg.text is not None else path.read_text(encoding="utf-8", errors="replace")
     sim = build_simulation(cfg, path, text)
     if listener is not None:

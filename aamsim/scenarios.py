@@ -45,3 +45,8 @@ def resolve_scenario(name: str | Path) -> Path | None:
     if p.is_file():
         return p
     return packaged_scenario(str(name))
+
+
+def shipped_names() -> list[str]:
+    """The names of the shipped scenarios (``nyc_day``, ...), for messages that say what exists."""
+    return sorted(p.stem for p in packaged_dir().glob("*.scn"))

@@ -258,7 +258,11 @@ class Simulation(SimulationAPI):
         return self.scheduler.queue
 
     def stack(self, text: str, source: SourceRef | None = None) -> bool:
-        """Execute command text now (``;`` separates commands). True if all succeeded."""
+        """Execute command text now (``;`` separates commands). True if all succeeded.
+
+        A failed command raises nothing: its reason is in ``sim.reporter.errors()`` (every message:
+        ``sim.reporter.messages``) and goes to the ``aamsim`` logger (``logging.basicConfig()`` shows it).
+        """
         return self.executor.stack(text, source)
 
     def schedule(self, time_s: float, text: str, source: SourceRef | None = None) -> None:

@@ -126,14 +126,15 @@ def make_envs(env_id: str, num_envs: int, sync: bool, **kwargs) -> gym.vector.Ve
 
 
 def main(argv: list[str] | None = None, make: Callable[..., gym.vector.VectorEnv] = make_envs) -> None:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--env-id", default="aamgym/CorridorSA-v1")
-    ap.add_argument("--scenario", default="nyc_train_100.scn")
-    ap.add_argument("--num-envs", type=int, default=16)
-    ap.add_argument("--steps", type=int, default=20_000)
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0],
+                                 formatter_class=argparse.ArgumentDefaultsHelpFormatter)
+    ap.add_argument("--env-id", default="aamgym/CorridorSA-v1", help="a Gymnasium id of a use case")
+    ap.add_argument("--scenario", default="nyc_train_100.scn", help="a .scn file or a shipped scenario's name")
+    ap.add_argument("--num-envs", type=int, default=16, help="episodes stepped together")
+    ap.add_argument("--steps", type=int, default=20_000, help="environment steps in all (over the sub-environments)")
     ap.add_argument("--interval", type=float, default=1.0, help="decision interval [s]")
     ap.add_argument("--sync", action="store_true", help="gymnasium.vector.SyncVectorEnv instead of the native one")
-    ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--seed", type=int, default=0, help="seed of the environments and the network")
     args = ap.parse_args(argv)
     envs = make(args.env_id, args.num_envs, args.sync, scenario=args.scenario, decision_interval_s=args.interval)
     _, returns = train(envs, args.steps, args.seed)

@@ -19,11 +19,13 @@ from aamsim.extras import MissingExtra, require
 
 
 def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0],
+                                 formatter_class=argparse.ArgumentDefaultsHelpFormatter)
     ap.add_argument("--scenario", default="merge_conflict", help="a .scn file or a shipped scenario's name")
-    ap.add_argument("--iterations", type=int, default=2)
-    ap.add_argument("--env-runners", type=int, default=0)
-    ap.add_argument("--time-limit-s", type=float, default=600.0)
+    ap.add_argument("--iterations", type=int, default=2, help="RLlib training iterations")
+    ap.add_argument("--env-runners", type=int, default=0,
+                    help="RLlib env-runner processes (0: sample in the driver)")
+    ap.add_argument("--time-limit-s", type=float, default=600.0, help="episode length in sim seconds")
     args = ap.parse_args()
     try:
         require("rl", "examples/rllib_ppo.py", ("ray", "torch"))

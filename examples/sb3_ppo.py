@@ -3,8 +3,9 @@
     python examples/sb3_ppo.py --scenario merge_conflict --steps 5000
     python examples/sb3_ppo.py --scenario nyc_train_100 --ego UAM0832 --steps 200000
 
-One aircraft (``ego``, default: the first the scenario creates) is controlled; the other
-aircraft fly their flight plans (unequipped) unless ``traffic_policy`` says otherwise. The
+One aircraft (``ego``; by default each reset draws it from the scenario's aircraft, with the
+reset's seed) is controlled; the other aircraft fly their flight plans (unequipped) unless
+``traffic_policy`` says otherwise. The
 scenarios named here are shipped with aamsim, so the example runs from any folder; it needs the
 ``rl`` extra (``pip install "aamsim[rl]"``).
 """
@@ -35,17 +36,19 @@ def train(scenario: str, steps: int, seed: int = 0, ego: str | None = None, algo
 
 
 def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0],
+                                 formatter_class=argparse.ArgumentDefaultsHelpFormatter)
     ap.add_argument("--scenario", default="merge_conflict", help="a .scn file or a shipped scenario's name")
-    ap.add_argument("--steps", type=int, default=5000)
-    ap.add_argument("--ego", default=None)
-    ap.add_argument("--algo", choices=("ppo", "dqn"), default="ppo")
+    ap.add_argument("--steps", type=int, default=5000, help="environment steps to train for")
+    ap.add_argument("--ego", default=argparse.SUPPRESS,
+                    help="callsign of the controlled aircraft (default: drawn at each reset)")
+    ap.add_argument("--algo", choices=("ppo", "dqn"), default="ppo", help="Stable-Baselines3 algorithm")
     args = ap.parse_args()
     try:
         require("rl", "examples/sb3_ppo.py", ("stable_baselines3", "torch"))
     except MissingExtra as exc:
         sys.exit(f"error: {exc}")
-    model, env = train(args.scenario, args.steps, ego=args.ego, algo=args.algo)
+    model, env = train(args.scenario, args.steps, ego=getattr(args, "ego", None), algo=args.algo)
     obs, _ = env.reset(seed=123)
     total, done = 0.0, False
     while not done:

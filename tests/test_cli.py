@@ -151,6 +151,8 @@ def test_compare_risk_ratio_and_refusals(tmp_path):
     assert proc.returncode == 0, proc.stderr
     proc = aamsim("compare", str(eq), str(base))
     assert proc.returncode == 0 and "risk ratio (NMAC): 0.5000" in proc.stdout, proc.stdout
+    # The cost beside the ratios: both runs complete nothing (DEL * at 2 min), the same on both sides: no warning.
+    assert "flights completed" in proc.stdout and "warning" not in proc.stderr, proc.stdout + proc.stderr
     comparison = json.loads((eq / "comparison.json").read_text())
     assert comparison["risk_ratio"]["mean"] == 0.5 and comparison["lowc_ratio"]["mean"] == 0.5
     other_seed = _run(tmp_path, "enc", HEAD_ON, 2)
@@ -173,6 +175,36 @@ def test_compare_many_runs_mean_and_std(tmp_path):
     assert cmp.risk_ratio.std == pytest.approx(0.2041241, rel=1e-6)
     assert cmp.risk_ratio.pooled == pytest.approx(3 / 10)
     assert cmp.lowc_ratio.mean == pytest.approx(0.5)
+
+
+def test_compare_shows_the_operational_cost_and_warns_when_completions_differ(tmp_path):
+    from aamsim.metrics.compare import RunMetrics, compare_runs, format_operational
+
+    def rm(seed, done, holding, tag):
+        op = {"flights_scheduled": 100, "flights_completed": done, "flights_unfinished": 100 - done,
+              "flights_not_departed": 0, "airborne_holding_s": holding, "mean_delay_s": 10.0 * seed,
+              "advisories": 7 if tag == "r" else 0}
+        return RunMetrics(f"{tag}{seed}", "s", "h", seed, 1, 2, op)
+    same = compare_runs([rm(1, 100, 30.0, "r"), rm(2, 100, 60.0, "r")], [rm(1, 100, 0.0, "b"), rm(2, 100, 0.0, "b")])
+    assert same.warnings == []
+    assert same.operational["run"] == {"flights_scheduled": 100, "flights_completed": 100, "flights_unfinished": 0,
+                                       "flights_not_departed": 0, "airborne_holding_s": 45.0, "mean_delay_s": 15.0,
+                                       "advisories": 7}
+    assert same.operational["baseline"]["airborne_holding_s"] == 0.0
+    lines = format_operational(same)
+    assert lines[0].startswith("operational cost (mean per run)")
+    assert lines[2].split() == ["flights", "completed", "100", "100"]
+    assert lines[5].split() == ["airborne", "holding", "[s]", "45", "0"]
+    # Seed 2's run left 8 flights unfinished: named, with both counts.
+    differ = compare_runs([rm(1, 100, 0.0, "r"), rm(2, 92, 0.0, "r")], [rm(1, 100, 0.0, "b"), rm(2, 100, 0.0, "b")])
+    assert len(differ.warnings) == 1 and "seed 2: 92 against 100" in differ.warnings[0]
+    assert "seed 1" not in differ.warnings[0]
+    assert differ.operational["run"]["flights_completed"] == 96.0
+    assert differ.per_seed[1]["flights_completed"] == 92 and differ.per_seed[1]["baseline_flights_completed"] == 100
+    # A summary without the figures (an older run) leaves them out instead of inventing them.
+    bare = compare_runs([RunMetrics("r", "s", "h", 1, 1, 2, {})], [RunMetrics("b", "s", "h", 1, 2, 2, {})])
+    assert bare.operational["run"]["flights_completed"] is None and bare.warnings == []
+    assert format_operational(bare) == [format_operational(bare)[0]]
 
 
 def test_progress_speed_up_is_blank_for_the_first_interval_then_per_interval() -> None:
@@ -208,3 +240,10 @@ def test_a_finished_run_leaves_fast_but_runs_exit_handlers_and_flushes(tmp_path)
     bad = subprocess.run([sys.executable, "-m", "aamsim", "run", str(tmp_path / "missing.scn"), "--quiet"],
                          check=False, capture_output=True, text=True, env=env, timeout=600)
     assert bad.returncode == 2 and "scenario not found" in bad.stderr
+
+
+def test_a_scenario_that_is_neither_a_file_nor_shipped_names_the_shipped_ones(tmp_path):
+    proc = aamsim("run", "my_scenario.scn", cwd=tmp_path)
+    assert proc.returncode == 2
+    assert ("scenario not found: my_scenario.scn (neither a file nor a shipped scenario; shipped: demo, "
+            "merge_conflict, nyc_day, nyc_eval_678, nyc_train_100)") in proc.stderr, proc.stderr

@@ -64,6 +64,10 @@ def test_aamgym_without_torch_names_the_rl_extra(tmp_path):
     assert helped.returncode == 0
     assert helped.stdout.strip().splitlines()[-1] == (
         'These commands need the rl extra (torch, hydra not installed): pip install "aamsim[rl]"')
+    # --version needs no extra and answers as aamsim's and uam2scn's do.
+    version = run_hidden(["torch", "hydra"], "from rlbridge.experiment.cli import main\nmain(['--version'])", tmp_path)
+    from aamsim import __version__
+    assert version.returncode == 0 and version.stdout.strip() == f"aamgym, version {__version__}", version.stderr
 
 
 def test_mp4_without_imageio_ffmpeg_names_the_video_extra_and_gif_still_works(tmp_path):

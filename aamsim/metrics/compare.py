@@ -6,6 +6,13 @@ scenario and seed; the LoWC ratio likewise with LoWC events. With several
 runs per side they are paired by seed; each pair gives a ratio and the mean
 and standard deviation over pairs are reported (as in the paper's tables),
 with the pooled ratio (total events / total baseline events) beside them.
+
+A safety ratio alone says nothing of what it cost: beside the ratios, each
+side's operational figures (flights completed, unfinished and not departed,
+airborne holding, delay, advisories; means over the paired runs) are kept,
+and a warning names it when the two sides did not complete the same flights,
+where the ratios compare different traffic (an unfinished flight either
+stopped counting or flies on and meets others).
 """
 
 from __future__ import annotations
@@ -13,7 +20,7 @@ from __future__ import annotations
 import json
 import statistics
 from collections.abc import Sequence
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -44,6 +51,18 @@ class RatioStats:
     undefined_pairs: int  # baseline with zero events: ratio undefined
 
 
+# The operational figures shown beside the ratios (keys of a summary's "operational"), with their labels.
+OPERATIONAL_COLUMNS = (
+    ("flights_scheduled", "flights scheduled"),
+    ("flights_completed", "flights completed"),
+    ("flights_unfinished", "flights unfinished"),
+    ("flights_not_departed", "flights not departed"),
+    ("airborne_holding_s", "airborne holding [s]"),
+    ("mean_delay_s", "mean delay [s]"),
+    ("advisories", "advisories"),
+)
+
+
 @dataclass(frozen=True)
 class Comparison:
     scenario: str
@@ -51,6 +70,9 @@ class Comparison:
     risk_ratio: RatioStats
     lowc_ratio: RatioStats
     per_seed: list[dict[str, Any]]
+    # {"run": {key: mean over the paired runs or None}, "baseline": {...}} for OPERATIONAL_COLUMNS' keys.
+    operational: dict[str, dict[str, float | None]] = field(default_factory=dict)
+    warnings: list[str] = field(default_factory=list)
 
     def to_dict(self) -> dict[str, Any]:
         return asdict(self)
@@ -136,13 +158,61 @@ def compare_runs(runs: list[RunMetrics], baselines: list[RunMetrics]) -> Compari
                  "risk_ratio": r.nmac_events / b.nmac_events if b.nmac_events else None,
                  "lowc": r.lowc_events, "baseline_lowc": b.lowc_events,
                  "lowc_ratio": r.lowc_events / b.lowc_events if b.lowc_events else None} for r, b in pairs]
+    for row, (r, b) in zip(per_seed, pairs, strict=True):
+        row["flights_completed"] = r.operational.get("flights_completed")
+        row["baseline_flights_completed"] = b.operational.get("flights_completed")
+    operational = {"run": _operational_means([r for r, _ in pairs]),
+                   "baseline": _operational_means([b for _, b in pairs])}
     return Comparison(
         scenario=runs[0].scenario,
         runs=len(pairs),
         risk_ratio=_stats([(r.nmac_events, b.nmac_events) for r, b in pairs]),
         lowc_ratio=_stats([(r.lowc_events, b.lowc_events) for r, b in pairs]),
         per_seed=per_seed,
+        operational=operational,
+        warnings=_completion_warnings(pairs),
     )
+
+
+def _operational_means(runs: list[RunMetrics]) -> dict[str, float | None]:
+    """Mean of each operational figure over ``runs``; None where a run lacks it (an older summary)."""
+    means: dict[str, float | None] = {}
+    for key, _ in OPERATIONAL_COLUMNS:
+        values = [float(v) for r in runs if (v := r.operational.get(key)) is not None]
+        means[key] = statistics.fmean(values) if values and len(values) == len(runs) else None
+    return means
+
+
+def _completion_warnings(pairs: list[tuple[RunMetrics, RunMetrics]]) -> list[str]:
+    """A warning for the seeds where run and baseline completed different numbers of flights."""
+    differ = [(r.seed, r.operational.get("flights_completed"), b.operational.get("flights_completed"))
+              for r, b in pairs if r.operational.get("flights_completed") != b.operational.get("flights_completed")]
+    if not differ:
+        return []
+    shown = ", ".join(f"seed {seed}: {done} against {base}" for seed, done, base in differ[:5])
+    more = f" and {len(differ) - 5} more" if len(differ) > 5 else ""
+    return [(f"the run and its baseline completed different numbers of flights ({shown}{more}): the ratios "
+             "compare different traffic (an unfinished flight stops counting, or flies on and can meet "
+             "others); each side's flights unfinished and not departed are shown beside the ratios")]
+
+
+def format_operational(comparison: Comparison) -> list[str]:
+    """The operational figures of both sides as aligned text lines (a header, then one line per figure)."""
+    run, base = comparison.operational.get("run", {}), comparison.operational.get("baseline", {})
+    per = "mean per run" if comparison.runs > 1 else "per run"
+    lines = [f"{'operational cost (' + per + ')':<34}{'run':>10}{'baseline':>12}"]
+    for key, label in OPERATIONAL_COLUMNS:
+        a, b = run.get(key), base.get(key)
+        if a is None and b is None:
+            continue
+        lines.append(f"  {label:<32}{_number(a):>10}{_number(b):>12}")
+    return lines
+
+
+def _number(value: float | None) -> str:
+    if value is None:
+        return "-"
+    return f"{value:,.0f}" if float(value).is_integer() or abs(value) >= 1000 else f"{value:,.1f}"
 
 
 def format_ratio(stats: RatioStats) -> str:

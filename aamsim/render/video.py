@@ -7,6 +7,7 @@ show the last 30 s of each aircraft; events ring where they began.
 
 from __future__ import annotations
 
+import sys
 from pathlib import Path
 from typing import Any
 
@@ -92,6 +93,9 @@ def write_runs_video(panels: list[tuple[str, str | Path]], out_path: str | Path,
                       for p, r in zip(painters, replays)]
             writer.append_data(np.hstack(images) if len(images) > 1 else images[0])  # type: ignore[attr-defined]
             previous = t
+        if progress and out.suffix.lower() != ".mp4":
+            # Pillow encodes a GIF's frames only when the writer closes: say so, or the wait looks like a hang.
+            print(f"encoding {out.name} ({len(times)} frames) ...", file=sys.stderr, flush=True)
     for p in painters:
         p.close()
     return len(times)

@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import sys
 
-USAGE = """usage: aamgym {train,evaluate,report,study,scores,pretrained} [args...]
+USAGE = """usage: aamgym {train,evaluate,report,study,scores,pretrained} [args...] | --version
 
   train     train an algorithm (Hydra overrides: algorithm=ddqn scenario=... workers=2 train.hours=1)
   evaluate  a training run's best weights (run=RUN_DIR) or a baseline (baseline=daa scenario=...) against the baselines
@@ -44,6 +44,11 @@ def main(argv: list[str] | None = None) -> None:
         if absent:
             print(f'\nThese commands need the rl extra ({", ".join(absent)} not installed): pip install "aamsim[rl]"')
         sys.exit(0 if args else 2)
+    if args[0] in ("-V", "--version"):
+        from aamsim import __version__
+
+        print(f"aamgym, version {__version__}")  # one version for the distribution, worded as aamsim --version
+        sys.exit(0)
     command, rest = args[0], args[1:]
     if command not in NEEDS:
         print(f"aamgym: unknown command {command!r}\n\n{USAGE}", file=sys.stderr)

@@ -306,8 +306,11 @@ def play_and_report(cfg: DictConfig, out: Path, env: EnvSpec, name: str, label: 
         actors.setdefault(b, {"kind": b})
     labels = {name: label, **{b: baseline_label(b, env) for b in actors if b != name}}
     seeds = list(range(int(cfg.seed), int(cfg.seed) + int(cfg.episodes)))
-    log.info("evaluating %s (%s, iteration %s) on %s (%s backend): %d episodes each for %s", label, ckpt_path,
-             ckpt["state"].get("best_iteration"), Path(scenario).name, env.backend, len(seeds), ", ".join(actors))
+    # A baseline evaluated as the subject has no checkpoint to name; shipped weights name their policy.
+    where = ckpt_path if ckpt_path is not None else ckpt.get("run_dir")
+    source = f" ({where}, iteration {ckpt['state'].get('best_iteration')})" if has_run else ""
+    log.info("evaluating %s%s on %s (%s backend): %d episodes each for %s", label, source, Path(scenario).name,
+             env.backend, len(seeds), ", ".join(actors))
     from tqdm import tqdm
 
     results: dict[str, list[EpisodeStats]] = {}
