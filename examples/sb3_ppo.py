@@ -1,7 +1,7 @@
 """Train Stable-Baselines3 PPO on the single-aircraft environment ``aamgym/CorridorSA-v1``.
 
     python examples/sb3_ppo.py --scenario merge_conflict --steps 5000
-    python examples/sb3_ppo.py --scenario nyc_train_100 --ego UAM0832 --steps 200000
+    python examples/sb3_ppo.py --scenario nyc_train_100 --ego UAM0950 --steps 200000
 
 One aircraft (``ego``; by default each reset draws it from the scenario's aircraft, with the
 reset's seed) is controlled; the other aircraft fly their flight plans (unequipped) unless

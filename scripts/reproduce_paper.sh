@@ -6,7 +6,7 @@
 # unequipped aircraft and the MVP baseline; tables, curves and configurations in docs/results/study.
 #
 #   scripts/reproduce_paper.sh --plan                 # what runs, and the time estimate
-#   scripts/reproduce_paper.sh --smoke                # the whole pipeline, tiny (minutes)
+#   scripts/reproduce_paper.sh --smoke                # the whole pipeline, tiny (about 30 min on 2 cores)
 #   scripts/reproduce_paper.sh                        # the study (resumes where it stopped)
 #   scripts/reproduce_paper.sh --workers 8 --baselines mvp_speed daa device=cuda
 set -euo pipefail

@@ -109,6 +109,12 @@ def test_evaluate_takes_exactly_one_subject_and_checks_a_pretrained_policy(tmp_p
     assert problem.startswith(f"policy={tmp_path}: no pretrained policy")
     (problem,) = check_job("evaluate", ["sampled_epsilon=some", "baseline=daa", *base[:2]])
     assert problem == "sampled_epsilon=some: expected a number"
+    # An unknown baseline, as the subject or among the comparisons, is a line naming it before Hydra starts.
+    known = "unequipped, mvp_speed, daa, mvp, no_planning, fcfs"
+    assert check_job("evaluate", ["baseline=foo", *base]) == [f"baseline=foo: unknown baseline; known: {known}"]
+    assert check_job("evaluate", ["baseline=daa", "baselines=[mvp_speed,bar]", *base]) == [
+        f"baselines=bar: unknown baseline; known: {known}"]
+    assert check_job("evaluate", ["baseline=daa", "baselines=[mvp_speed]", *base]) == []
 
 
 def test_good_overrides_of_every_kind_pass():

@@ -167,6 +167,22 @@ def test_train_cli_and_resume(tmp_path):
         assert straight[k]["episode_rewards"] == resumed[k]["episode_rewards"]
 
 
+def test_a_resumed_run_shorter_than_the_rolling_window_stands_in_its_final_weights_for_the_best(tmp_path):
+    """A session shorter than ``best_window`` writes its final weights as ``best.pt``; resumed (here in its own
+    directory) and again ended before the window filled, the new final weights replace that stand-in."""
+    quick = [o for o in QUICK if not o.startswith("train.best_window")] + ["train.best_window=10"]
+    base = ["train", *quick, "algorithm=d2mava_a", "out_dir=runs", "hydra.run.dir=runs/short"]
+    cli(base + ["train.iterations=2"], tmp_path)
+    run = tmp_path / "runs" / "short"
+    assert load_checkpoint(run / "checkpoints" / "best.pt")["state"]["best_iteration"] == 2
+    cli(base + ["train.iterations=3", f"train.resume={run}"], tmp_path)
+    best = load_checkpoint(run / "checkpoints" / "best.pt")
+    last = load_checkpoint(run / "checkpoints" / "last.pt")
+    assert best["state"]["iteration"] == best["state"]["best_iteration"] == 3
+    assert all(torch.equal(best["learner"]["model"][k], v) for k, v in last["learner"]["model"].items())
+    assert json.loads((run / "training_summary.json").read_text())["best_iteration"] == 3
+
+
 def test_multirun_sweep(tmp_path):
     cli(["train", "--multirun", *QUICK, "algorithm=d2mava_a_shared,ddqn", "train.iterations=1", "out_dir=runs",
          "hydra.sweep.dir=runs/sweep"], tmp_path)

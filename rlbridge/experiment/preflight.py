@@ -262,6 +262,13 @@ def needs(config_name: str, cfg: dict[str, Any]) -> list[str]:
             problems.append(f"run={cfg['run']}: no such training run or checkpoint file")
         if cfg.get("baseline") is not None and cfg.get("scenario") is None:
             problems.append("scenario: a baseline evaluation needs one (e.g. scenario=nyc_train_100)")
+        from rlbridge.agents import BASELINE_KINDS
+
+        named = [("baseline", cfg["baseline"])] if cfg.get("baseline") not in (None, "") else []
+        named += [("baselines", b) for b in cfg.get("baselines") or []]
+        for key, name in named:
+            if str(name) not in BASELINE_KINDS:
+                problems.append(f"{key}={name}: unknown baseline; known: {', '.join(BASELINE_KINDS)}")
     if config_name == "config" and cfg.get("backend") == "zmq":
         from rlbridge.experiment.train import ZMQ_ADDRESS
 

@@ -1,7 +1,7 @@
 """``aamgym study``: the paper's whole study (Tables II/III, learning curves) in one command.
 
     aamgym study                               # the full study (days on a small machine: see --plan)
-    aamgym study --smoke                       # the same pipeline, tiny: minutes
+    aamgym study --smoke                       # the same pipeline, tiny: about 30 min on 2 cores
     aamgym study --plan                        # print what would run and the time it would take
     scripts/reproduce_paper.sh [same options]  # the same command
 
@@ -564,7 +564,8 @@ def main(argv: list[str] | None = None) -> None:
     plan = StudyPlan()
     ap = argparse.ArgumentParser(prog="aamgym study", description=__doc__.split("\n\n")[0],
                                  formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--smoke", action="store_true", help="the whole pipeline, tiny (minutes)")
+    ap.add_argument("--smoke", action="store_true",
+                    help="the whole pipeline, tiny runs and 2 episodes per evaluation (about 30 min on 2 cores)")
     ap.add_argument("--plan", action="store_true", help="print the plan and its time estimate, run nothing")
     ap.add_argument("--work", type=Path, default=Path("runs/study"), help="run directories (default runs/study)")
     ap.add_argument("--out", type=Path, default=None,

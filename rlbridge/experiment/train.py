@@ -591,8 +591,9 @@ def finish_training(run: TrainingRun, reason: str, elapsed: float) -> dict[str, 
     ``training_summary.json``; returns the summary."""
     state, meta, tc, ckpt_dir = run.state, checkpoint_meta(run, run.behaviour), run.cfg.train, run.ckpt_dir
     save_checkpoint(ckpt_dir / "last.pt", run.learner, state, meta)
-    if not (ckpt_dir / "best.pt").exists():
-        # Fewer iterations than the rolling window: the final weights stand in for the best.
+    if state.best_iteration == 0:
+        # Fewer iterations than the rolling window: the final weights stand in for the best (also over a
+        # stand-in that an earlier, shorter session of a resumed run wrote).
         state.best, state.best_iteration = float(rolling_mean(state.rewards, int(tc.best_window))[-1]) \
             if state.rewards else float("nan"), state.iteration
         save_checkpoint(ckpt_dir / "best.pt", run.learner, state, meta)
