@@ -144,8 +144,9 @@ def test_aamgym_evaluate_unknown_baseline_lists_the_known_ones(tmp_path):
     proc = run_cli(["-m", "rlbridge.experiment", "evaluate", "baseline=acas_sxu",
                     f"scenario={DATA / 'tiny_conflict.scn'}", "episodes=1", "workers=0", "hydra.run.dir=eval"],
                    tmp_path, timeout=120)
-    assert proc.returncode != 0
-    assert "unknown baseline(s) acas_sxu; known: unequipped, mvp_speed, daa" in proc.stderr
+    # Refused before the job starts (the preflight): one line naming the key, exit status 2.
+    assert proc.returncode == 2
+    assert "baseline=acas_sxu: unknown baseline; known: unequipped, mvp_speed, daa, mvp" in proc.stderr
     proc = run_cli(["-m", "rlbridge.experiment", "evaluate", "episodes=1", "hydra.run.dir=eval"], tmp_path,
                    timeout=120)
     assert proc.returncode != 0

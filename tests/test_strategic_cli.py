@@ -63,8 +63,8 @@ def test_ddqn_planner_train_evaluate_report(tmp_path):
     # Bad baseline names: a clear error listing the known ones; one that does not apply, its own.
     proc = aamgym(["evaluate", f"run={run}", "episodes=1", "workers=0", "baselines=[dax]", "hydra.run.dir=e2"],
                   tmp_path, ok=False)
-    assert proc.returncode != 0
-    assert "unknown baseline(s) dax; known: unequipped, mvp_speed, daa, mvp, no_planning, fcfs" in proc.stderr
+    assert proc.returncode == 2
+    assert "baselines=dax: unknown baseline; known: unequipped, mvp_speed, daa, mvp, no_planning, fcfs" in proc.stderr
     proc = aamgym(["evaluate", f"run={run}", "episodes=1", "workers=0", "baselines=[mvp_speed]",
                    "hydra.run.dir=e3"], tmp_path, ok=False)
     assert "baseline 'mvp_speed' does not apply to use case strategic_planning; its baselines: unequipped, " \
