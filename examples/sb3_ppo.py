@@ -5,9 +5,8 @@
 
 One aircraft (``ego``; by default each reset draws it from the scenario's aircraft, with the
 reset's seed) is controlled; the other aircraft fly their flight plans (unequipped) unless
-``traffic_policy`` says otherwise. The
-scenarios named here are shipped with aamsim, so the example runs from any folder; it needs the
-``rl`` extra (``pip install "aamsim[rl]"``).
+``traffic_policy`` says otherwise. The scenarios named here are shipped with aamsim, so the
+example runs from any folder; it needs the ``rl`` extra (``pip install "aamsim[rl]"``).
 """
 
 from __future__ import annotations
