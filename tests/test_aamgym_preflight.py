@@ -115,6 +115,15 @@ def test_evaluate_takes_exactly_one_subject_and_checks_a_pretrained_policy(tmp_p
     assert check_job("evaluate", ["baseline=daa", "baselines=[mvp_speed,bar]", *base]) == [
         f"baselines=bar: unknown baseline; known: {known}"]
     assert check_job("evaluate", ["baseline=daa", "baselines=[mvp_speed]", *base]) == []
+    # The altitude noise is evaluate's own key: the use case's would be replaced without a word.
+    assert check_job("evaluate", ["baseline=daa", "usecase.params.alt_noise_ft=0", *base]) == [
+        "usecase.params.alt_noise_ft: evaluate gives the use case its own alt_noise_ft (default 100); "
+        "set alt_noise_ft=... instead"]
+    assert check_job("evaluate", ["baseline=daa", "usecase.params.alt_noise_lanes_ft=[500]", *base]) == [
+        "usecase.params.alt_noise_lanes_ft: evaluate gives the use case its own alt_noise_lanes_ft (default 500, "
+        "1200, 1900); set alt_noise_lanes_ft=... instead"]
+    assert check_job("evaluate", ["baseline=daa", "alt_noise_ft=0", *base]) == []
+    assert check_job("config", ["usecase.params.alt_noise_ft=0", f"scenario={TINY}", "workers=0"]) == []
 
 
 def test_good_overrides_of_every_kind_pass():

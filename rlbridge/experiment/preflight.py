@@ -14,11 +14,12 @@ from __future__ import annotations
 
 import itertools
 from collections.abc import Sequence
+from dataclasses import MISSING, fields
 from pathlib import Path
 from typing import Any
 
 from aamsim.extras import MissingExtra, require
-from rlbridge.experiment.schema import SCHEMAS, check_config
+from rlbridge.experiment.schema import SCHEMAS, EvaluateConfig, check_config
 
 # Hydra flags that only print (help, the config, shell completion): nothing runs, nothing to check.
 _INSPECT = ("help", "hydra_help", "info", "cfg", "shell_completion", "resolve")
@@ -106,7 +107,29 @@ def check_job(config_name: str, overrides: list[str]) -> list[str]:
     problems = check_config(plain, SCHEMAS[config_name], params_classes(plain))
     if problems:
         return problems
-    return params_problems(plain) + needs(config_name, plain)
+    return params_problems(plain) + needs(config_name, plain) + replaced_overrides(config_name, overrides)
+
+
+# Use-case parameters evaluate sets itself (from its own keys of the same name): an override of them would be
+# replaced without a word.
+EVALUATE_SETS = ("alt_noise_ft", "alt_noise_lanes_ft")
+
+
+def replaced_overrides(config_name: str, overrides: list[str]) -> list[str]:
+    """Overrides the job would replace with a value of its own, each named with the key that sets it."""
+    if config_name != "evaluate":
+        return []
+    problems = []
+    for text in overrides:
+        key = text.lstrip("+~").split("=", 1)[0]
+        own = key.removeprefix("usecase.params.")
+        if own != key and own in EVALUATE_SETS:  # a nested one (hierarchical's levels) is not always replaced
+            spec = {f.name: f for f in fields(EvaluateConfig)}[own]
+            default: Any = spec.default if spec.default is not MISSING else spec.default_factory()  # type: ignore[misc,operator]
+            shown = ", ".join(f"{v:g}" for v in default) if isinstance(default, list) else f"{default:g}"
+            problems.append(f"{key}: evaluate gives the use case its own {own} (default {shown}); "
+                            f"set {own}=... instead")
+    return problems
 
 
 def compose_leniently(config_name: str, overrides: list[str], refused: dict[str, Any] | None = None) -> Any:
