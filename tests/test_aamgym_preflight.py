@@ -117,13 +117,23 @@ def test_evaluate_takes_exactly_one_subject_and_checks_a_pretrained_policy(tmp_p
     assert check_job("evaluate", ["baseline=daa", "baselines=[mvp_speed]", *base]) == []
     # The altitude noise is evaluate's own key: the use case's would be replaced without a word.
     assert check_job("evaluate", ["baseline=daa", "usecase.params.alt_noise_ft=0", *base]) == [
-        "usecase.params.alt_noise_ft: evaluate gives the use case its own alt_noise_ft (default 100); "
-        "set alt_noise_ft=... instead"]
+        ("usecase.params.alt_noise_ft: evaluate gives the use case its own alt_noise_ft (default 100); "
+         "set alt_noise_ft=... instead")]
     assert check_job("evaluate", ["baseline=daa", "usecase.params.alt_noise_lanes_ft=[500]", *base]) == [
-        "usecase.params.alt_noise_lanes_ft: evaluate gives the use case its own alt_noise_lanes_ft (default 500, "
-        "1200, 1900); set alt_noise_lanes_ft=... instead"]
+        ("usecase.params.alt_noise_lanes_ft: evaluate gives the use case its own alt_noise_lanes_ft (default 500, "
+         "1200, 1900); set alt_noise_lanes_ft=... instead")]
     assert check_job("evaluate", ["baseline=daa", "alt_noise_ft=0", *base]) == []
     assert check_job("config", ["usecase.params.alt_noise_ft=0", f"scenario={TINY}", "workers=0"]) == []
+    # A trained policy plays in the use case it was trained in (its checkpoint): usecase overrides would be ignored.
+    run = tmp_path / "run"
+    run.mkdir()
+    for subject in (f"run={run}", f"policy={exported}"):
+        (problem,) = check_job("evaluate", [subject, "usecase.params.n_intruders=8", *base])
+        assert problem.startswith(f"usecase.params.n_intruders: {subject.split('=')[0]}=... is evaluated in the use "
+                                  "case and parameters it was trained with"), problem
+    (problem,) = check_job("evaluate", [f"run={run}", "usecase=strategic_planning", *base])
+    assert problem.startswith("usecase: run=... is evaluated in the use case")
+    assert check_job("evaluate", [f"run={run}", "alt_noise_ft=0", *base]) == []
 
 
 def test_good_overrides_of_every_kind_pass():

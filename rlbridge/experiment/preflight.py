@@ -107,7 +107,7 @@ def check_job(config_name: str, overrides: list[str]) -> list[str]:
     problems = check_config(plain, SCHEMAS[config_name], params_classes(plain))
     if problems:
         return problems
-    return params_problems(plain) + needs(config_name, plain) + replaced_overrides(config_name, overrides)
+    return params_problems(plain) + needs(config_name, plain) + replaced_overrides(config_name, overrides, plain)
 
 
 # Use-case parameters evaluate sets itself (from its own keys of the same name): an override of them would be
@@ -115,13 +115,20 @@ def check_job(config_name: str, overrides: list[str]) -> list[str]:
 EVALUATE_SETS = ("alt_noise_ft", "alt_noise_lanes_ft")
 
 
-def replaced_overrides(config_name: str, overrides: list[str]) -> list[str]:
-    """Overrides the job would replace with a value of its own, each named with the key that sets it."""
+def replaced_overrides(config_name: str, overrides: list[str], cfg: dict[str, Any]) -> list[str]:
+    """Overrides the job would ignore or replace with a value of its own, each named with what decides instead."""
     if config_name != "evaluate":
         return []
+    trained = [k for k in ("run", "policy") if cfg.get(k) not in (None, "")]
     problems = []
     for text in overrides:
         key = text.lstrip("+~").split("=", 1)[0]
+        if trained and key.split(".")[0].split("/")[0] == "usecase":
+            # A trained policy plays in the use case it was trained in, from its checkpoint (evaluation_env).
+            problems.append(f"{key}: {trained[0]}=... is evaluated in the use case and parameters it was trained "
+                            "with; usecase overrides apply to baseline=NAME evaluations (the altitude noise: "
+                            "alt_noise_ft=..., alt_noise_lanes_ft=...)")
+            continue
         own = key.removeprefix("usecase.params.")
         if own != key and own in EVALUATE_SETS:  # a nested one (hierarchical's levels) is not always replaced
             spec = {f.name: f for f in fields(EvaluateConfig)}[own]
