@@ -157,10 +157,9 @@ def compare_runs(runs: list[RunMetrics], baselines: list[RunMetrics]) -> Compari
     per_seed = [{"seed": r.seed, "nmac": r.nmac_events, "baseline_nmac": b.nmac_events,
                  "risk_ratio": r.nmac_events / b.nmac_events if b.nmac_events else None,
                  "lowc": r.lowc_events, "baseline_lowc": b.lowc_events,
-                 "lowc_ratio": r.lowc_events / b.lowc_events if b.lowc_events else None} for r, b in pairs]
-    for row, (r, b) in zip(per_seed, pairs, strict=True):
-        row["flights_completed"] = r.operational.get("flights_completed")
-        row["baseline_flights_completed"] = b.operational.get("flights_completed")
+                 "lowc_ratio": r.lowc_events / b.lowc_events if b.lowc_events else None,
+                 "flights_completed": r.operational.get("flights_completed"),
+                 "baseline_flights_completed": b.operational.get("flights_completed")} for r, b in pairs]
     operational = {"run": _operational_means([r for r, _ in pairs]),
                    "baseline": _operational_means([b for _, b in pairs])}
     return Comparison(
