@@ -97,3 +97,20 @@ def test_printable_leaves_no_control_character_but_line_feeds_and_tabs(text: str
                                     "\u202e\u2066\u2067\u2068\u2069") for ch in shown)
     if text.isprintable():
         assert shown == text
+
+
+def test_a_file_written_in_many_blocks_is_the_file_written_in_one(tmp_path: Path) -> None:
+    """Blocks of 7 rows (the writer thread formats one while the next is sampled) give the same bytes."""
+    files = {}
+    for name, block_rows in (("one", 10**9), ("many", 7)):
+        sim = Simulation(seed=1, use_bluesky_navdata=False)  # the same aircraft in both
+        sim.services.start()
+        recorder = TrajectoryRecorder(tmp_path / f"{name}.csv", 1.0, block_rows=block_rows)
+        recorder.attach(sim)
+        sim.stack("MCRE 5 EC35 500 60")
+        sim.run(until_s=40.0)
+        recorder.close()
+        files[name] = (tmp_path / f"{name}.csv").read_bytes()
+        assert recorder.rows_written == 5 * 41  # the samples at 0, 1, ..., 40 s
+    assert files["many"] == files["one"]
+    assert files["one"].count(b"\n") == 1 + 5 * 41

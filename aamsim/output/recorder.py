@@ -37,7 +37,10 @@ if TYPE_CHECKING:
 TRAJECTORY_HEADER = "id,simt,lat,lon,alt_m,tas_mps,cas_mps,gs_mps,trk_deg,vs_mps\n"
 _FIELDS = ("lat", "lon", "alt", "tas", "cas", "gs", "trk", "vs")
 _DECIMALS = np.array([2, 7, 7, 3, 4, 4, 4, 4, 4], dtype=np.int64)
-_FLUSH_ROWS = 500_000
+# Rows per block handed to the writer thread. Small enough that formatting overlaps the run on a
+# second core (with 500,000, a run of 100 aircraft for an hour, 360,000 rows, formatted them all at
+# the end: about 0.15 s of a 1.4 s process); large enough that a block's hand-over is negligible.
+BLOCK_ROWS = 50_000
 
 
 @dataclass
@@ -46,6 +49,7 @@ class TrajectoryRecorder:
 
     path: Path
     period_s: float = 1.0
+    block_rows: int = BLOCK_ROWS  # rows per block formatted and written by the writer thread
     rows_written: int = 0
     failed: str | None = None  # why writing stopped (the OS error), None while it works
     _file: IO[bytes] | None = field(default=None, repr=False)
@@ -89,7 +93,7 @@ class TrajectoryRecorder:
         cols[1:] = snap.columns(_FIELDS)
         self._chunks.append((ids, cols))
         self._buffered += n
-        if self._buffered >= _FLUSH_ROWS:
+        if self._buffered >= self.block_rows:
             self.flush()
 
     def flush(self) -> None:
