@@ -147,3 +147,7 @@ class SimulationCore(Protocol):
     def resume_route(self, target: str | int) -> None:
         """Fly the route again (LNAV and VNAV on)."""
         ...
+
+    def select_heading(self, target: str | int, heading_deg: float) -> None:
+        """Fly a heading [deg true]; LNAV off."""
+        ...

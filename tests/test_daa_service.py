@@ -17,6 +17,7 @@ from aamsim.units import KTS
 ROOT = Path(__file__).resolve().parents[1]
 DATA = Path(__file__).parent / "data"
 ENCOUNTERS = DATA / "daa_encounters.scn"
+WINDOW = DATA / "nyc_train_daa_window.scn"  # 12 flights of nyc_train_100
 ENV = dict(os.environ, PYTHONPATH=str(ROOT))
 
 
@@ -41,6 +42,59 @@ def test_aamsim_run_with_reso_daa_has_fewer_losses_of_well_clear(tmp_path):
     assert daa["safety"]["lowc_events"] == 0 and daa["safety"]["min_separation_m"] > 450
     assert daa["daa"]["advisories_issued"] == daa["operational"]["advisories"] > 0
     assert daa["daa"]["alerts"]["corrective"] + daa["daa"]["alerts"]["warning"] >= 3
+
+
+def test_reso_daa_brings_aircraft_turned_near_their_destination_to_it(tmp_path):
+    """Run as a user would. Before the service kept its aircraft's routes, UAM0947 and UAM0950 were turned
+    near their destination, passed it outside uam2scn's 0.05 NM ATDIST radius and flew on: 10 of 12 arrived."""
+    proc = run_cli(["-m", "aamsim", "run", str(WINDOW), "--seed", "1", "--set", "stack=RESO DAA", "--out", "daa",
+                    "--quiet"], tmp_path)
+    assert proc.returncode == 0, proc.stderr
+    summary = json.loads((tmp_path / "daa" / "summary.json").read_text())
+    assert summary["flights_created"] == summary["flights_arrived"] == 12
+    assert summary["daa"]["advisories_by_axis"]["heading"] > 0
+
+
+def window_with_daa() -> tuple[Simulation, set[str]]:
+    """The window under RESO DAA, and a set that collects every aircraft the service's route keeper follows."""
+    sim = Simulation(seed=1)
+    sim.load_scenario(WINDOW)
+    sim.stack("RESO DAA")
+    followed: set[str] = set()
+    sim.hooks.post_step.add(lambda s: followed.update(s.services.daa.keeper.steered), interval_s=1.0, name="test")
+    return sim, followed
+
+
+def test_the_route_keeper_follows_the_aircraft_advised_off_their_route_until_they_arrive():
+    sim, followed = window_with_daa()
+    sim.run(until_s=1500.0)
+    keeper = sim.services.daa.keeper
+    assert {"UAM0947", "UAM0950"} <= followed  # the two that flew away before
+    assert keeper.steered == {} and keeper.rejoining == set()  # every one arrived and was removed: forgotten
+    flights = list(sim.flights())
+    assert len(flights) == 12 and all(f.arrived for f in flights)
+
+
+def test_aircraft_released_by_reso_off_still_go_back_to_their_destination():
+    """RESO OFF at 458 s releases UAM0947 277 m from its destination, inside its turn circle: it flies straight
+    on (waiting to rejoin) while the service is off, and is still brought back (it flew on for good when the
+    keeper ran only while RESO DAA was on)."""
+    sim, _ = window_with_daa()
+    sim.run(until_s=458.0)
+    assert "UAM0947" in sim.services.daa.advisories
+    sim.stack("RESO OFF")
+    sim.run(until_s=459.5)
+    assert sim.services.daa.advisories == {} and sim.services.daa.keeper.rejoining == {"UAM0947"}
+    sim.run(until_s=1500.0)
+    assert all(f.arrived for f in sim.flights())
+
+
+def test_a_reset_forgets_the_followed_aircraft():
+    sim, _ = window_with_daa()
+    sim.run(until_s=460.0)
+    assert sim.services.daa.keeper.steered
+    sim.reset()
+    assert sim.services.daa.keeper.steered == {} and sim.services.daa.keeper.rejoining == set()
 
 
 def crossing_sim(reso: str, axes: str = "") -> Simulation:

@@ -1,4 +1,4 @@
-"""Can an aircraft turn onto a point, as LNAV flies it (rlbridge.usecases.rejoin)? Hand geometry and the simulator."""
+"""Can an aircraft turn onto a point, as LNAV flies it (aamsim.resolution.rejoin)? Hand geometry and the simulator."""
 
 from __future__ import annotations
 
@@ -8,7 +8,7 @@ import pytest
 
 from aamsim import Simulation
 from aamsim.geo import qdrdist
-from rlbridge.usecases.rejoin import can_turn_onto, east_north_m, turn_radius_m
+from aamsim.resolution.rejoin import can_turn_onto, east_north_m, turn_radius_m
 
 
 def test_turn_radius_by_hand():

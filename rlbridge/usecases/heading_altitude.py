@@ -8,7 +8,7 @@ intruders, and picks one advisory, a pair (heading offset, altitude offset):
 * heading: fly ``heading_offsets_deg[h]`` off the bearing to the active waypoint
   (LNAV off); offset 0 resumes the route (LNAV on, to the nearest waypoint). An
   aircraft that cannot turn onto its destination from where it is (inside its
-  turn circle, :mod:`rlbridge.usecases.rejoin`) flies straight on instead and
+  turn circle, :mod:`aamsim.resolution.rejoin`) flies straight on instead and
   resumes at the first decision it can: flown at once, LNAV would pass the
   destination, switch off and leave the aircraft flying on for good;
 * altitude: fly ``altitude_offsets_ft[z]`` off the aircraft's own altitude (the one
@@ -45,10 +45,10 @@ import numpy as np
 
 from aamsim.conflicts import pairs_within
 from aamsim.metrics import record_advisory
+from aamsim.resolution.rejoin import RouteKeeper, east_north_m
 from aamsim.units import FPM, FT, R_EARTH
 from rlbridge.observe import nearest_neighbours
 from rlbridge.usecases.protocol import Feedback, Observations, UseCaseBase, make_params
-from rlbridge.usecases.rejoin import RouteKeeper, east_north_m
 from rlbridge.usecases.separation import apply_separation, check_distances, nmac_distance
 from rlbridge.usecases.spec import SEPARATION_CURVE, CurveColumn, UseCaseSpec
 from rlbridge.usecases.variation import NYC_LANES_FT, PAPER_ALT_NOISE_FT, add_altitude_noise
@@ -78,7 +78,7 @@ class HeadingAltitudeParams:
     climb_rate_fpm: float = 1000.0
     alt_floor_ft: float = 300.0
     # An aircraft turned off its route is back at its destination this close to it (uam2scn removes a flight
-    # within 0.05 NM); until then the use case sends it back whenever its route ends (rlbridge.usecases.rejoin).
+    # within 0.05 NM); until then the use case sends it back whenever its route ends (aamsim.resolution.rejoin).
     arrival_m: float = 92.6
     decision_interval_s: float = 10.0
     n_intruders: int = 10
