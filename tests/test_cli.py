@@ -219,12 +219,19 @@ def test_progress_speed_up_is_blank_for_the_first_interval_then_per_interval() -
 
 def test_a_finished_run_leaves_fast_but_runs_exit_handlers_and_flushes(tmp_path):
     """``aamsim run`` skips the interpreter's teardown (aamsim/entry.py), not what an exit must do:
-    plugins' atexit functions run, buffered output reaches the pipe, the exit status is the run's."""
+    plugins' atexit functions run, buffered output reaches the pipe, the exit status is the run's. The
+    imports' objects are frozen out of the garbage collector's sight; garbage made in the run is collected."""
     (tmp_path / "exit_plugin.py").write_text(
-        "import atexit, sys\n"
+        "import atexit, gc, sys, weakref\n"
+        "class Node: pass\n"
         "def init_plugin(sim):\n"
         "    sys.stdout.write('buffered line from the plugin\\n')\n"  # sits in the pipe's buffer until the flush
-        f"    atexit.register(lambda: open({str(tmp_path / 'atexit.txt')!r}, 'w').write('ran'))\n"
+        "    cycle = Node(); cycle.me = cycle; alive = weakref.ref(cycle); del cycle\n"  # only a collection frees it
+        "    def at_exit():\n"
+        "        gc.collect()\n"
+        f"        report = open({str(tmp_path / 'atexit.txt')!r}, 'w')\n"
+        "        report.write(f'ran {gc.get_freeze_count()} {alive() is None}')\n"
+        "    atexit.register(at_exit)\n"
     )
     scn = tmp_path / "one.scn"
     scn.write_text("00:00:00.00>CRE A1 EC35 40.7 -74.0 90 1500 100\n")
@@ -234,7 +241,8 @@ def test_a_finished_run_leaves_fast_but_runs_exit_handlers_and_flushes(tmp_path)
                           check=False, capture_output=True, text=True, env=env, timeout=600)
     assert proc.returncode == 0, proc.stderr
     assert proc.stdout == "buffered line from the plugin\n"
-    assert (tmp_path / "atexit.txt").read_text() == "ran"
+    ran, frozen, collected = (tmp_path / "atexit.txt").read_text().split()
+    assert ran == "ran" and int(frozen) > 10_000 and collected == "True"
     assert json.loads((tmp_path / "run" / "summary.json").read_text())["sim_time_s"] == 5.0
     assert len((tmp_path / "run" / "trajectories.csv").read_text().splitlines()) == 1 + 6  # header, t = 0..5
     bad = subprocess.run([sys.executable, "-m", "aamsim", "run", str(tmp_path / "missing.scn"), "--quiet"],
