@@ -106,7 +106,7 @@ class RouteKeeper:
         self.steered.pop(acid, None)
 
     def steer(self, acid: str) -> None:
-        """The use case turns ``acid`` off its route."""
+        """A use case or a resolution turns ``acid`` off its route."""
         self.rejoining.discard(acid)
         self.steered.setdefault(acid, math.inf)
 
