@@ -18,6 +18,11 @@ The rest of ``config.yaml`` and ``evaluate.yaml`` (``scenario``, ``workers``, th
 defaults only, not typed nodes, because OmegaConf has no ``int | Literal["auto"]``; the types
 are checked by :func:`rlbridge.experiment.schema.check_config` before a job starts.
 
+A use case registered by another package (the ``rlbridge.usecases`` entry-point group) has no
+file in ``conf/usecase/``; :func:`register_configs` stores its group option too (``usecase/<name>``:
+its dataclass's defaults as ``params``, and its ``name``), so ``aamgym train usecase=<name>`` and
+``usecase.params.<field>=...`` work for it as for the built-in ones.
+
 Registration is a call, not an import side effect: the Hydra apps (``aamgym train``,
 ``aamgym evaluate``) call it before composing, and :func:`compose_config` composes for
 everything else (``aamgym study``, the preflight check, tests).
@@ -49,6 +54,16 @@ def app_classes() -> dict[str, type]:
     return {f"{SCHEMA_GROUP}/app/{name}": cls for name, cls in SCHEMAS.items()}
 
 
+def unwritten_usecases() -> list[str]:
+    """The registered use cases without a preset file in ``conf/usecase/`` (those of other packages)."""
+    from importlib.resources import files
+
+    from rlbridge.usecases.registry import available
+
+    written = {entry.name.removesuffix(".yaml") for entry in files(CONFIG_MODULE).joinpath("usecase").iterdir()}
+    return [name for name in available() if name not in written]
+
+
 def register_configs() -> None:
     """Store every learner's and use case's parameter dataclass, and the apps' defaults, in Hydra's
     ConfigStore (idempotent)."""
@@ -63,6 +78,9 @@ def register_configs() -> None:
         # (the dataclass itself stays frozen: the job builds it from the composed values).
         OmegaConf.set_readonly(node, False)
         store.store(group=group, name=name, node=node)
+    for name in unwritten_usecases():
+        store.store(group="usecase", name=name,
+                    node={"defaults": [f"/{SCHEMA_GROUP}/usecase/{name}@params", "_self_"], "name": name})
     from rlbridge.experiment.schema import config_defaults
 
     for path, cls in app_classes().items():
@@ -83,4 +101,4 @@ def compose_config(config_name: str, overrides: Sequence[str] = ()) -> Any:
         return compose(config_name, overrides=list(overrides))
 
 
-__all__ = ["app_classes", "compose_config", "register_configs", "schema_classes"]
+__all__ = ["app_classes", "compose_config", "register_configs", "schema_classes", "unwritten_usecases"]
