@@ -52,8 +52,13 @@ def preflight(config_name: str, argv: Sequence[str]) -> list[str]:
     return problems
 
 
+def override_key(text: str) -> str:
+    """The key of a Hydra override (``+usecase.params.x=1`` -> ``usecase.params.x``)."""
+    return text.lstrip("+~").split("=", 1)[0]
+
+
 def _is_hydra_override(text: str) -> bool:
-    key = text.lstrip("+~").split("=", 1)[0]
+    key = override_key(text)
     return key == "hydra" or key.startswith(("hydra.", "hydra/"))
 
 
@@ -122,7 +127,7 @@ def replaced_overrides(config_name: str, overrides: list[str], cfg: dict[str, An
     trained = [k for k in ("run", "policy") if cfg.get(k) not in (None, "")]
     problems = []
     for text in overrides:
-        key = text.lstrip("+~").split("=", 1)[0]
+        key = override_key(text)
         if trained and key.split(".")[0].split("/")[0] == "usecase":
             # A trained policy plays in the use case it was trained in, from its checkpoint (evaluation_env).
             problems.append(f"{key}: {trained[0]}=... is evaluated in the use case and parameters it was trained "
