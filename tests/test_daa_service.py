@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import itertools
 import json
 import os
 import subprocess
@@ -18,6 +19,7 @@ ROOT = Path(__file__).resolve().parents[1]
 DATA = Path(__file__).parent / "data"
 ENCOUNTERS = DATA / "daa_encounters.scn"
 WINDOW = DATA / "nyc_train_daa_window.scn"  # 12 flights of nyc_train_100
+TURNS = DATA / "daa_turns.scn"  # a head-on pair, a crossing and an overtake that need heading advisories
 ENV = dict(os.environ, PYTHONPATH=str(ROOT))
 
 
@@ -150,15 +152,21 @@ def test_daa_command_sets_lists_and_rejects():
     sim.stack("DAA DMOD 600; DAA TAUMOD 20; DAA LEVEL 3; DAA SPDMAX 120")
     params = sim.services.daa.daa.params
     assert (params.dmod_m, params.taumod_s, params.resolve_level, params.speed_max_kts) == (600.0, 20.0, 3, 120.0)
-    for line in ("DAA FOO 1", "DAA DMOD -5", "DAA LEVEL 7", "DAA SPDMIN 200"):
+    sim.stack("DAA HYSTERESIS 2")
+    assert sim.services.daa.daa.params.hysteresis_s == 2.0
+    params = sim.services.daa.daa.params
+    for line in ("DAA FOO 1", "DAA DMOD -5", "DAA LEVEL 7", "DAA SPDMIN 200", "DAA HDGSTEP 0", "DAA HYSTERESIS -1"):
         assert not sim.stack(line), line
     # Rejected settings leave the parameters as they were; the errors say why.
     assert sim.services.daa.daa.params == params
     errors = [m.text for m in sim.reporter.errors()]
-    assert len(errors) == 4
+    assert len(errors) == 6
     assert "unknown DAA setting FOO; known: DMOD, HMD, TAUMOD, ZTHR, TCOA" in errors[0]
     assert "dmod_m must be a finite number >= 0" in errors[1]
     assert "resolve_level must be 1" in errors[2] and "speed_min_kts is above speed_max_kts" in errors[3]
+    # A zero heading step divided by zero inside the heading bands at the first advisory, ending the run.
+    assert "hdg_step_deg must be positive, not 0.0" in errors[4]
+    assert "hysteresis_s must be a finite number >= 0" in errors[5]
     # A thinner well-clear volume changes what is alerted.
     crossing = crossing_sim("DAA")
     crossing.stack("DAA TAUMOD 0")
@@ -280,3 +288,66 @@ def test_resume_order_defers_only_ready_aircraft_whose_resumed_paths_meet():
     # B1 resuming away from A1 faster than A1: they never meet, both go.
     apart = np.array([[60.0, 0.0, 0.0], [20.0, 0.0, 0.0], [0.0, 0.0, 0.0]])
     assert daa.resume_order(sim, slots, apart).tolist() == [True, True, True]
+    # B1 released already and turning back to 20 m/s east: A1, though first by callsign, waits now; an
+    # aircraft turning back whose way does not meet A1's holds nothing up.
+    ready, went = slots[1:2], slots[0:1]
+    assert daa.resume_order(sim, ready, resumed[1:2], went, resumed[0:1]).tolist() == [False]
+    assert daa.resume_order(sim, ready, resumed[1:2], went, apart[0:1]).tolist() == [True]
+    assert daa.resume_order(sim, ready, resumed[1:2], slots[2:3], resumed[2:3]).tolist() == [True]
+
+
+# ------------------------------------------------------------------ releasing an advisory
+def advisory_spells(scenario: Path, *settings: str, until_s: float = 300.0) -> dict[str, list[tuple[float, float]]]:
+    """Per aircraft, the (first, last) cycle of each stretch it held an advisory, sampled after every DAA cycle."""
+    sim = Simulation(seed=1)
+    sim.load_scenario(scenario)
+    sim.stack("RESO DAA")
+    for line in settings:
+        sim.stack(line)
+    spells: dict[str, list[tuple[float, float]]] = {}
+
+    def sample(s: Simulation) -> None:
+        for acid in s.services.daa.advisories:
+            runs = spells.setdefault(acid, [])
+            if runs and runs[-1][1] >= s.simt - 1.5:
+                runs[-1] = (runs[-1][0], s.simt)
+            else:
+                runs.append((s.simt, s.simt))
+
+    sim.hooks.post_step.add(sample, interval_s=1.0, priority=30, name="test.sample")  # after the DAA cycle (20)
+    sim.run(until_s=until_s)
+    return spells
+
+
+def test_a_released_aircraft_turns_back_without_being_advised_again():
+    """The release test checks every heading of the turn back, not only the route's. Checked on the route's
+    heading alone, 18 of the window's 31 releases were followed by a new advisory at the next cycle (the
+    aircraft turned back through the intruder's way): 32 advisories for 12 flights."""
+    spells = advisory_spells(WINDOW, "DAA HYSTERESIS 0", until_s=800.0)
+    assert spells, "the window has encounters"
+    for acid, runs in spells.items():
+        for (_, released), (again, _) in itertools.pairwise(runs):
+            assert again - released > 5.0, (acid, runs)
+    assert sum(len(runs) for runs in spells.values()) <= 15
+
+
+def test_an_advisory_is_held_for_the_hysteresis_time_once_clear():
+    """Each aircraft stays on its first advisory exactly ``HYSTERESIS`` seconds longer: until the first release
+    nothing else differs, the aircraft flying the advised heading (O1 and H1 clear at 3 s and 4 s, C1 at 18 s)."""
+    def first_releases(*settings: str) -> dict[str, float]:
+        spells = advisory_spells(TURNS, *settings, until_s=60.0)
+        return {acid: runs[0][1] + 1.0 for acid, runs in spells.items() if acid in ("O1", "H1", "C1")}
+
+    assert first_releases() == first_releases("DAA HYSTERESIS 0") == {"O1": 3.0, "H1": 4.0, "C1": 18.0}
+    assert first_releases("DAA HYSTERESIS 5") == {"O1": 8.0, "H1": 9.0, "C1": 23.0}  # DAIDALUS's DO-365B time
+    assert first_releases("DAA HYSTERESIS 12") == {"O1": 15.0, "H1": 16.0, "C1": 30.0}
+
+
+def test_an_aircraft_turning_back_goes_first():
+    """With 5 s holds, the head-on pair of daa_turns.scn ended them a cycle apart: H2, checked against H1 in the
+    middle of its turn, turned back into it and both were advised again (16 advisories where 6 do). An
+    aircraft still turning back now counts as having gone first."""
+    spells = advisory_spells(TURNS, "DAA HYSTERESIS 5", until_s=300.0)
+    assert all(len(runs) == 1 for runs in spells.values()), spells
+    assert sorted(spells) == ["C1", "C2", "H1", "H2", "O1", "O2"]
+    assert spells["H2"][0][1] > spells["H1"][0][1] + 5.0  # H2 held its advisory until H1 had turned back

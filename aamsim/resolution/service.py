@@ -21,8 +21,12 @@ Every ``interval_s`` (1 s) while ``RESO DAA`` is on, the service
    still lose well clear, replacing it only when the held value itself comes
    to lose well clear (a new intruder, a manoeuvring one);
 4. resumes once clear of conflict: no alert at the resolution level and the own
-   trajectory conflict-free (of two nearby aircraft ready at once, one resumes
-   first: :meth:`DetectAndAvoid.resume_order`): the own speed and VNAV speed
+   trajectory conflict-free, the turn back to it included (every heading on the
+   way, at the heading bands' step), for ``hysteresis_s`` without a break (0 s
+   by default), or at once when the held advisory itself comes to lose well
+   clear (of two nearby aircraft ready at once, one resumes first, and an
+   aircraft still turning back counts as gone first:
+   :meth:`DetectAndAvoid.resume_order`): the own speed and VNAV speed
    control, and the route (LNAV to the nearest waypoint) or the autopilot's track;
 5. brings an aircraft a heading or vertical-speed advisory took off its route
    back to its destination (:class:`~aamsim.resolution.rejoin.RouteKeeper`):
@@ -59,6 +63,7 @@ if TYPE_CHECKING:
 
 METHOD = "DAA"
 ADVISORY_NAMES = {GS: "speed", HDG: "heading", VS: "vertical speed"}
+_TIME_EPS = 1e-6  # sim times are sums of steps: 5 s of hold may read 4.9999999
 
 
 @dataclass
@@ -76,6 +81,7 @@ class Advisory:
     asas: bool = False  # flies a resolution's commands (heading, vertical speed)
     resume_lnav: bool = False  # was on its route (LNAV): resumes it when clear
     resume_trk: float = math.nan  # its track when first advised, resumed without a route [deg]
+    clear_since_s: float = math.nan  # sim time since which it has been clear of conflict without a break
 
 
 def most_urgent(alerts: Alerts, slots: np.ndarray) -> np.ndarray:
@@ -104,6 +110,7 @@ class DAAService:
     # The aircraft advised off their route, until they are back at their destination.
     keeper: RouteKeeper = field(default_factory=lambda: RouteKeeper(ARRIVAL_M))
     _raised: dict[str, int] = field(default_factory=dict)  # the level each aircraft was last counted at
+    _turning_back: set[str] = field(default_factory=set)  # released from a heading advisory, still turning
     _axes: AxisResolver | None = None
 
     def attach(self, sim: SimulationCore) -> None:
@@ -127,6 +134,7 @@ class DAAService:
         self.advisories.clear()
         self.levels.clear()
         self._raised.clear()
+        self._turning_back.clear()
         self.keeper.clear()
         self._axes = None
 
@@ -135,6 +143,7 @@ class DAAService:
         self.advisories.pop(acid, None)
         self.levels.pop(acid, None)
         self._raised.pop(acid, None)
+        self._turning_back.discard(acid)
         self.keeper.forget(acid)
         self.axes.forget(acid)
 
@@ -160,7 +169,8 @@ class DAAService:
         speed_bands = self.daa.gs_bands(sim, slots)
         axis_bands: dict[str, AxisBands] = {}
         need: list[int] = []
-        ready: list[int] = []
+        clear: list[int] = []  # clear of conflict, held or not
+        due: list[bool] = []  # ... and their advisory is to be released now
         for i in slots.tolist():
             adv = self.advisories.get(view.ids[i])
             if adv is None:
@@ -168,15 +178,30 @@ class DAAService:
                     need.append(i)
                 continue
             if not alerted[i] and self._own_way_clear(sim, i, adv, speed_bands):
-                ready.append(i)
-            elif self._held_conflicts(sim, i, adv, speed_bands, axis_bands):
+                if math.isnan(adv.clear_since_s):
+                    adv.clear_since_s = sim.simt
+                # Held for the hysteresis time; released at once if the advisory itself comes to lose well
+                # clear meanwhile (the aircraft's own way is the clear one then).
+                clear.append(i)
+                due.append(sim.simt - adv.clear_since_s >= p.hysteresis_s - _TIME_EPS
+                           or self._held_conflicts(sim, i, adv, speed_bands, axis_bands))
+                if not due[-1] and adv.asas and adv.axis == VS:
+                    self._fly(sim, i, adv)
+                continue
+            adv.clear_since_s = math.nan
+            if self._held_conflicts(sim, i, adv, speed_bands, axis_bands):
                 need.append(i)
             elif adv.asas and adv.axis == VS:
                 self._fly(sim, i, adv)  # the vertical resolution follows the route's track
-        if ready:
-            vel = np.array([self._resume_velocity(sim, i, self.advisories[view.ids[i]]) for i in ready])
-            go = self.daa.resume_order(sim, np.array(ready, dtype=np.int64), vel)
-            for i in np.array(ready)[go].tolist():
+        if any(due):
+            # The order of resuming among every clear aircraft, held ones included: of a pair whose ways back
+            # meet, the one that sorts second waits even while the first still holds its advisory. Otherwise
+            # their holds ended a cycle apart and both turned back into each other (tests/data/daa_turns.scn).
+            vel = np.array([self._resume_velocity(sim, i, self.advisories[view.ids[i]]) for i in clear])
+            turning = self._still_turning_back(sim)
+            go = self.daa.resume_order(sim, np.array(clear, dtype=np.int64), vel, turning,
+                                       self._way_back(sim, turning)) & np.array(due)
+            for i in np.array(clear)[go].tolist():
                 self._release(sim, view.ids[i], self.advisories[view.ids[i]])
         if need:
             self._resolve(sim, alerts, np.array(need, dtype=np.int64), speed_bands)
@@ -191,14 +216,45 @@ class DAAService:
         vs = self._own_vs(sim, i) if adv.asas else float(sim.view.vs[i])
         return gs * math.sin(trk), gs * math.cos(trk), vs
 
+    def _still_turning_back(self, sim: SimulationCore) -> np.ndarray:
+        """Slots of the aircraft released from a heading advisory that still turn back to their route."""
+        view, step = sim.view, self.daa.params.hdg_step_deg
+        slots = []
+        for acid in sorted(self._turning_back):
+            i = view.slot(acid)
+            if view.lnav[i] and abs((float(view.qdr2wp[i]) - float(view.trk[i]) + 180.0) % 360.0 - 180.0) > step:
+                slots.append(i)
+            else:
+                self._turning_back.discard(acid)
+        return np.array(slots, dtype=np.int64)
+
+    @staticmethod
+    def _way_back(sim: SimulationCore, slots: np.ndarray) -> np.ndarray:
+        """East, north, up [m/s] of ``slots`` once turned back to their active waypoint."""
+        view = sim.view
+        trk = np.radians(np.asarray(view.qdr2wp, dtype=np.float64)[slots])
+        gs = np.asarray(view.gs, dtype=np.float64)[slots]
+        return np.stack([gs * np.sin(trk), gs * np.cos(trk), np.asarray(view.vs, dtype=np.float64)[slots]], axis=1)
+
     def _own_way_clear(self, sim: SimulationCore, i: int, adv: Advisory, speed_bands: SpeedBands) -> bool:
         """Whether the aircraft's own trajectory (what it flies once released) keeps well clear."""
         if not adv.asas:
             resume_gs = float(self.daa.gs_for(sim, np.array([i]), np.array([self._resume_cas(sim, i, adv)]))[0])
             return not speed_bands.conflicts(i, resume_gs)
-        vel = np.array([[self._resume_velocity(sim, i, adv)]])
+        # The way back: every heading of the turn from the track of now to the resumed one, at the heading
+        # bands' step, not the resumed heading alone. Tested on that alone, an aircraft turning back met the
+        # intruder on the way and was advised again at the next cycle (nyc_train_100: 2,680 advisories,
+        # 967 of the 1,722 releases followed by a new advisory one cycle later; with the turn, 377 and 6 of
+        # 176).
+        ve, vn, vu = self._resume_velocity(sim, i, adv)
+        trk_now = float(sim.view.trk[i])
+        turn = (math.degrees(math.atan2(ve, vn)) - trk_now + 180.0) % 360.0 - 180.0  # the shorter way, as LNAV
+        n = max(1, math.ceil(abs(turn) / self.daa.params.hdg_step_deg))
+        hdg = np.radians(trk_now + turn * np.arange(1, n + 1) / n)
+        gs = math.hypot(ve, vn)
+        vel = np.stack([gs * np.sin(hdg), gs * np.cos(hdg), np.full(n, vu)], axis=1)[None]
         first, _ = self.axes.check_velocities(sim, np.array([i]), vel)
-        return bool(first[0, 0] > self.daa.params.lookahead_s)
+        return bool((first[0] > self.daa.params.lookahead_s).all())
 
     def _held_conflicts(self, sim: SimulationCore, i: int, adv: Advisory, speed_bands: SpeedBands,
                         axis_bands: dict[str, AxisBands]) -> bool:
@@ -331,6 +387,7 @@ class DAAService:
         slot = sim.view.slot(acid)
         if adv.asas:
             self._stop_following(sim, slot, adv)
+            self._turning_back.add(acid)
         if adv.speed_held:
             sim.select_speed(acid, adv.resume)
             if adv.resume_vnav_speed:

@@ -32,6 +32,7 @@ DAA_SETTINGS: dict[str, tuple[str, str, float]] = {
     "MARGIN": ("margin_mps", "m/s", 1.0),
     "LEVEL": ("resolve_level", "", 1.0),
     "INTERVAL": ("interval_s", "s", 1.0),
+    "HYSTERESIS": ("hysteresis_s", "s", 1.0),
     "HDGSTEP": ("hdg_step_deg", "deg", 1.0),
     "HDGMARGIN": ("hdg_margin_deg", "deg", 1.0),
     "MAXTURN": ("max_turn_deg", "deg", 1.0),
@@ -66,7 +67,8 @@ def daa(sim: CommandContext, name: Text = "", value: RestOfLine = "") -> str | N
     volume used when every speed loses well clear, and RECOVERYT [s], how long
     a recovery speed must stay clear of it; SPDMIN, SPDMAX [kt CAS], the
     resolution speeds; MARGIN [m/s] inside a band; LEVEL (1-3), the alert level
-    that gets a resolution; INTERVAL [s], the cycle. RESOAXES: the axes resolved
+    that gets a resolution; INTERVAL [s], the cycle; HYSTERESIS [s], how long
+    an aircraft stays clear of conflict before its advisory is released. RESOAXES: the axes resolved
     on, in order of preference (HDG, VS, GS; default all three); HDGSTEP,
     HDGMARGIN, MAXTURN [deg] of heading resolutions; VSMAX, VSMARGIN [fpm] of
     vertical-speed resolutions, which stay between ALTMIN and ALTMAX [ft].
