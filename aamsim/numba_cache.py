@@ -113,7 +113,40 @@ class SourceKeyedDispatcher(CPUDispatcher):  # type: ignore[misc]
         if isinstance(getattr(self, "_cache", None), NullCache):  # (Numba sets it in __init__)
             prepare()
             self.enable_caching()
+            _load_without_refresh(self._cache)  # type: ignore[attr-defined]
         return super().compile(sig)
+
+
+def _load_without_refresh(cache: Any) -> None:
+    """Load ``cache``'s machine code without first installing every implementation Numba has.
+
+    Numba's ``Cache.load_overload`` refreshes the target context before it loads: it imports and
+    installs all of Numba's typing and lowering registries (linear algebra, random numbers, strings,
+    ...), 0.2 s of a process that only runs machine code loaded from the cache (a third of
+    ``aamsim run`` with one aircraft). Loading needs none of them: the code is linked already and
+    parallel code re-runs its own set-up (``reload_init``). What it does need are the C symbols the
+    refresh installs: the runtime's memory functions (an array allocated by loaded code segfaulted
+    without them) and the hash secrets; those are installed here. A cache miss compiles, and the
+    compiler refreshes the context itself. Numba versions without these internals keep their own
+    ``load_overload``.
+    """
+    load = getattr(cache, "_load_overload", None)
+    guard = getattr(cache, "_guard_against_spurious_io_errors", None)
+    try:
+        import numba.cpython.hashing  # noqa: F401  (installs the hash secrets' symbols)
+        from numba.core.runtime import rtsys
+    except ImportError:
+        return
+    if load is None or guard is None or not hasattr(rtsys, "initialize"):
+        return
+
+    def load_overload(sig: Any, target_context: Any) -> Any:
+        rtsys.initialize(target_context)  # the runtime's symbols (once a process; later calls return)
+        with guard():
+            return load(sig, target_context)
+        return None  # the guard swallowed an I/O error: compile instead
+
+    cache.load_overload = load_overload
 
 
 _F = TypeVar("_F", bound=Callable[..., Any])
