@@ -77,6 +77,14 @@ def main(argv: list[str] | None = None) -> int:
         import aamsim.cli  # noqa: F401
 
     _timed("import aamsim (and the CLI)", import_aamsim)()
+    # The package's compiled functions load through their own dispatcher (aamsim/numba_cache.py), whose
+    # cache object has its own load_overload: timed around the dispatcher's compile (a load or a compilation).
+    try:
+        from aamsim.numba_cache import SourceKeyedDispatcher
+    except ImportError:  # an older tree
+        pass
+    else:
+        _wrap(SourceKeyedDispatcher, "compile", "Numba set-up and cached code")
     import aamsim.cli
     from aamsim import services, simulation
     from aamsim.conflicts.service import ConflictService

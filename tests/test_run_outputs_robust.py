@@ -114,3 +114,33 @@ def test_a_file_written_in_many_blocks_is_the_file_written_in_one(tmp_path: Path
         assert recorder.rows_written == 5 * 41  # the samples at 0, 1, ..., 40 s
     assert files["many"] == files["one"]
     assert files["one"].count(b"\n") == 1 + 5 * 41
+
+
+
+def test_conflicts_csv_from_the_compiled_writer_is_the_csv_modules_file(tmp_path: Path, monkeypatch) -> None:
+    """conflicts.csv is formatted by compiled code (Python's rounding, tests/test_fastcsv.py); the file is
+    byte for byte the one the csv module writes. A volume name that needs quotes takes the csv module."""
+    import dataclasses
+
+    from aamsim.metrics import service
+
+    sim = Simulation(seed=1)
+    sim.services.start()
+    sim.load_scenario(Path(__file__).parent / "data" / "daa_encounters.scn")
+    sim.run(until_s=300.0)
+    events = list(sim.services.conflicts.events)
+    assert sorted(e.volume for e in events) == ["lowc", "lowc", "lowc", "nmac", "nmac"]
+
+    def write(name: str, rows: list) -> bytes:
+        assert service.write_conflicts_csv(tmp_path / name, sim, rows) == len(rows)
+        return (tmp_path / name).read_bytes()
+
+    renamed = [*events, dataclasses.replace(events[0], volume="lowc, 600 m", start_s=-0.125, end_s=float("nan"))]
+    compiled, compiled_renamed = write("compiled.csv", events), write("renamed.csv", renamed)
+    with monkeypatch.context() as m:
+        m.setattr(service, "format_csv_table", lambda *args: None)
+        assert write("module.csv", events) == compiled
+        assert write("module_renamed.csv", renamed) == compiled_renamed
+    rows = list(csv.DictReader(compiled_renamed.decode().splitlines()))
+    assert rows[0]["volume"] == "lowc, 600 m" and rows[0]["start_s"] == "-0.12" and rows[0]["end_s"] == ""
+    assert compiled.count(b"\r\n") == 6 and write("none.csv", []) == compiled.split(b"\r\n")[0] + b"\r\n"

@@ -15,6 +15,7 @@ decimal formatting instead, in their place.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 
 import numpy as np
 
@@ -164,3 +165,154 @@ def format_rows(
         parts.append(_format_rows_fast(name_bytes, name_offsets, name_index[start:],
                                        np.ascontiguousarray(columns[:, start:]), decimals).tobytes())
     return np.frombuffer(b"".join(parts), dtype=np.uint8)
+
+
+# ------------------------------------------------------------------ Python's own fixed-point text
+# Largest |value * 10**decimals| the exact writer below handles: under 2**52 the product's rounding
+# error is at most a quarter, so the rounded integer is one of two neighbours, told apart exactly.
+EXACT_LIMIT = float(2**52)
+_SPLITTER = 134217729.0  # 2**27 + 1: Veltkamp's split of a double into two 26-bit halves
+
+
+@njit(cache=True, inline="always")
+def _two_product(a: float, b: float) -> tuple[float, float]:
+    """``(p, e)`` with ``p = fl(a * b)`` and ``a * b == p + e`` exactly (Dekker; no FMA needed)."""
+    p = a * b
+    c = _SPLITTER * a
+    a_hi = c - (c - a)
+    a_lo = a - a_hi
+    c = _SPLITTER * b
+    b_hi = c - (c - b)
+    b_lo = b - b_hi
+    e = ((a_hi * b_hi - p) + a_hi * b_lo + a_lo * b_hi) + a_lo * b_lo
+    return p, e
+
+
+@njit(cache=True)
+def _write_python_fixed(out: np.ndarray, pos: int, value: float, decimals: int, scale: float) -> int:
+    """``format(value, f".{decimals}f")`` for a finite value with ``|value| * scale < 2**52``: the exact
+    binary value rounded half to even, a minus sign whenever the sign bit is set (``-0.00``)."""
+    negative = value < 0.0 or (value == 0.0 and math.copysign(1.0, value) < 0.0)
+    a = -value if negative else value
+    if a < 1e-200:  # the product's error term would underflow; far below half a unit of any decimal
+        n = np.int64(0)
+    else:
+        p, e = _two_product(a, scale)
+        whole = math.floor(p)
+        r = (p - whole - 0.5) + e  # exact sign: p - whole is exact, and so is its difference from 0.5
+        n = np.int64(whole)
+        if r > 0.0 or (r == 0.0 and n % 2 == 1):
+            n += 1
+    if negative:
+        out[pos] = 45  # '-'
+        pos += 1
+    intpart = n
+    for _ in range(decimals):
+        intpart //= 10
+    if intpart == 0:
+        out[pos] = 48
+        pos += 1
+    else:
+        ndig = 0
+        tmp = intpart
+        while tmp > 0:
+            tmp //= 10
+            ndig += 1
+        tmp = intpart
+        for k in range(ndig - 1, -1, -1):
+            out[pos + k] = 48 + tmp % 10
+            tmp //= 10
+        pos += ndig
+    if decimals > 0:
+        out[pos] = 46  # '.'
+        pos += 1
+        frac = n
+        for k in range(decimals - 1, -1, -1):
+            out[pos + k] = 48 + frac % 10
+            frac //= 10
+        pos += decimals
+    return pos
+
+
+@njit(cache=True)
+def _format_table(text_bytes: np.ndarray, text_offsets: np.ndarray, lead: np.ndarray, columns: np.ndarray,
+                  decimals: np.ndarray, trail: np.ndarray) -> np.ndarray:
+    """Rows ``lead texts, numbers, trail texts`` joined by commas, each ended by ``\\r\\n``."""
+    nrow = columns.shape[1]
+    ncol = columns.shape[0]
+    scales = np.empty(ncol)
+    width = 2
+    for c in range(ncol):
+        scales[c] = 10.0 ** decimals[c]
+        width += 26 + decimals[c]
+    longest = 0
+    for k in range(text_offsets.shape[0] - 1):
+        longest = max(longest, text_offsets[k + 1] - text_offsets[k])
+    width += (lead.shape[1] + trail.shape[1]) * (longest + 1)
+    out = np.empty(nrow * width, dtype=np.uint8)
+    pos = 0
+    for r in range(nrow):
+        first = True
+        for k in range(lead.shape[1]):
+            if not first:
+                out[pos] = 44
+                pos += 1
+            first = False
+            t = lead[r, k]
+            for b in range(text_offsets[t], text_offsets[t + 1]):
+                out[pos] = text_bytes[b]
+                pos += 1
+        for c in range(ncol):
+            if not first:
+                out[pos] = 44
+                pos += 1
+            first = False
+            x = columns[c, r]
+            if math.isfinite(x):  # not finite: an empty field
+                pos = _write_python_fixed(out, pos, x, decimals[c], scales[c])
+        for k in range(trail.shape[1]):
+            if not first:
+                out[pos] = 44
+                pos += 1
+            first = False
+            t = trail[r, k]
+            for b in range(text_offsets[t], text_offsets[t + 1]):
+                out[pos] = text_bytes[b]
+                pos += 1
+        out[pos] = 13
+        out[pos + 1] = 10
+        pos += 2
+    return out[:pos]
+
+
+def _plain_csv_field(text: str) -> bool:
+    """Whether :mod:`csv`'s default writer puts ``text`` as it is (no quotes, nothing escaped)."""
+    return not any(ch in text for ch in ',"\r\n')
+
+
+def format_csv_table(lead: Sequence[Sequence[str]], columns: np.ndarray, decimals: Sequence[int],
+                     trail: Sequence[Sequence[str]]) -> bytes | None:
+    """The bytes ``csv.writer`` writes for rows ``(*lead[r], *numbers, *trail[r])``, each number as
+    ``format(x, f".{d}f")`` (empty when not finite): rows ended by ``\\r\\n``, UTF-8.
+
+    ``columns``: float array (numbers per row, rows). None when a text needs quoting or a number is too
+    wide for the compiled writer (:data:`EXACT_LIMIT`): the caller writes with :mod:`csv` then.
+    """
+    columns = np.ascontiguousarray(columns, dtype=np.float64)
+    nrow = columns.shape[1]
+    texts: dict[str, int] = {}
+    lead_index = np.array([[texts.setdefault(t, len(texts)) for t in row] for row in lead],
+                          dtype=np.int64).reshape(nrow, -1)
+    trail_index = np.array([[texts.setdefault(t, len(texts)) for t in row] for row in trail],
+                           dtype=np.int64).reshape(nrow, -1)
+    if not all(_plain_csv_field(t) for t in texts):
+        return None
+    scales = 10.0 ** np.asarray(decimals, dtype=np.float64)
+    with np.errstate(invalid="ignore"):
+        if (np.abs(columns) * scales[:, None] >= EXACT_LIMIT).any():  # NaN and inf compare False / are empty
+            finite = np.isfinite(columns)
+            if (np.abs(np.where(finite, columns, 0.0)) * scales[:, None] >= EXACT_LIMIT).any():
+                return None
+    text_bytes, text_offsets = pack_names(list(texts))
+    return _format_table(text_bytes, text_offsets, lead_index, columns, np.asarray(decimals, dtype=np.int64),
+                         trail_index).tobytes()
