@@ -22,24 +22,12 @@ import numpy as np
 from aamsim.numba_cache import njit
 
 
-@njit(cache=True)
-def _write_number(out: np.ndarray, pos: int, value: float, decimals: int, scale: float) -> int:
-    if value != value:  # NaN -> empty field
-        return pos
-    if value < 0.0:
-        q = -value * scale + 0.5
-        neg = True
-    else:
-        q = value * scale + 0.5
-        neg = False
-    iv = np.int64(q)
-    if neg and iv != 0:
-        out[pos] = 45  # '-'
-        pos += 1
-    intpart = iv
+@njit(cache=True, inline="always")
+def _write_scaled(out: np.ndarray, pos: int, scaled: int, decimals: int) -> int:
+    """The digits of ``scaled / 10**decimals`` (``scaled >= 0``) at ``out[pos:]``; returns the end."""
+    intpart = scaled
     for _ in range(decimals):
         intpart //= 10
-    # integer digits
     if intpart == 0:
         out[pos] = 48
         pos += 1
@@ -57,12 +45,29 @@ def _write_number(out: np.ndarray, pos: int, value: float, decimals: int, scale:
     if decimals > 0:
         out[pos] = 46  # '.'
         pos += 1
-        frac = iv
+        frac = scaled
         for k in range(decimals - 1, -1, -1):
             out[pos + k] = 48 + frac % 10
             frac //= 10
         pos += decimals
     return pos
+
+
+@njit(cache=True)
+def _write_number(out: np.ndarray, pos: int, value: float, decimals: int, scale: float) -> int:
+    if value != value:  # NaN -> empty field
+        return pos
+    if value < 0.0:
+        q = -value * scale + 0.5
+        neg = True
+    else:
+        q = value * scale + 0.5
+        neg = False
+    iv = np.int64(q)
+    if neg and iv != 0:
+        out[pos] = 45  # '-'
+        pos += 1
+    return _write_scaled(out, pos, iv, decimals)
 
 
 # Largest |value * 10**decimals| the integer writer renders exactly.
@@ -206,32 +211,7 @@ def _write_python_fixed(out: np.ndarray, pos: int, value: float, decimals: int, 
     if negative:
         out[pos] = 45  # '-'
         pos += 1
-    intpart = n
-    for _ in range(decimals):
-        intpart //= 10
-    if intpart == 0:
-        out[pos] = 48
-        pos += 1
-    else:
-        ndig = 0
-        tmp = intpart
-        while tmp > 0:
-            tmp //= 10
-            ndig += 1
-        tmp = intpart
-        for k in range(ndig - 1, -1, -1):
-            out[pos + k] = 48 + tmp % 10
-            tmp //= 10
-        pos += ndig
-    if decimals > 0:
-        out[pos] = 46  # '.'
-        pos += 1
-        frac = n
-        for k in range(decimals - 1, -1, -1):
-            out[pos + k] = 48 + frac % 10
-            frac //= 10
-        pos += decimals
-    return pos
+    return _write_scaled(out, pos, n, decimals)
 
 
 @njit(cache=True)
