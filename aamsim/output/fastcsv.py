@@ -214,6 +214,14 @@ def _write_python_fixed(out: np.ndarray, pos: int, value: float, decimals: int, 
     return _write_scaled(out, pos, n, decimals)
 
 
+@njit(cache=True, inline="always")
+def _write_text(out: np.ndarray, pos: int, text_bytes: np.ndarray, text_offsets: np.ndarray, t: int) -> int:
+    for b in range(text_offsets[t], text_offsets[t + 1]):
+        out[pos] = text_bytes[b]
+        pos += 1
+    return pos
+
+
 @njit(cache=True)
 def _format_table(text_bytes: np.ndarray, text_offsets: np.ndarray, lead: np.ndarray, columns: np.ndarray,
                   decimals: np.ndarray, trail: np.ndarray) -> np.ndarray:
@@ -238,10 +246,7 @@ def _format_table(text_bytes: np.ndarray, text_offsets: np.ndarray, lead: np.nda
                 out[pos] = 44
                 pos += 1
             first = False
-            t = lead[r, k]
-            for b in range(text_offsets[t], text_offsets[t + 1]):
-                out[pos] = text_bytes[b]
-                pos += 1
+            pos = _write_text(out, pos, text_bytes, text_offsets, lead[r, k])
         for c in range(ncol):
             if not first:
                 out[pos] = 44
@@ -255,10 +260,7 @@ def _format_table(text_bytes: np.ndarray, text_offsets: np.ndarray, lead: np.nda
                 out[pos] = 44
                 pos += 1
             first = False
-            t = trail[r, k]
-            for b in range(text_offsets[t], text_offsets[t + 1]):
-                out[pos] = text_bytes[b]
-                pos += 1
+            pos = _write_text(out, pos, text_bytes, text_offsets, trail[r, k])
         out[pos] = 13
         out[pos + 1] = 10
         pos += 2
@@ -285,11 +287,11 @@ def format_csv_table(lead: Sequence[Sequence[str]], columns: np.ndarray, decimal
                           dtype=np.int64).reshape(nrow, -1)
     trail_index = np.array([[texts.setdefault(t, len(texts)) for t in row] for row in trail],
                            dtype=np.int64).reshape(nrow, -1)
-    if not all(_plain_csv_field(t) for t in texts):
-        return None
+    if not all(_plain_csv_field(t) for t in texts) or lead_index.shape[1] + len(decimals) + trail_index.shape[1] < 2:
+        return None  # (the csv module quotes a row's only field when it is empty)
     scales = 10.0 ** np.asarray(decimals, dtype=np.float64)
     with np.errstate(invalid="ignore"):
-        if (np.abs(columns) * scales[:, None] >= EXACT_LIMIT).any():  # NaN and inf compare False / are empty
+        if (np.abs(columns) * scales[:, None] >= EXACT_LIMIT).any():  # (inf too: it is written empty)
             finite = np.isfinite(columns)
             if (np.abs(np.where(finite, columns, 0.0)) * scales[:, None] >= EXACT_LIMIT).any():
                 return None

@@ -323,6 +323,7 @@ class DAAService:
                            resume_trk=float(view.trk[slot]))
             self.advisories[acid] = adv
         adv.axis, adv.value = axis, value
+        self._turning_back.discard(acid)  # advised again: it no longer turns back
         if axis == GS:
             if adv.asas:  # back to the autopilot (and the route) before a speed is selected
                 self._stop_following(sim, slot, adv)
