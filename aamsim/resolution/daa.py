@@ -75,7 +75,7 @@ class DAAParams:
     interval_s: float = 1.0  # the service's cycle (DAIDALUS runs at 1 Hz)
     # An advisory is released only after the aircraft has been clear of conflict this long without a break.
     # DAIDALUS's DO-365B configurations hold their alerts 5 s (hysteresis_time); held advisories cost delay
-    # for little safety here (docs/daa.md: on nyc_day 5 s gave 1.6 % fewer LoWC and 36 s more delay).
+    # for little safety here (docs/daa.md: on nyc_day 5 s gave 2.1 % fewer LoWC and 22 s more delay).
     hysteresis_s: float = 0.0
     # The axes RESO DAA resolves on, in order of preference: the first with a conflict-free value
     # flies it. Default: the guidance of DAIDALUS's DO-365 configurations (track, vertical speed,

@@ -244,8 +244,8 @@ class DAAService:
         # The way back: every heading of the turn from the track of now to the resumed one, at the heading
         # bands' step, not the resumed heading alone. Tested on that alone, an aircraft turning back met the
         # intruder on the way and was advised again at the next cycle (nyc_train_100: 2,680 advisories,
-        # 967 of the 1,722 releases followed by a new advisory one cycle later; with the turn, 377 and 6 of
-        # 176).
+        # 967 of the 1,722 releases followed by a new advisory one cycle later; with the turn, 354 and 8 of
+        # 194).
         ve, vn, vu = self._resume_velocity(sim, i, adv)
         trk_now = float(sim.view.trk[i])
         turn = (math.degrees(math.atan2(ve, vn)) - trk_now + 180.0) % 360.0 - 180.0  # the shorter way, as LNAV
