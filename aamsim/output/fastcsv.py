@@ -23,7 +23,7 @@ from aamsim.numba_cache import njit
 
 
 @njit(cache=True, inline="always")
-def _write_scaled(out: np.ndarray, pos: int, scaled: int, decimals: int) -> int:
+def _write_scaled(out: np.ndarray, pos: int, scaled: int | np.int64, decimals: int) -> int:
     """The digits of ``scaled / 10**decimals`` (``scaled >= 0``) at ``out[pos:]``; returns the end."""
     intpart = scaled
     for _ in range(decimals):
