@@ -461,7 +461,7 @@ class ViewerApp:
                 now = time.perf_counter()
                 if isinstance(src, ReplaySource):
                     r = src.replay
-                    if play.playing:
+                    if play.playing and last_t is not None:  # the clock starts at the first frame, not before
                         play.t = min(play.t + play.speed * (now - last_wall), r.t_end)
                         if play.t >= r.t_end:
                             play.playing = False
