@@ -225,7 +225,8 @@ def _write_text(out: np.ndarray, pos: int, text_bytes: np.ndarray, text_offsets:
 @njit(cache=True)
 def _format_table(text_bytes: np.ndarray, text_offsets: np.ndarray, lead: np.ndarray, columns: np.ndarray,
                   decimals: np.ndarray, trail: np.ndarray) -> np.ndarray:
-    """Rows ``lead texts, numbers, trail texts`` joined by commas, each ended by ``\\r\\n``."""
+    """Rows ``lead texts, numbers, trail texts`` joined by commas, each ended by ``\\r\\n`` (at least one field
+    a row)."""
     nrow = columns.shape[1]
     ncol = columns.shape[0]
     scales = np.empty(ncol)
@@ -240,30 +241,24 @@ def _format_table(text_bytes: np.ndarray, text_offsets: np.ndarray, lead: np.nda
     out = np.empty(nrow * width, dtype=np.uint8)
     pos = 0
     for r in range(nrow):
-        first = True
+        # Every field is followed by a comma; the row's last comma becomes its line end.
         for k in range(lead.shape[1]):
-            if not first:
-                out[pos] = 44
-                pos += 1
-            first = False
             pos = _write_text(out, pos, text_bytes, text_offsets, lead[r, k])
+            out[pos] = 44
+            pos += 1
         for c in range(ncol):
-            if not first:
-                out[pos] = 44
-                pos += 1
-            first = False
             x = columns[c, r]
             if math.isfinite(x):  # not finite: an empty field
                 pos = _write_python_fixed(out, pos, x, decimals[c], scales[c])
+            out[pos] = 44
+            pos += 1
         for k in range(trail.shape[1]):
-            if not first:
-                out[pos] = 44
-                pos += 1
-            first = False
             pos = _write_text(out, pos, text_bytes, text_offsets, trail[r, k])
-        out[pos] = 13
-        out[pos + 1] = 10
-        pos += 2
+            out[pos] = 44
+            pos += 1
+        out[pos - 1] = 13
+        out[pos] = 10
+        pos += 1
     return out[:pos]
 
 
@@ -283,10 +278,12 @@ def format_csv_table(lead: Sequence[Sequence[str]], columns: np.ndarray, decimal
     columns = np.ascontiguousarray(columns, dtype=np.float64)
     nrow = columns.shape[1]
     texts: dict[str, int] = {}
-    lead_index = np.array([[texts.setdefault(t, len(texts)) for t in row] for row in lead],
-                          dtype=np.int64).reshape(nrow, -1)
-    trail_index = np.array([[texts.setdefault(t, len(texts)) for t in row] for row in trail],
-                           dtype=np.int64).reshape(nrow, -1)
+
+    def numbered(rows: Sequence[Sequence[str]]) -> np.ndarray:
+        return np.array([[texts.setdefault(t, len(texts)) for t in row] for row in rows],
+                        dtype=np.int64).reshape(nrow, -1)
+
+    lead_index, trail_index = numbered(lead), numbered(trail)
     if not all(_plain_csv_field(t) for t in texts) or lead_index.shape[1] + len(decimals) + trail_index.shape[1] < 2:
         return None  # (the csv module quotes a row's only field when it is empty)
     scales = 10.0 ** np.asarray(decimals, dtype=np.float64)

@@ -52,6 +52,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from aamsim.aero import mach2cas
+from aamsim.geo import degto180
 from aamsim.metrics import record_advisory
 from aamsim.resolution.axes import GS, HDG, VS, AxisBands, AxisResolver
 from aamsim.resolution.daa import LEVEL_NAMES, Alerts, DetectAndAvoid, SpeedBands
@@ -222,7 +223,7 @@ class DAAService:
         slots = []
         for acid in sorted(self._turning_back):
             i = view.slot(acid)
-            if view.lnav[i] and abs((float(view.qdr2wp[i]) - float(view.trk[i]) + 180.0) % 360.0 - 180.0) > step:
+            if view.lnav[i] and abs(degto180(float(view.qdr2wp[i]) - float(view.trk[i]))) > step:
                 slots.append(i)
             else:
                 self._turning_back.discard(acid)
@@ -248,7 +249,7 @@ class DAAService:
         # 194).
         ve, vn, vu = self._resume_velocity(sim, i, adv)
         trk_now = float(sim.view.trk[i])
-        turn = (math.degrees(math.atan2(ve, vn)) - trk_now + 180.0) % 360.0 - 180.0  # the shorter way, as LNAV
+        turn = degto180(math.degrees(math.atan2(ve, vn)) - trk_now)  # the shorter way, as LNAV
         n = max(1, math.ceil(abs(turn) / self.daa.params.hdg_step_deg))
         hdg = np.radians(trk_now + turn * np.arange(1, n + 1) / n)
         gs = math.hypot(ve, vn)
