@@ -85,3 +85,35 @@ def test_a_field_the_registered_use_case_does_not_have_is_refused_by_name(tmp_pa
     assert proc.returncode == 2
     assert "usecase.params.gap_m" in proc.stderr and "Traceback" not in proc.stderr
     assert not (tmp_path / "runs").exists()
+
+
+def broken_package(where: Path) -> Path:
+    """A distribution whose use case cannot be imported (a dependency it lacks), as a broken install leaves."""
+    info = where / "brokenuc-0.1.dist-info"
+    info.mkdir(parents=True)
+    (where / "brokenuc.py").write_text("import a_dependency_that_is_not_installed\n")
+    (info / "METADATA").write_text("Metadata-Version: 2.1\nName: brokenuc\nVersion: 0.1\n")
+    (info / "entry_points.txt").write_text("[rlbridge.usecases]\nbroken_uc = brokenuc:Broken\n")
+    return where
+
+
+def test_a_use_case_that_fails_to_load_is_named_and_the_others_still_compose(tmp_path: Path) -> None:
+    site = broken_package(tmp_path / "site")
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(site), str(ROOT)]))
+    code = ("from rlbridge.experiment.configstore import compose_config\n"
+            "cfg = compose_config('config', ['usecase=reach_destination'])\n"
+            "print('composed', cfg.usecase.name, cfg.usecase.params.scale_dist_m)\n")
+    proc = subprocess.run([sys.executable, "-c", code], cwd=tmp_path, capture_output=True, text=True, env=env,
+                          timeout=600, check=False)
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    assert "composed reach_destination 10000.0" in proc.stdout  # ReachParams' default
+    # One warning, naming the use case, its entry point and the import error.
+    assert proc.stderr.count("cannot be loaded") == 1, proc.stderr
+    assert "'broken_uc' (entry point rlbridge.usecases: broken_uc = brokenuc:Broken)" in proc.stderr
+    assert "No module named 'a_dependency_that_is_not_installed'" in proc.stderr
+    # Asking for the broken one: the warning that says why, then Hydra's refusal; nothing is written.
+    proc = aamgym("train", "usecase=broken_uc", "workers=0", f"out_dir={tmp_path / 'runs'}", cwd=tmp_path, site=site)
+    assert proc.returncode != 0
+    assert "No module named 'a_dependency_that_is_not_installed'" in proc.stderr
+    assert "Could not find 'usecase/broken_uc'" in proc.stderr
+    assert not (tmp_path / "runs").exists()

@@ -30,6 +30,7 @@ everything else (``aamgym study``, the preflight check, tests).
 
 from __future__ import annotations
 
+import warnings
 from collections.abc import Sequence
 from typing import Any
 
@@ -37,13 +38,43 @@ SCHEMA_GROUP = "schema"  # ConfigStore group of the generated configs: schema/al
 CONFIG_MODULE = "rlbridge.conf"
 
 
-def schema_classes() -> dict[str, type]:
-    """The dataclass of each generated config, by its ConfigStore path (``schema/algorithm/dqn``, ...)."""
-    from rlbridge.agents import LEARNER_KINDS, learner_config_class
-    from rlbridge.usecases.registry import available, usecase_spec
+def schema_classes(usecases: dict[str, type] | None = None) -> dict[str, type]:
+    """The dataclass of each generated config, by its ConfigStore path (``schema/algorithm/dqn``, ...).
 
+    ``usecases``: :func:`usecase_params_classes` when already at hand (None: asked here).
+    """
+    from rlbridge.agents import LEARNER_KINDS, learner_config_class
+
+    if usecases is None:
+        usecases = usecase_params_classes()
     out = {f"{SCHEMA_GROUP}/algorithm/{kind}": learner_config_class(kind) for kind in LEARNER_KINDS}
-    out.update({f"{SCHEMA_GROUP}/usecase/{name}": usecase_spec(name).params_class for name in available()})
+    out.update({f"{SCHEMA_GROUP}/usecase/{name}": cls for name, cls in usecases.items()})
+    return out
+
+
+def usecase_params_classes() -> dict[str, type]:
+    """The parameter dataclass of every registered use case, by name.
+
+    A use case of another package that cannot be loaded (its module fails to import, it declares
+    no spec) is left out with a warning naming its entry point and the error: one broken package
+    must not stop every other use case from composing (``aamgym train usecase=<it>`` then finds no
+    such option, after the warning that says why). A built-in use case that fails raises.
+    """
+    from importlib.metadata import entry_points
+
+    from rlbridge.usecases.registry import BUILTIN_USECASES, available, usecase_spec
+
+    out: dict[str, type] = {}
+    for name in available():
+        try:
+            out[name] = usecase_spec(name).params_class
+        except Exception as exc:
+            if name in BUILTIN_USECASES:
+                raise
+            where = ", ".join(f"{ep.name} = {ep.value}" for ep in entry_points(group="rlbridge.usecases")
+                              if ep.name == name)
+            warnings.warn(f"use case {name!r} (entry point rlbridge.usecases: {where}) cannot be loaded and is "
+                          f"left out of the configs: {type(exc).__name__}: {exc}", RuntimeWarning, stacklevel=2)
     return out
 
 
@@ -54,14 +85,15 @@ def app_classes() -> dict[str, type]:
     return {f"{SCHEMA_GROUP}/app/{name}": cls for name, cls in SCHEMAS.items()}
 
 
-def unwritten_usecases() -> list[str]:
-    """The registered use cases without a preset file in ``conf/usecase/`` (those of other packages)."""
+def unwritten_usecases(usecases: dict[str, type] | None = None) -> list[str]:
+    """The registered use cases without a preset file in ``conf/usecase/`` (those of other packages that load).
+
+    ``usecases``: :func:`usecase_params_classes` when already at hand (None: asked here).
+    """
     from importlib.resources import files
 
-    from rlbridge.usecases.registry import available
-
     written = {entry.name.removesuffix(".yaml") for entry in files(CONFIG_MODULE).joinpath("usecase").iterdir()}
-    return [name for name in available() if name not in written]
+    return [name for name in (usecase_params_classes() if usecases is None else usecases) if name not in written]
 
 
 def register_configs() -> None:
@@ -71,14 +103,15 @@ def register_configs() -> None:
     from omegaconf import OmegaConf
 
     store = ConfigStore.instance()
-    for path, cls in schema_classes().items():
+    usecases = usecase_params_classes()  # once: a broken plugin is warned about once
+    for path, cls in schema_classes(usecases).items():
         group, _, name = path.rpartition("/")
         node = OmegaConf.structured(cls)
         # A frozen dataclass makes a read-only node; presets and the command line must still set fields
         # (the dataclass itself stays frozen: the job builds it from the composed values).
         OmegaConf.set_readonly(node, False)
         store.store(group=group, name=name, node=node)
-    for name in unwritten_usecases():
+    for name in unwritten_usecases(usecases):
         store.store(group="usecase", name=name,
                     node={"defaults": [f"/{SCHEMA_GROUP}/usecase/{name}@params", "_self_"], "name": name})
     from rlbridge.experiment.schema import config_defaults
@@ -101,4 +134,5 @@ def compose_config(config_name: str, overrides: Sequence[str] = ()) -> Any:
         return compose(config_name, overrides=list(overrides))
 
 
-__all__ = ["app_classes", "compose_config", "register_configs", "schema_classes", "unwritten_usecases"]
+__all__ = ["app_classes", "compose_config", "register_configs", "schema_classes", "unwritten_usecases",
+           "usecase_params_classes"]
