@@ -2,9 +2,31 @@
 
 from __future__ import annotations
 
+import os
+from collections.abc import Iterator
+from pathlib import Path
+
 import pytest
 
 from aamsim import Simulation
+
+
+@pytest.fixture(scope="session", autouse=True)
+def sb3_logs_in_pytest_tmp(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Path]:
+    """Stable-Baselines3's logger folder under pytest's temporary directory.
+
+    Without a folder SB3 makes ``$TMPDIR/SB3-<date and time>`` at every ``learn()``, even when
+    nothing is logged, and leaves it: each suite run left some sixty empty folders in /tmp. The
+    variable is inherited by the processes the tests start (the examples, the CLIs).
+    """
+    folder = tmp_path_factory.mktemp("sb3-logs")
+    before = os.environ.get("SB3_LOGDIR")
+    os.environ["SB3_LOGDIR"] = str(folder)
+    yield folder
+    if before is None:
+        os.environ.pop("SB3_LOGDIR", None)
+    else:
+        os.environ["SB3_LOGDIR"] = before
 
 
 @pytest.fixture
