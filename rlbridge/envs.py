@@ -24,7 +24,7 @@ from pettingzoo import ParallelEnv
 
 from aamsim.scenarios import resolve_scenario
 from rlbridge.backends import make_backend
-from rlbridge.core import StepResult
+from rlbridge.core import EpisodeCore, StepResult
 from rlbridge.policies import make_usecase_with_policies
 from rlbridge.render import RENDER_FPS, RENDER_MODES, EnvRenderer, check_render_mode
 
@@ -166,7 +166,9 @@ class AamSingleAgentEnv(gym.Env[np.ndarray, Any]):
     The episode starts when the ego agent exists and ends when it
     leaves (terminated) or the scenario ends (truncated).
     ``traffic_policy(agent, obs) -> action or None`` drives the other agents;
-    None (the default) gives them no action (in ``corridor_sa``: unequipped).
+    None (the default) gives them no action (in ``corridor_sa``: unequipped), and then nobody but
+    the ego is observed or rewarded at each step (an in-process or BlueSky episode: the use cases'
+    rows do not depend on which agents are asked with them, so the ego's are the same).
     """
 
     metadata = {"render_modes": list(RENDER_MODES), "render_fps": RENDER_FPS}
@@ -208,6 +210,15 @@ class AamSingleAgentEnv(gym.Env[np.ndarray, Any]):
         self.action_space = self._multi.action_space(self.ego)
         self._obs: dict[str, Any] = {}
 
+    def _watch(self) -> None:
+        """Observe only the ego when nothing else needs the others' observations (no traffic policy).
+
+        A server episode (``backend="zmq"``) observes everybody, as before.
+        """
+        core = self._multi.core
+        if isinstance(core, EpisodeCore):
+            core.watch = None if self.traffic_policy is not None else (self.ego,)
+
     def _traffic_actions(self) -> dict[str, Any]:
         if self.traffic_policy is None:
             return {}
@@ -224,6 +235,7 @@ class AamSingleAgentEnv(gym.Env[np.ndarray, Any]):
         super().reset(seed=seed)
         if self._draw_ego:
             self.ego = self._candidates[int(self.np_random.integers(len(self._candidates)))]
+        self._watch()
         obs, infos = self._multi.reset(seed=seed)
         self._obs = obs
         while self.ego not in self._multi.agents:
@@ -234,6 +246,7 @@ class AamSingleAgentEnv(gym.Env[np.ndarray, Any]):
         return obs[self.ego], infos.get(self.ego, {})
 
     def step(self, action: Any) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
+        self._watch()  # a traffic policy set since the reset: the others are observed from this step on
         actions = self._traffic_actions()
         actions[self.ego] = int(action) if isinstance(self.action_space, gym.spaces.Discrete) else action
         obs, rewards, terms, truncs, infos = self._multi.step(actions)

@@ -173,3 +173,55 @@ def test_parallel_vector_env_equals_separate_parallel_envs(scn):
         steps += 1
     assert steps > 50 and [s.possible_agents for s in singles] == vec.possible_agents
     assert vec.metrics(1) == singles[1].metrics()
+
+
+@pytest.mark.parametrize("env_id", ["aamgym/CorridorSA-v1", "aamgym/ReachDestination-v1"])
+def test_single_env_observes_only_its_ego_and_gives_what_observing_everyone_gives(scn, env_id):
+    """Without a traffic policy a single-agent env observes and rewards its ego alone at each step; with a
+    policy that never acts it observes every agent (the policy reads their observations). The ego's
+    episodes are the same bit for bit, across episode ends and resets."""
+    asked: list[tuple[str, tuple[int, ...]]] = []
+
+    def idle(agent: str, obs: np.ndarray) -> None:
+        asked.append((agent, np.asarray(obs).shape))
+
+    kwargs = {"scenario": scn, "decision_interval_s": 1.0, "time_limit_s": 150.0}
+    ego_only = gymnasium.make(env_id, **kwargs)
+    everyone = gymnasium.make(env_id, traffic_policy=idle, **kwargs)
+    for x, y in zip(ego_only.reset(seed=4), everyone.reset(seed=4)):
+        _same(x, y)
+    ego = ego_only.unwrapped.ego
+    assert ego_only.unwrapped._multi.core.watch == (ego,) and everyone.unwrapped._multi.core.watch is None
+    rng = np.random.default_rng(4)
+    ends = 0
+    for _ in range(500):
+        action = int(rng.integers(0, ego_only.action_space.n))
+        a, b = ego_only.step(action), everyone.step(action)
+        for x, y in zip(a, b):
+            _same(x, y)
+        if a[2] or a[3]:
+            ends += 1
+            for x, y in zip(ego_only.reset(), everyone.reset()):
+                _same(x, y)
+    assert ends >= 3
+    # The policy was asked about the other agents, with their observations.
+    assert {agent for agent, _ in asked} - {ego} and {shape for _, shape in asked} == {ego_only.observation_space.shape}
+
+
+def test_a_traffic_policy_set_after_the_reset_drives_the_others_from_the_next_step(scn):
+    env = gymnasium.make("aamgym/CorridorSA-v1", scenario=scn, decision_interval_s=1.0, time_limit_s=150.0)
+    env.reset(seed=4)
+    for _ in range(5):
+        env.step(1)  # hold: no advisory anywhere
+    assert env.unwrapped._multi.metrics()["operational"]["advisories"] == 0
+    driven: set[str] = set()
+
+    def accelerate(agent: str, obs: np.ndarray) -> int:
+        driven.add(agent)
+        return 2
+
+    env.unwrapped.traffic_policy = accelerate
+    for _ in range(10):
+        env.step(1)
+    assert driven and env.unwrapped.ego not in driven
+    assert env.unwrapped._multi.metrics()["operational"]["advisories"] > 0  # theirs: the ego held

@@ -25,8 +25,7 @@ from aamsim.stack.argtypes import (
 )
 from aamsim.stack.context import LiveContext
 from aamsim.stack.registry import command, raw_arguments, static_validator
-from aamsim.stack.tokens import next_arg
-from aamsim.stack.tokens import split_args
+from aamsim.stack.tokens import next_arg, split_args
 from aamsim.traffic.route import Route, Waypoint, WaypointKind
 from aamsim.units import FT, KTS, NM, UnitParseError, parse_altitude, parse_speed
 
@@ -140,10 +139,11 @@ def add_waypoint(
         else:
             index = len(route) - 1 if route.has_dest else len(route)
             route.insert(index, wp)
-    route.plan()
     route.iactwp = max(route.iactwp, 0)
     if 0 <= route.iactwp < len(route):
-        sim.activate_waypoint(i, route.iactwp)
+        sim.activate_waypoint(i, route.iactwp)  # plans the route (Route.plan) before it reads the plan
+    else:
+        route.plan()
     return index
 
 
