@@ -8,6 +8,7 @@ finished, and ``train.resume`` ends where an uninterrupted run ends.
 from __future__ import annotations
 
 import csv
+import json
 import os
 import signal
 import subprocess
@@ -139,3 +140,39 @@ def test_aamgym_study_stopped_in_a_run_exits_130_naming_the_run(tmp_path, monkey
     err = capsys.readouterr().err
     assert "study stopped by SIGINT after iteration 7 of train/corridor_sa/d2mava_a_s0: the same command " \
            "continues it from there" in err
+
+
+def test_a_stop_signal_during_the_baseline_episodes_stops_before_the_first_iteration(tmp_path, monkeypatch):
+    """``kill`` while the unequipped baseline is played: the baseline is finished and kept, no iteration is
+    started, ``last.pt`` holds iteration 0, and resuming trains the whole run without playing it again."""
+    cfg = compose_config("config", overrides=[*QUICK, "train.mode=serial"])
+    run_training(cfg, tmp_path / "whole")
+    real_baseline = train_module.play_baseline
+    played = []
+
+    def signal_then_baseline(run, pool):
+        os.kill(os.getpid(), signal.SIGTERM)  # arrives while the baseline episodes are being played
+        real_baseline(run, pool)
+        played.append(run.run_dir)
+
+    with monkeypatch.context() as m:
+        m.setattr(train_module, "play_baseline", signal_then_baseline)
+        with pytest.raises(TrainingStopped) as stopped:
+            run_training(cfg, tmp_path / "cut")
+    cut = tmp_path / "cut"
+    assert played == [cut]
+    assert (stopped.value.iteration, stopped.value.signal_name) == (0, "SIGTERM")
+    baseline, whole_baseline = (json.loads((r / "baseline.json").read_text()) for r in (cut, tmp_path / "whole"))
+    assert baseline.pop("wall_s") > 0 and whole_baseline.pop("wall_s") > 0
+    assert baseline == whole_baseline  # the same episodes
+    assert curve(cut) == [] and not (cut / "training_summary.json").exists()
+    assert load_checkpoint(cut / "checkpoints" / "last.pt")["state"]["iteration"] == 0
+
+    baseline_written = (cut / "baseline.json").stat().st_mtime_ns
+    summary = run_training(compose_config("config", overrides=[*QUICK, "train.mode=serial", f"train.resume={cut}"]),
+                           cut)
+    assert summary["iterations"] == 4 and summary["stopped_by"] == "iterations"
+    assert (cut / "baseline.json").stat().st_mtime_ns == baseline_written  # not played again
+    for a, b in zip(curve(cut), curve(tmp_path / "whole"), strict=True):
+        assert (a["reward_mean"], a["aircraft_states_total"], a["episode_rewards"]) == \
+            (b["reward_mean"], b["aircraft_states_total"], b["episode_rewards"])
