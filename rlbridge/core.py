@@ -290,6 +290,10 @@ class EpisodeCore:
             raise RuntimeError("step() before reset()")
         return self._run(self.step_steps(actions))  # type: ignore[no-any-return]
 
+    def until_alive(self, agent: str) -> StepResult:
+        """:meth:`until_alive_steps` on the episode's own simulation: the step in which ``agent`` appeared."""
+        return self._run(self.until_alive_steps(agent))  # type: ignore[no-any-return]
+
     def _watched(self, agents: list[str]) -> list[str]:
         watch = self.watch
         return agents if watch is None else [a for a in agents if a in watch]

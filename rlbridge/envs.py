@@ -104,6 +104,16 @@ class AamParallelEnv(ParallelEnv):
             self.render()
         return obs, infos
 
+    def _until_alive(self, agent: str) -> tuple[dict[str, np.ndarray], dict[str, dict[str, Any]]]:
+        """Step an in-process episode without actions until ``agent`` is alive or the scenario is over,
+        with nobody observed in between (its core watches ``agent`` only): the last step's observations
+        and infos (:meth:`rlbridge.core.EpisodeCore.until_alive`)."""
+        assert isinstance(self.core, EpisodeCore)
+        result = self.core.until_alive(agent)
+        self._take(result)
+        return ({a: result.obs.row(k) for k, a in enumerate(result.agents)},
+                dict(zip(result.agents, result.infos())))
+
     def _take(self, result: StepResult) -> None:
         self.last_result = result
         known = set(self.possible_agents)
@@ -238,6 +248,13 @@ class AamSingleAgentEnv(gym.Env[np.ndarray, Any]):
         self._watch()
         obs, infos = self._multi.reset(seed=seed)
         self._obs = obs
+        core, last = self._multi.core, self._multi.last_result
+        if isinstance(core, EpisodeCore) and core.watch is not None and self.render_mode != "human" \
+                and self.ego not in self._multi.agents and last is not None and not last.done:
+            # Nobody acts, is observed or is shown until the ego exists: fly there without the steps' reports
+            # (as the native vector environment does; the ego's episode is the same).
+            obs, infos = self._multi._until_alive(self.ego)
+            self._obs = obs
         while self.ego not in self._multi.agents:
             if not self._multi.agents and self._multi.last_result is not None and self._multi.last_result.done:
                 raise RuntimeError(f"the scenario ended before {self.ego} was created")
