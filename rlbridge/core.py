@@ -110,6 +110,13 @@ class _Leaving:
     feedback: Feedback
 
 
+def single_agent_watch(ego: str, traffic_policy: object | None) -> tuple[str, ...] | None:
+    """What a single-agent view has its episode observe (:attr:`EpisodeCore.watch`): its ego alone, unless a
+    traffic policy drives the others from their observations (a use case's rows do not depend on which
+    agents are asked with them, so the ego's are the same either way)."""
+    return None if traffic_policy is not None else (ego,)
+
+
 class EpisodeCore:
     """One scenario, one use case, one simulation per episode."""
 

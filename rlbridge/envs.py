@@ -24,7 +24,7 @@ from pettingzoo import ParallelEnv
 
 from aamsim.scenarios import resolve_scenario
 from rlbridge.backends import make_backend
-from rlbridge.core import EpisodeCore, StepResult
+from rlbridge.core import EpisodeCore, StepResult, single_agent_watch
 from rlbridge.policies import make_usecase_with_policies
 from rlbridge.render import RENDER_FPS, RENDER_MODES, EnvRenderer, check_render_mode
 
@@ -227,7 +227,7 @@ class AamSingleAgentEnv(gym.Env[np.ndarray, Any]):
         """
         core = self._multi.core
         if isinstance(core, EpisodeCore):
-            core.watch = None if self.traffic_policy is not None else (self.ego,)
+            core.watch = single_agent_watch(self.ego, self.traffic_policy)
 
     def _traffic_actions(self) -> dict[str, Any]:
         if self.traffic_policy is None:

@@ -149,8 +149,7 @@ def write_conflicts_csv(path: Path, sim: SimulationCore, events: list[Separation
         writer.writerow(CONFLICT_COLUMNS)
         if table is not None:
             fh.write(table.decode("utf-8"))
-        else:
-            columns = [_column(list(col), d) for col, d in zip(zip(*numbers), _DECIMALS)] if numbers else []
-            writer.writerows([(*head, *cells, *tail) for head, cells, tail in zip(lead, zip(*columns), trail)]
-                             if columns else [])
+        else:  # (no events give an empty table, never None)
+            columns = [_column(list(col), d) for col, d in zip(zip(*numbers), _DECIMALS)]
+            writer.writerows((*head, *cells, *tail) for head, cells, tail in zip(lead, zip(*columns), trail))
     return len(events)

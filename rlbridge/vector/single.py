@@ -29,7 +29,7 @@ from gymnasium.utils import seeding
 from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
-from rlbridge.core import EpisodeCore, StepResult
+from rlbridge.core import EpisodeCore, StepResult, single_agent_watch
 from rlbridge.envs import TrafficPolicy
 from rlbridge.vector.engine import Steps, VectorEngine, reset_request
 
@@ -99,8 +99,7 @@ class AamVectorEnv(VectorEnv):
 
     # ---------------------------------------------------------------- episodes
     def _watch(self, ep: _Episode) -> None:
-        # Without a traffic policy nobody but the ego is observed (rows do not depend on each other).
-        ep.core.watch = None if self.traffic_policy is not None else (ep.ego,)
+        ep.core.watch = single_agent_watch(ep.ego, self.traffic_policy)
 
     def _traffic_actions(self, ep: _Episode) -> dict[str, Any]:
         policy = self.traffic_policy
