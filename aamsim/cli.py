@@ -144,8 +144,8 @@ def main() -> None:
 @click.option("--lowc", default="450", show_default=True,
               help="LoWC volume [m]: RADIUS (sphere, 3-D) or RADIUS,HALF_HEIGHT (cylinder).")
 @click.option("--threads", type=int, default=None,
-              help="Numba threads stepping the traffic, at most the CPU cores (same results; helps from a "
-                   "thousand aircraft on idle cores). Default: AAMSIM_THREADS, else 1.")
+              help="Numba threads stepping the traffic, at most the CPU cores (same results; used from 4,000 "
+                   "aircraft on, where they help on idle cores). Default: AAMSIM_THREADS, else 1.")
 @click.option("--max-aircraft", type=click.IntRange(min=1), default=DEFAULT_LOCAL_MAX_AIRCRAFT, show_default=True,
               help="Most aircraft flying at once; a CRE past it, or an MCRE that does not fit whole, is a "
                    "reported error and the run goes on.")

@@ -59,9 +59,12 @@ from aamsim.traffic.traffic import FlightRecord, Traffic
 from aamsim.traffic.wind import WindField
 from aamsim.units import FT, KTS, MAX_ALTITUDE_FT, MAX_CALLSIGN_CHARS, MIN_ALTITUDE_FT, Speed
 
-# Fewest aircraft for which the parallel kernel is used. Measured on a shared
-# 2-core machine: no gain up to a few thousand aircraft, 1.3-1.8x at 10,000.
-PARALLEL_MIN_AIRCRAFT = 1000
+# Fewest aircraft for which the parallel kernel is used: its threads meet after every step, and below
+# this a sleeping thread's wake-up costs more than its half of the step. Measured on the idle 2-core
+# development machine (`python bench/bench_sim.py --threads 1,2`, 2026-11-29): two threads ran 1,000
+# aircraft at 0.45x the serial kernel's speed, 2,000 at 0.77x, 3,000 at 0.96x, 4,000 at 1.10x, 10,000
+# at 1.37x. Below the threshold a thread count above 1 leaves the step serial (never slower).
+PARALLEL_MIN_AIRCRAFT = 4000
 
 
 # What a batch does after a kernel call (Simulation._after_kernel).

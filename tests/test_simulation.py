@@ -7,9 +7,9 @@ import numpy as np
 import pytest
 from conftest import errors_of
 
+import aamsim.simulation
 from aamsim import Simulation
 from aamsim.scenarios import packaged_scenario
-from aamsim.simulation import PARALLEL_MIN_AIRCRAFT
 from aamsim.traffic import fields as f
 from aamsim.units import FT
 
@@ -117,6 +117,39 @@ def _route_traffic(n: int, seed: int = 3) -> str:
     return "\n".join(lines) + "\n"
 
 
+def _count_parallel_calls(monkeypatch) -> list[int]:
+    """Counts the calls of the parallel kernel from now on (``[calls]``), the kernel itself unchanged."""
+    calls = [0]
+    parallel = aamsim.simulation.advance_parallel
+
+    def counted(*args):
+        calls[0] += 1
+        return parallel(*args)
+
+    monkeypatch.setattr(aamsim.simulation, "advance_parallel", counted)
+    return calls
+
+
+@pytest.mark.skipif(numba.config.NUMBA_NUM_THREADS < 2, reason="needs two CPUs")
+def test_two_threads_below_the_parallel_threshold_step_serially(monkeypatch):
+    """Below PARALLEL_MIN_AIRCRAFT the threads would cost more than they save (they meet every step):
+    a two-thread simulation runs the serial kernel there, and the parallel one from the threshold on."""
+    calls = _count_parallel_calls(monkeypatch)
+    # 1,000 aircraft, where two threads ran the kernel at half the serial speed (speed.md, "Threads").
+    sim = Simulation(seed=1, use_bluesky_navdata=False, threads=2)
+    sim.load_text(_route_traffic(1000))
+    sim.run_until(2.0)
+    assert sim.view.n == 1000 and calls[0] == 0
+    monkeypatch.setattr(aamsim.simulation, "PARALLEL_MIN_AIRCRAFT", 30)
+    sim = Simulation(seed=1, use_bluesky_navdata=False, threads=2)
+    sim.load_text(_route_traffic(29))
+    sim.run_until(10.0)
+    assert sim.view.n == 29 and calls[0] == 0
+    sim.stack("CRE EXTRA EC35 40.7 -74.0 90 1500 100")
+    sim.run_until(12.0)
+    assert sim.view.n == 30 and calls[0] > 0
+
+
 def test_thread_count_is_validated():
     with pytest.raises(ValueError):
         Simulation(threads=0, use_bluesky_navdata=False)
@@ -126,8 +159,13 @@ def test_thread_count_is_validated():
 
 @pytest.mark.slow
 @pytest.mark.skipif(numba.config.NUMBA_NUM_THREADS < 2, reason="needs two CPUs")
-def test_parallel_kernel_gives_the_same_bits_as_the_serial_one():
-    text = _route_traffic(PARALLEL_MIN_AIRCRAFT + 44)
+def test_parallel_kernel_gives_the_same_bits_as_the_serial_one(monkeypatch):
+    # The threshold lowered to 1,000 (its value on this machine is several thousand): the same code path
+    # on a quarter of the aircraft.
+    monkeypatch.setattr(aamsim.simulation, "PARALLEL_MIN_AIRCRAFT", 1000)
+    n = aamsim.simulation.PARALLEL_MIN_AIRCRAFT
+    text = _route_traffic(n + 44)
+    calls = _count_parallel_calls(monkeypatch)
     runs = []
     for threads in (1, 2):
         sim = Simulation(seed=1, use_bluesky_navdata=False, threads=threads)
@@ -135,6 +173,7 @@ def test_parallel_kernel_gives_the_same_bits_as_the_serial_one():
         sim.run_until(120.0)
         runs.append(state(sim))
     (ids_a, F_a, B_a), (ids_b, F_b, B_b) = runs
-    assert ids_a == ids_b and len(ids_a) == PARALLEL_MIN_AIRCRAFT + 43
+    assert ids_a == ids_b and len(ids_a) == n + 43
+    assert calls[0] > 0  # the two-thread run did use the parallel kernel
     assert F_a[f.SELALT, ids_a.index("P2")] == pytest.approx(900 * FT)  # the condition fired
     assert np.array_equal(F_a, F_b, equal_nan=True) and np.array_equal(B_a, B_b)
