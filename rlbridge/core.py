@@ -216,6 +216,8 @@ class EpisodeCore:
         if agent is None:
             return
         self._live[agent] = None
+        if self.watch is not None and agent in self.watch:
+            sim.services.conflicts.paused = False  # checked from now on (until_alive_steps paused them)
         if agent not in self._possible:  # MCRE, PCALL, SCHEDULE, plugins: known only now
             self._possible.add(agent)
             self.possible_agents.append(agent)
@@ -343,17 +345,30 @@ class EpisodeCore:
         The same simulation as :meth:`step_steps` with no actions, one decision after the other,
         without observing anybody in between: for a single-agent view whose ego (``watch``) is not
         there yet (nobody is watched, so those steps would report nothing).
+
+        When the use case reads only separation events that involve its agents
+        (``conflicts_of_agents_only``), the conflict checks are left out until a watched agent is
+        created (the conflict service is ``paused``): nothing watched can be in them. The watched
+        agents' observations, rewards and infos are the same bit for bit; the episode's records
+        (its events and the safety metrics from them) then begin at the ego's creation.
         """
         if self.sim is None:
             raise RuntimeError("step() before reset()")
         if self.watch is None or any(a in self.watch for a in self.agents):
             raise RuntimeError("until_alive_steps skips watched agents' steps")
-        while True:
-            before, valid = self._begin_step({})
-            yield from self._advance_steps()
-            if agent in self._live or self._scenario_over():
-                return self._finish_step(before, valid)
-            self.agents = self._live_agents()
+        service = self.sim.services.conflicts
+        pause = getattr(self.usecase, "conflicts_of_agents_only", False) and not service.paused
+        service.paused = service.paused or pause
+        try:
+            while True:
+                before, valid = self._begin_step({})
+                yield from self._advance_steps()
+                if agent in self._live or self._scenario_over():
+                    return self._finish_step(before, valid)
+                self.agents = self._live_agents()
+        finally:
+            if pause:
+                service.paused = False
 
     def _begin_step(self, actions: dict[str, Any]) -> tuple[list[str], dict[str, Any]]:
         """Apply the actions of agents alive now; returns the watched agents before the step and the actions."""

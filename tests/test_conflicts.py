@@ -138,6 +138,42 @@ def test_deleted_aircraft_closes_only_its_own_events():
     assert service.in_volume_now("lowc") == {"C", "D"}
 
 
+def test_a_paused_service_records_nothing_and_its_first_check_after_looks_back_one_interval():
+    """``paused`` (a single-agent episode before its ego exists): no events while paused; afterwards the
+    checks find what they would have found, looking back to the last (paused) check, not further."""
+    d = 4000 * DEG_PER_M
+    dlon = 300 * DEG_PER_M
+    text = (f"00:00:00.00>CRE A EC35 0 0 0 1000 100\n00:00:00.00>CRE B EC35 {d} 0 180 1000 100\n"
+            f"00:00:00.00>CRE C EC35 0.5 0 0 1000 100\n00:00:00.00>CRE D EC35 0.5 {dlon} 0 1000 100\n"
+            "00:00:00.00>CRE E EC35 0.5 0.001 0 1000 100\n00:00:15.00>DEL E\n")
+    runs = {}
+    for paused in (False, True):
+        sim = Simulation(seed=1, use_bluesky_navdata=False)
+        service = sim.services.start().conflicts
+        sim.load_text(text)
+        service.paused = paused
+        sim.run_until(20.0)
+        if paused:
+            # C, D and E were inside LoWC, E deleted: nothing recorded, nothing open.
+            assert service.events == [] and service.in_volume_now("lowc") == set()
+        service.paused = False
+        sim.run_until(60.0)
+        service.finish(sim)
+        runs[paused] = {(e.ac1, e.ac2, e.volume): e for e in service.events}
+    full, after = runs[False], runs[True]
+    # A and B meet after 20 s: the same events, to the bit.
+    for key in (("A", "B", "nmac"), ("A", "B", "lowc")):
+        assert (after[key].start_s, after[key].end_s, after[key].min_dist_m) == \
+            (full[key].start_s, full[key].end_s, full[key].min_dist_m)
+    # C and D flew 300 m apart all along: recorded from the first check after the pause, which looks back
+    # one interval (to the paused check at 20 s), not to their creation.
+    assert full[("C", "D", "lowc")].start_s == 0.0
+    assert after[("C", "D", "lowc")].start_s == pytest.approx(20.0)
+    # E, flying beside C 111 m away and deleted during the pause: its events exist only in the full run.
+    with_e = {k for k in full if "E" in k[:2]}
+    assert ("C", "E", "nmac") in with_e and set(full) - set(after) == with_e and not set(after) - set(full)
+
+
 def test_encounter_types():
     east, north = (70.0, 0.0, 0.0), (0.0, 70.0, 0.0)
     assert encounter_type(north, north) == "same-direction"

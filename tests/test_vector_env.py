@@ -175,7 +175,7 @@ def test_parallel_vector_env_equals_separate_parallel_envs(scn):
     assert vec.metrics(1) == singles[1].metrics()
 
 
-@pytest.mark.parametrize("env_id", ["aamgym/CorridorSA-v1", "aamgym/ReachDestination-v1"])
+@pytest.mark.parametrize("env_id", ["aamgym/CorridorSA-v1", "aamgym/ReachDestination-v1", "aamgym/HeadingAltitudeSA-v1"])
 def test_single_env_observes_only_its_ego_and_gives_what_observing_everyone_gives(scn, env_id):
     """Without a traffic policy a single-agent env observes and rewards its ego alone at each step; with a
     policy that never acts it observes every agent (the policy reads their observations). The ego's
@@ -206,6 +206,51 @@ def test_single_env_observes_only_its_ego_and_gives_what_observing_everyone_give
     assert ends >= 3
     # The policy was asked about the other agents, with their observations.
     assert {agent for agent, _ in asked} - {ego} and {shape for _, shape in asked} == {ego_only.observation_space.shape}
+
+
+@pytest.mark.parametrize("agents_only", [True, False])
+def test_single_env_checks_conflicts_from_its_ego_on_when_the_use_case_reads_only_its_agents(scn, monkeypatch,
+                                                                                            agents_only):
+    """A single-agent reset flies the traffic to the drawn ego without conflict checks when the use case's
+    feedback reads only its agents' separation events (``conflicts_of_agents_only``); with the flag off
+    every check runs. The checks come back before the ego's first decision (the episodes are the same:
+    the test above)."""
+    from aamsim.conflicts.service import ConflictService
+    from rlbridge.usecases.corridor import CorridorSA
+
+    monkeypatch.setattr(CorridorSA, "conflicts_of_agents_only", agents_only)
+    checked: list[float] = []
+    check = ConflictService._check
+
+    def timed(self, sim):
+        checked.append(sim.simt)
+        return check(self, sim)
+
+    monkeypatch.setattr(ConflictService, "_check", timed)
+    flown_from: list[float] = []  # where the reset began to fly to the ego (its first decision with agents)
+    until_alive = rlbridge.core.EpisodeCore.until_alive_steps
+
+    def recorded(self, agent):
+        flown_from.append(self.sim.simt)
+        return (yield from until_alive(self, agent))
+
+    monkeypatch.setattr(rlbridge.core.EpisodeCore, "until_alive_steps", recorded)
+    env = gymnasium.make("aamgym/CorridorSA-v1", scenario=scn, decision_interval_s=10.0, time_limit_s=150.0)
+    seen = 0
+    for seed in range(8):
+        checked.clear()
+        flown_from.clear()
+        env.reset(seed=seed)
+        sim = env.unwrapped._multi.core.sim
+        born = float(sim.view.created_s[sim.slot(env.unwrapped.ego)])
+        assert not sim.services.conflicts.paused
+        if not flown_from or born - flown_from[0] < 2.0:
+            continue  # the ego was there at the first decision, or came within a second: nothing left out
+        seen += 1
+        between = [t for t in checked if flown_from[0] < t <= born]
+        assert (between == []) if agents_only else (len(between) >= int(born - flown_from[0]) - 1)
+        assert [t for t in checked if t > born]  # checked from the ego's creation to its first decision
+    assert seen >= 2
 
 
 def test_a_traffic_policy_set_after_the_reset_drives_the_others_from_the_next_step(scn):

@@ -147,6 +147,12 @@ class ConflictService:
     _conflicts_hint: int = 0  # conflicts at the last check: sizes the next check's output
     _last_check_s: float = -math.inf
     _zone_advised: bool = False  # the airliner-zone warning (zone_advice) was given
+    # While True, a check only moves the time its successor looks back to, and a deletion is not
+    # checked: nothing is detected or recorded (no events, conflicts, closest distances). For a
+    # view that reads nobody's separation for a while: a single-agent episode before its ego exists
+    # (rlbridge.core.EpisodeCore.until_alive_steps). The first check after it looks back one
+    # interval, as it would have; an event open when the pause began is closed by that check.
+    paused: bool = False
 
     # ------------------------------------------------------------- lifecycle
     def attach(self, sim: SimulationCore) -> None:
@@ -158,6 +164,7 @@ class ConflictService:
 
     def on_reset(self, sim: SimulationCore) -> None:
         self.finish(sim)
+        self.paused = False
         self._conflict_keys = np.empty(0, dtype=np.int64)
         self._serials.clear()
         self._serial_version = None
@@ -209,6 +216,9 @@ class ConflictService:
         itself, not as Numba's opaque ``SystemError`` (:mod:`aamsim.compiled_errors`); a MemoryError in the
         detection pass, whose memory grows with the pairs it finds, skips the check with an error instead.
         """
+        if self.paused:
+            self._last_check_s = sim.simt
+            return
         try:
             self._check(sim)
         except SystemError as exc:  # a try costs nothing when nothing is raised; a `with` did, per check
@@ -327,6 +337,8 @@ class ConflictService:
 
     def on_deleted(self, sim: SimulationCore, slot: int, record: object) -> None:
         """Check the deleted aircraft's last interval before it disappears."""
+        if self.paused:
+            return
         s = traffic_snapshot(sim)
         n = len(s.ids)
         lookback = self._lookback(sim, n)

@@ -133,6 +133,7 @@ class CorridorSA(UseCaseBase):
     spec = UseCaseSpec(CorridorParams, action_kinds=("speed",), speed_actions=SPEED_ROLES,
                        baselines=("mvp_speed", "daa"), advisory="non_hold")
     fixed_traffic: ClassVar[dict[str, Any]] = {"alt_noise_ft": 0.0}
+    conflicts_of_agents_only: ClassVar[bool] = True  # feedback: involved_since of its agents
     # Per agent: was it in an NMAC / LoWC event at some time during the interval.
     info_fields = {"nmac": np.bool_, "lowc": np.bool_}  # noqa: RUF012
 

@@ -149,6 +149,7 @@ class HeadingAltitudeSA(UseCaseBase):
                               CurveColumn("mean_abs_xtrack_m", "heading_altitude_sa.mean_abs_xtrack_m",
                                           per_aircraft=False)))
     fixed_traffic: ClassVar[dict[str, Any]] = {"alt_noise_ft": 0.0}
+    conflicts_of_agents_only: ClassVar[bool] = True  # feedback: involved_since of its agents
     info_fields = {"nmac": np.bool_, "lowc": np.bool_, "xtrack_m": np.float64, "dalt_m": np.float64}  # noqa: RUF012
 
     def __init__(self, **params: Any):

@@ -138,6 +138,11 @@ class UseCaseBase:
     fixed_traffic: ClassVar[dict[str, Any]] = {}
     # Gymnasium id version: bumped when the environment's behaviour changes (aamgym/<env_name>-v<N>).
     env_version: ClassVar[int] = 1
+    # True when the use case's observations, rewards and infos read no separation events but those that
+    # involve its agents (the conflict service's ``involved_since``), and nothing else of the conflict
+    # service: a single-agent view then leaves the conflict checks out until its ego exists
+    # (rlbridge.core.EpisodeCore.until_alive_steps). False (the default) keeps every check.
+    conflicts_of_agents_only: ClassVar[bool] = False
 
     def action_targets(self, sim: Simulation, slots: np.ndarray, kind: str) -> np.ndarray:
         """Per aircraft slot, the target each action sets for advisory ``kind`` (ADVISORY_UNITS): (n, n_actions).

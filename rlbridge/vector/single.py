@@ -224,7 +224,11 @@ class AamVectorEnv(VectorEnv):
         return [ep.ego for ep in self.episodes]
 
     def metrics(self, env: int) -> dict[str, Any]:
-        """The standard safety and operational metrics of sub-environment ``env``'s current episode."""
+        """The standard safety and operational metrics of sub-environment ``env``'s current episode.
+
+        For a use case with ``conflicts_of_agents_only`` the separation events (the safety figures)
+        are those from the ego's creation on: the reset flies to it without conflict checks.
+        """
         return self.engine.cores[env].metrics()
 
     def close_extras(self, **kwargs: Any) -> None:
