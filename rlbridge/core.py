@@ -151,6 +151,9 @@ class EpisodeCore:
         # Agents whose observations and rewards are computed (None: every agent). A single-agent
         # view needs its ego's only; the others fly on unobserved (observing changes nothing).
         self.watch: Collection[str] | None = None
+        # Whether until_alive_steps paused the conflict checks of this episode's simulation (until a
+        # watched agent is created).
+        self._checks_paused = False
         # Whether step results carry the heading/altitude action targets (rlbridge.usecases.targets):
         # set while an actor that reads them plays; a learner never does, and they cost a
         # computation per decision.
@@ -216,8 +219,8 @@ class EpisodeCore:
         if agent is None:
             return
         self._live[agent] = None
-        if self.watch is not None and agent in self.watch:
-            sim.services.conflicts.paused = False  # checked from now on (until_alive_steps paused them)
+        if self._checks_paused and self.watch is not None and agent in self.watch:
+            self._resume_checks(sim)
         if agent not in self._possible:  # MCRE, PCALL, SCHEDULE, plugins: known only now
             self._possible.add(agent)
             self.possible_agents.append(agent)
@@ -315,6 +318,7 @@ class EpisodeCore:
         self._cut_at_limit = []
         self._left = {}
         self._live = dict.fromkeys(self.usecase.standing_agents)
+        self._checks_paused = False  # a pause belonged to the simulation this reset replaces
         self.sim = self._new_simulation(seed)
         yield 0.0
         # Advance to the first decision: when an agent first exists, or a standing agent's first event.
@@ -356,9 +360,9 @@ class EpisodeCore:
             raise RuntimeError("step() before reset()")
         if self.watch is None or any(a in self.watch for a in self.agents):
             raise RuntimeError("until_alive_steps skips watched agents' steps")
-        service = self.sim.services.conflicts
-        pause = getattr(self.usecase, "conflicts_of_agents_only", False) and not service.paused
-        service.paused = service.paused or pause
+        sim = self.sim
+        if getattr(self.usecase, "conflicts_of_agents_only", False) and not sim.services.conflicts.paused:
+            sim.services.conflicts.paused = self._checks_paused = True  # resumed by the watched agent's creation
         try:
             while True:
                 before, valid = self._begin_step({})
@@ -367,8 +371,11 @@ class EpisodeCore:
                     return self._finish_step(before, valid)
                 self.agents = self._live_agents()
         finally:
-            if pause:
-                service.paused = False
+            if self._checks_paused:  # the scenario ended first, or the generator was closed
+                self._resume_checks(sim)
+
+    def _resume_checks(self, sim: Simulation) -> None:
+        sim.services.conflicts.paused = self._checks_paused = False
 
     def _begin_step(self, actions: dict[str, Any]) -> tuple[list[str], dict[str, Any]]:
         """Apply the actions of agents alive now; returns the watched agents before the step and the actions."""

@@ -37,3 +37,16 @@ def sim() -> Simulation:
 
 def errors_of(sim: Simulation) -> list[str]:
     return [str(m) for m in sim.reporter.messages if m.kind == "error"]
+
+
+def count_calls(monkeypatch: pytest.MonkeyPatch, owner: object, name: str) -> list[int]:
+    """Counts the calls of ``owner.name`` from now on (``[calls]``); the function itself is unchanged."""
+    calls = [0]
+    fn = getattr(owner, name)
+
+    def counted(*args: object) -> object:
+        calls[0] += 1
+        return fn(*args)
+
+    monkeypatch.setattr(owner, name, counted)
+    return calls

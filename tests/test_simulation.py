@@ -5,7 +5,7 @@ from __future__ import annotations
 import numba
 import numpy as np
 import pytest
-from conftest import errors_of
+from conftest import count_calls, errors_of
 
 import aamsim.simulation
 from aamsim import Simulation
@@ -117,24 +117,11 @@ def _route_traffic(n: int, seed: int = 3) -> str:
     return "\n".join(lines) + "\n"
 
 
-def _count_parallel_calls(monkeypatch) -> list[int]:
-    """Counts the calls of the parallel kernel from now on (``[calls]``), the kernel itself unchanged."""
-    calls = [0]
-    parallel = aamsim.simulation.advance_parallel
-
-    def counted(*args):
-        calls[0] += 1
-        return parallel(*args)
-
-    monkeypatch.setattr(aamsim.simulation, "advance_parallel", counted)
-    return calls
-
-
 @pytest.mark.skipif(numba.config.NUMBA_NUM_THREADS < 2, reason="needs two CPUs")
 def test_two_threads_below_the_parallel_threshold_step_serially(monkeypatch):
     """Below PARALLEL_MIN_AIRCRAFT the threads would cost more than they save (they meet every step):
     a two-thread simulation runs the serial kernel there, and the parallel one from the threshold on."""
-    calls = _count_parallel_calls(monkeypatch)
+    calls = count_calls(monkeypatch, aamsim.simulation, "advance_parallel")
     # 1,000 aircraft, where two threads ran the kernel at half the serial speed (speed.md, "Threads").
     sim = Simulation(seed=1, use_bluesky_navdata=False, threads=2)
     sim.load_text(_route_traffic(1000))
@@ -165,7 +152,7 @@ def test_parallel_kernel_gives_the_same_bits_as_the_serial_one(monkeypatch):
     monkeypatch.setattr(aamsim.simulation, "PARALLEL_MIN_AIRCRAFT", 1000)
     n = aamsim.simulation.PARALLEL_MIN_AIRCRAFT
     text = _route_traffic(n + 44)
-    calls = _count_parallel_calls(monkeypatch)
+    calls = count_calls(monkeypatch, aamsim.simulation, "advance_parallel")
     runs = []
     for threads in (1, 2):
         sim = Simulation(seed=1, use_bluesky_navdata=False, threads=threads)

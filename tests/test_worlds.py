@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from conftest import count_calls
 
 import aamsim.traffic.pool
 import aamsim.worlds
@@ -152,14 +153,7 @@ def test_worlds_on_two_threads_give_the_bits_of_one_thread(monkeypatch):
     # on a quarter of the aircraft.
     monkeypatch.setattr(aamsim.worlds, "PARALLEL_MIN_AIRCRAFT", 1000)
     texts = [_scenario(s, n=aamsim.worlds.PARALLEL_MIN_AIRCRAFT // 2 + 100) for s in (11, 12)]
-    calls = [0]
-    parallel = aamsim.traffic.pool.advance_ranges_parallel
-
-    def counted(*args):
-        calls[0] += 1
-        return parallel(*args)
-
-    monkeypatch.setattr(aamsim.traffic.pool, "advance_ranges_parallel", counted)
+    calls = count_calls(monkeypatch, aamsim.traffic.pool, "advance_ranges_parallel")
     runs = []
     for threads in (1, 2):
         worlds = WorldSet(2, threads=threads)
