@@ -5,6 +5,13 @@ recorder, the RL bridge) attach functions here; nothing is discovered
 implicitly. Periodic hooks run on a sim-time interval; an interval of 0 means
 every step (and forces the simulation to advance one step at a time).
 Lower priority numbers run first; ties run in registration order.
+
+A periodic hook can sleep (:meth:`HookList.sleep`) while its owner knows that
+running it would change nothing but its own schedule: it is then neither run
+nor waited for, so it no longer ends the kernel's batches. At every step
+boundary its ``wake`` function is asked whether what it watches has changed;
+when it wakes, it sets the hook's next due time to the one it would have had
+after running, as a no-op, at each due time it slept through.
 """
 
 from __future__ import annotations
@@ -26,6 +33,8 @@ class Hook:
     order: int
     next_due_us: int = 0
     interval_fn: Callable[[], float] | None = None  # read at each run: the interval lives in the settings
+    # While set, the hook sleeps: ``wake(now_us, ran_now, *args)`` (see HookList.sleep).
+    wake: Callable[..., bool] | None = None
 
 
 @dataclass
@@ -35,6 +44,8 @@ class HookList:
     periodic: bool = False
     _hooks: list[Hook] = field(default_factory=list)
     _order: itertools.count = field(default_factory=itertools.count)
+    sleeping: int = 0  # how many hooks sleep (see sleep)
+    _last_call_us: int = -1  # the time of the last call_due: its hooks due then have run
 
     def add(
         self,
@@ -58,6 +69,31 @@ class HookList:
 
     def remove(self, name_or_fn: str | Callable[..., Any]) -> None:
         self._hooks = [h for h in self._hooks if h.name != name_or_fn and h.fn is not name_or_fn]
+        self.sleeping = sum(h.wake is not None for h in self._hooks)
+
+    def sleep(self, hook: Hook, wake: Callable[..., bool]) -> None:
+        """Neither run ``hook`` nor wait for it until ``wake(now_us, ran_now, *args)`` returns True.
+
+        The owner promises that, until what it watches changes, running the hook would change
+        nothing but its schedule, and that the stepping of the traffic cannot change what it
+        watches: then only a command or an API call can, both at or after a step boundary.
+        ``wake`` is asked at every boundary: in the hook's place when the list runs (``ran_now``
+        True when the list already ran at this time, so the hook would have too) and after the
+        boundary's commands (:meth:`wake_sleepers`, ``ran_now`` True). Before it returns True it
+        sets ``hook.next_due_us`` to the due time the hook would have now, had it run, for nothing,
+        at each of its due times before ``now_us`` (with ``ran_now``: at or before).
+        """
+        if hook.wake is None:
+            self.sleeping += 1
+        hook.wake = wake
+
+    def wake_sleepers(self, now_us: int, *args: Any) -> None:
+        """Ask the sleeping hooks whether to wake, at ``now_us`` (see :meth:`sleep`)."""
+        ran_now = self._last_call_us == now_us
+        for hook in self._hooks:
+            if hook.wake is not None and hook.wake(now_us, ran_now, *args):
+                hook.wake = None
+                self.sleeping -= 1
 
     def __iter__(self):
         return iter(list(self._hooks))
@@ -75,6 +111,8 @@ class HookList:
     def next_due_us(self) -> int | None:
         if not self.periodic or not self._hooks:
             return None
+        if self.sleeping:
+            return min((h.next_due_us for h in self._hooks if h.wake is None), default=None)
         return min(h.next_due_us for h in self._hooks)
 
     def call(self, *args: Any) -> None:
@@ -83,7 +121,15 @@ class HookList:
 
     def call_due(self, now_us: int, dt_us: int, *args: Any) -> None:
         """Run periodic hooks due at ``now_us`` and schedule their next run."""
+        ran_before = self._last_call_us == now_us
+        self._last_call_us = now_us
         for hook in list(self._hooks):
+            if hook.wake is not None:
+                # Asked in its place in the list: the hooks before it may have changed what it watches.
+                if not hook.wake(now_us, ran_before, *args):
+                    continue
+                hook.wake = None
+                self.sleeping -= 1
             if hook.next_due_us <= now_us:
                 hook.fn(*args)
                 if hook.interval_fn is not None:
@@ -97,6 +143,43 @@ class HookList:
     def restart(self, now_us: int = 0) -> None:
         for hook in self._hooks:
             hook.next_due_us = now_us
+            hook.wake = None
+        self.sleeping = 0
+        self._last_call_us = -1
+
+
+def sleep_while_unchanged(hooks: HookList, hook: Hook, watched: Callable[[], object], interval_us: int, now_us: int,
+                          dt_us: int, on_wake: Callable[[int | None], None] | None = None) -> bool:
+    """Put ``hook``, running now (``now_us``), to sleep until ``watched()`` changes (see :meth:`HookList.sleep`).
+
+    For an owner whose runs would find nothing to do while ``watched()`` keeps its value now,
+    and would only keep their phase: whole ``interval_us`` from its due time on. ``watched()``
+    includes everything the runs and the interval depend on (the time step ``dt_us`` too);
+    the stepping of the traffic must not change it. On waking, the hook is due where it
+    would be, and ``on_wake(t_us)`` learns the last due time it slept through (None: none)
+    for the owner to account for that run. Returns False, and the hook stays awake, unless
+    its due times are step boundaries from now on (the interval a whole number of steps, the
+    due time of this run one too), where its runs would have been.
+    """
+    if interval_us <= 0 or interval_us % dt_us or (now_us - hook.next_due_us) % dt_us:
+        return False
+    before = watched()
+
+    def wake(now_us: int, ran_now: bool, *args: Any) -> bool:
+        if watched() == before:
+            return False
+        last = now_us if ran_now else now_us - 1
+        slept_through = None
+        if hook.next_due_us <= last:
+            k = (last - hook.next_due_us) // interval_us
+            slept_through = hook.next_due_us + k * interval_us
+            hook.next_due_us = slept_through + interval_us
+        if on_wake is not None:
+            on_wake(slept_through)
+        return True
+
+    hooks.sleep(hook, wake)
+    return True
 
 
 @dataclass

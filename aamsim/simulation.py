@@ -410,6 +410,10 @@ class Simulation(SimulationAPI):
             # Fixed-wing limits follow the aircraft's state: the next refresh changes them again.
             scheduler.perf_pending = intents.refresh_performance(self._traffic)
         hooks.pre_step.call_due(clock.simt_us, clock.dt_us, self)
+        if hooks.post_step.sleeping:
+            # This boundary's commands may have changed what a sleeping hook watches: it must be
+            # awake before the next event is looked for.
+            hooks.post_step.wake_sleepers(clock.simt_us, self)
 
     def _advance_steps(self, nsteps: int) -> None:
         """Advance the traffic ``nsteps`` steps, handling events inside the batch."""

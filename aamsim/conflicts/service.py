@@ -22,7 +22,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -33,6 +33,7 @@ from aamsim.conflicts.grid import NO_PAIR_LIMIT, candidate_pairs, snapshot_array
 from aamsim.conflicts.pairs import nearest_per_aircraft, slant_distances
 from aamsim.conflicts.separation import LOWC, NMAC, PAPER_STANDARD, SeparationStandard, SeparationVolume
 from aamsim.conflicts.zone_advice import zone_advice
+from aamsim.hooks import sleep_while_unchanged
 from aamsim.traffic.view import field_rows, kinematic_matrix
 from aamsim.units import R_EARTH
 
@@ -145,6 +146,7 @@ class ConflictService:
     _standard_cache: tuple | None = None  # (volumes, their SeparationStandard): rewards read it every step
     _serial_version: tuple | None = None  # (traffic, layout version) the serial cache was built for
     _conflicts_hint: int = 0  # conflicts at the last check: sizes the next check's output
+    _hook: Any = None  # the check's post-step hook (it sleeps while paused)
     _last_check_s: float = -math.inf
     _zone_advised: bool = False  # the airliner-zone warning (zone_advice) was given
     # While True, a check only moves the time its successor looks back to, and a deletion is not
@@ -157,8 +159,8 @@ class ConflictService:
     # ------------------------------------------------------------- lifecycle
     def attach(self, sim: SimulationCore) -> None:
         # The interval is read from the settings each time the check runs, so DT ASAS takes effect.
-        sim.hooks.post_step.add(self.check, interval_s=lambda: sim.settings.cd_interval_s, name="conflicts",
-                                priority=10)
+        self._hook = sim.hooks.post_step.add(self.check, interval_s=lambda: sim.settings.cd_interval_s,
+                                             name="conflicts", priority=10)
         sim.hooks.deleted.add(self.on_deleted, name="conflicts.deleted")
         sim.hooks.reset.add(self.on_reset, name="conflicts.reset")
 
@@ -218,11 +220,26 @@ class ConflictService:
         """
         if self.paused:
             self._last_check_s = sim.simt
+            self._sleep(sim)
             return
         try:
             self._check(sim)
         except SystemError as exc:  # a try costs nothing when nothing is raised; a `with` did, per check
             raise_original(exc)
+
+    def _sleep(self, sim: SimulationCore) -> None:
+        """Paused: sleep until the pause ends or DT ASAS or DT changes (a check ended a batch every second).
+
+        Each check slept through would only have moved the look-back origin to its time.
+        """
+        def woken(slept_through_us: int | None) -> None:
+            if slept_through_us is not None:
+                self._last_check_s = slept_through_us / 1_000_000  # as sim.simt then
+
+        clock = sim._clock
+        sleep_while_unchanged(sim.hooks.post_step, self._hook,
+                              lambda: (self.paused, sim.settings.cd_interval_s, sim._clock.dt_us),
+                              round(sim.settings.cd_interval_s * 1_000_000), clock.simt_us, clock.dt_us, woken)
 
     def _check(self, sim: SimulationCore) -> None:
         t = sim._traffic

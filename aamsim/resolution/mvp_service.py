@@ -34,6 +34,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from aamsim.hooks import sleep_while_unchanged
 from aamsim.metrics import record_advisory
 from aamsim.resolution.mvp import MVPSettings, OwnState, PairGeometry, combine, commands, mvp_pairs
 from aamsim.resolution.mvp_detect import DirectedConflicts, detect
@@ -103,12 +104,30 @@ class MVPService:
         self._hook.next_due_us = target - interval_us
         return on_time
 
+    @staticmethod
+    def _watched(sim: SimulationCore) -> tuple[str, float, int]:
+        """What an idle cycle depends on: the method, DT ASAS and the time step."""
+        return sim.settings.reso, sim.settings.cd_interval_s, sim._clock.dt_us
+
+    def _sleep(self, sim: SimulationCore) -> None:
+        """Idle (RESO is not MVP, nobody follows a resolution): sleep until RESO, DT ASAS or DT changes.
+
+        Until then each cycle only keeps its phase, and its boundary one step before each second
+        split the kernel's batches in two (1 + 19 steps a second while a corridor episode's reset
+        flies the traffic up to its ego). Called in a cycle on time: the due times slept through
+        are this one plus whole intervals, each a cycle on time that would have found MVP idle.
+        """
+        sleep_while_unchanged(sim.hooks.post_step, self._hook, lambda: self._watched(sim),
+                              max(round(sim.settings.cd_interval_s * 1e6), 1), sim._clock.simt_us, sim._clock.dt_us)
+
     def update(self, sim: SimulationCore) -> None:
         if not self._reschedule(sim):
             return
         if not self.active(sim):
             if self.following or self.pairs:
                 self.release_all(sim)
+            else:
+                self._sleep(sim)
             return
         st = sim.settings
         if st.cd_method != "OFF":

@@ -27,8 +27,9 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
+from aamsim.hooks import sleep_while_unchanged
 from aamsim.units import G0, R_EARTH
 
 if TYPE_CHECKING:
@@ -91,9 +92,10 @@ class RouteKeeper:
     arrival_m: float  # an aircraft this close to its destination has arrived [m]
     rejoining: set[str] = field(default_factory=set)  # sent back, flying straight until they can turn
     steered: dict[str, float] = field(default_factory=dict)  # -> closest distance to the destination since [m]
+    _hook: Any = field(default=None, repr=False, compare=False)  # the tracking hook (it sleeps while nobody is steered)
 
     def attach(self, sim: SimulationCore, name: str = "route_keeper.approach") -> None:
-        sim.hooks.post_step.add(self._track, interval_s=TRACK_INTERVAL_S, name=name)
+        self._hook = sim.hooks.post_step.add(self._track, interval_s=TRACK_INTERVAL_S, name=name)
 
     def clear(self) -> None:
         """Forget every aircraft (the simulation was reset)."""
@@ -152,6 +154,10 @@ class RouteKeeper:
     def _track(self, sim: SimulationCore) -> None:
         """Closest approach of the steered aircraft to their destinations (a post-step hook)."""
         if not self.steered:
+            # Nobody to track: sleep until somebody is steered (awake, each sample ended a batch of steps).
+            clock = sim._clock
+            sleep_while_unchanged(sim.hooks.post_step, self._hook, lambda: (bool(self.steered), sim._clock.dt_us),
+                                  round(TRACK_INTERVAL_S * 1_000_000), clock.simt_us, clock.dt_us)
             return
         view = sim.view
         for acid, closest in self.steered.items():

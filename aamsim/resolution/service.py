@@ -47,12 +47,13 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from aamsim.aero import mach2cas
 from aamsim.geo import degto180
+from aamsim.hooks import sleep_while_unchanged
 from aamsim.metrics import record_advisory
 from aamsim.resolution.axes import GS, HDG, VS, AxisBands, AxisResolver
 from aamsim.resolution.daa import LEVEL_NAMES, Alerts, DetectAndAvoid, SpeedBands
@@ -113,10 +114,12 @@ class DAAService:
     _raised: dict[str, int] = field(default_factory=dict)  # the level each aircraft was last counted at
     _turning_back: set[str] = field(default_factory=set)  # released from a heading advisory, still turning
     _axes: AxisResolver | None = None
+    _hook: Any = None  # the cycle's post-step hook (it sleeps while idle)
 
     def attach(self, sim: SimulationCore) -> None:
         # After the conflict check (priority 10): both see the same state.
-        sim.hooks.post_step.add(self.update, interval_s=lambda: self.daa.params.interval_s, name="daa", priority=20)
+        self._hook = sim.hooks.post_step.add(self.update, interval_s=lambda: self.daa.params.interval_s, name="daa",
+                                             priority=20)
         sim.hooks.deleted.add(self.on_deleted, name="daa.deleted")
         sim.hooks.reset.add(self.on_reset, name="daa.reset")
         self.keeper.attach(sim, name="daa.route_keeper")
@@ -149,12 +152,27 @@ class DAAService:
         self.axes.forget(acid)
 
     # ---------------------------------------------------------------- cycle
+    def _sleep(self, sim: SimulationCore) -> None:
+        """Idle (RESO is not DAA, no advisory, nobody steered): sleep until one of these or the interval changes.
+
+        Each cycle slept through would have found nothing to do; awake, each ended a batch of
+        kernel steps.
+        """
+        clock = sim._clock
+        sleep_while_unchanged(
+            sim.hooks.post_step, self._hook,
+            lambda: (sim.settings.reso, self.daa.params.interval_s, sim._clock.dt_us, bool(self.advisories),
+                     bool(self.keeper.steered)),
+            round(self.daa.params.interval_s * 1_000_000), clock.simt_us, clock.dt_us)
+
     def update(self, sim: SimulationCore) -> None:
         if self.keeper.steered:  # also after RESO OFF: the aircraft released then still go back to their route
             self.keeper.keep(sim, {acid for acid, adv in self.advisories.items() if adv.asas})
         if not self.active(sim):
             if self.advisories:
                 self.release_all(sim)
+            elif not self.keeper.steered:
+                self._sleep(sim)
             return
         view = sim.view
         p = self.daa.params
