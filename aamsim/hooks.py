@@ -157,9 +157,11 @@ def sleep_while_unchanged(hooks: HookList, hook: Hook, watched: Callable[[], obj
     includes everything the runs and the interval depend on (the time step ``dt_us`` too);
     the stepping of the traffic must not change it. On waking, the hook is due where it
     would be, and ``on_wake(t_us)`` learns the last due time it slept through (None: none)
-    for the owner to account for that run. Returns False, and the hook stays awake, unless
-    its due times are step boundaries from now on (the interval a whole number of steps, the
-    due time of this run one too), where its runs would have been.
+    for the owner to account for that run. The hook wakes at a boundary: where the owner reads
+    that account in between (the conflict check's look-back, when an aircraft is deleted), it
+    asks for the wake first (:meth:`HookList.wake_sleepers`). Returns False, and the hook stays
+    awake, unless its due times are step boundaries from now on (the interval a whole number of
+    steps, the due time of this run one too), where its runs would have been.
     """
     if interval_us <= 0 or interval_us % dt_us or (now_us - hook.next_due_us) % dt_us:
         return False

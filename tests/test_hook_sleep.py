@@ -257,8 +257,19 @@ def _unpause_on_creation(sim: Simulation) -> None:
     sim.hooks.created.add(created, name="ego")
 
 
-@pytest.mark.parametrize("unpause", [_unpause_at(20.0), _unpause_at(20.3), _unpause_at(67.0), _unpause_on_creation],
-                         ids=["API on the second", "API between", "API during the encounter", "on a creation"])
+def _unpause_then_delete(sim: Simulation) -> None:
+    # The pause ends and, before the next boundary, X is deleted: the deletion's check looks back to the
+    # last check slept through, not to the one before the pause. X and Y fly inside LoWC all along.
+    sim.stack("CRE X EC35 40.60 -74.00 90 1500 100; CRE Y EC35 40.6025 -74.00 90 1500 100")
+    sim.run_until(30.35)
+    sim.services.conflicts.paused = False
+    sim.stack("DEL X")
+
+
+@pytest.mark.parametrize("unpause", [_unpause_at(20.0), _unpause_at(20.3), _unpause_at(67.0), _unpause_on_creation,
+                                     _unpause_then_delete],
+                         ids=["API on the second", "API between", "API during the encounter", "on a creation",
+                              "API, then a deletion"])
 def test_a_paused_check_that_sleeps_looks_back_as_it_would_have(unpause, monkeypatch):
     awake = _paused_run(False, unpause, monkeypatch)
     asleep = _paused_run(True, unpause, monkeypatch)

@@ -356,6 +356,10 @@ class ConflictService:
         """Check the deleted aircraft's last interval before it disappears."""
         if self.paused:
             return
+        if self._hook is not None and self._hook.wake is not None:
+            # The pause ended since the last boundary (a deletion in the same commands, or through the
+            # API): the check wakes now, so that the look-back starts at the last check it slept through.
+            sim.hooks.post_step.wake_sleepers(sim._clock.simt_us, sim)
         s = traffic_snapshot(sim)
         n = len(s.ids)
         lookback = self._lookback(sim, n)
