@@ -1,8 +1,10 @@
-"""Sleeping hooks (aamsim/hooks.py) and the idle MVP cycle that sleeps (aamsim/resolution/mvp_service.py).
+"""Sleeping hooks (aamsim/hooks.py) and the services whose idle cycles sleep.
 
-An idle MVP cycle (RESO not MVP, nobody following a resolution) sleeps instead of
-ending a batch of kernel steps one step before every second. Whatever wakes it, and
-whenever, the run must be the one it was with the cycle awake, bit for bit.
+The MVP and DAA cycles while RESO names another method, the DAA route keeper while
+nobody is steered and the conflict check while paused sleep instead of ending a batch
+of kernel steps at each of their times (MVP's one step before every second). Whatever
+wakes them, and whenever, the run must be the one it was with every hook awake, bit
+for bit.
 """
 
 from __future__ import annotations
@@ -13,10 +15,10 @@ from conftest import count_calls
 
 import aamsim.simulation as simulation_module
 from aamsim import Simulation
-from aamsim.hooks import HookList
+from aamsim.hooks import HookList, sleep_while_unchanged
 
-# A head-on pair that MVP resolves from about 20 s (tests/test_mvp_resolution.py): the cycle that
-# first acts after RESO MVP decides the whole encounter.
+# A head-on pair (tests/test_mvp_resolution.py) that meets at about 68 s unless MVP or DAA resolves it:
+# the cycle that first acts after RESO MVP or DAA decides the whole encounter.
 HEAD_ON = (
     "00:00:00.00>ASAS ON\n00:00:00.00>ZONER 0.3\n00:00:00.00>ZONEDH 300\n00:00:00.00>DTLOOK 60\n"
     "00:00:00.00>CRE A EC35 40.70 -74.00 90 1500 120\n00:00:00.00>ADDWPT A 40.70 -73.85\n"
@@ -69,7 +71,41 @@ def test_restart_and_remove_forget_sleepers():
     assert hooks.sleeping == 0 and b.wake is None and hooks.next_due_us() == 0
 
 
-# ------------------------------------------------------------------------- the idle MVP cycle
+def test_sleep_while_unchanged_wakes_due_where_the_runs_slept_through_would_have_left_it():
+    hooks = HookList(periodic=True)
+    hook = hooks.add(lambda: None, name="h", interval_s=1.0, start_us=5_000_000)
+    state = {"x": 0}
+    slept: list[int | None] = []
+    # Running at its due time 5 s (dt 50 ms): from now on it is due at 6, 7, 8, ... s.
+    assert sleep_while_unchanged(hooks, hook, lambda: state["x"], 1_000_000, 5_000_000, 50_000, slept.append)
+    hook.next_due_us = 6_000_000  # what call_due sets after the run
+    hooks.wake_sleepers(8_300_000)
+    assert hook.wake is not None and slept == []  # nothing changed: asleep
+    state["x"] = 1
+    hooks.wake_sleepers(8_300_000)  # ran at 6, 7 and 8 s
+    assert hook.wake is None and hook.next_due_us == 9_000_000 and slept == [8_000_000]
+    # At a due time: with the list run there it counts (ran_now), before the list runs it does not.
+    for ran_now, due, last in ((True, 10_000_000, 9_000_000), (False, 9_000_000, 8_000_000)):
+        hook.next_due_us = 6_000_000
+        state["x"] = 0
+        sleep_while_unchanged(hooks, hook, lambda: state["x"], 1_000_000, 5_000_000, 50_000, slept.append)
+        state["x"] = 1
+        hooks._last_call_us = 9_000_000 if ran_now else 8_950_000
+        hooks.wake_sleepers(9_000_000)
+        assert (hook.next_due_us, slept[-1]) == (due, last)
+    # Woken before its next due time: nothing slept through.
+    sleep_while_unchanged(hooks, hook, lambda: state["x"], 1_000_000, 9_000_000, 50_000, slept.append)
+    hook.next_due_us = 10_000_000
+    state["x"] = 2
+    hooks.wake_sleepers(9_400_000)
+    assert hook.next_due_us == 10_000_000 and slept[-1] is None
+    # Due times that would not all be step boundaries: it stays awake.
+    assert not sleep_while_unchanged(hooks, hook, lambda: 0, 330_000, 9_000_000, 50_000)
+    assert not sleep_while_unchanged(hooks, hook, lambda: 0, 1_000_000, 9_020_000, 50_000)
+    assert hook.wake is None
+
+
+# ------------------------------------------------------------------------- the services' idle cycles
 def _run(text: str, sleep: bool, monkeypatch: pytest.MonkeyPatch, between=None, until: float = 90.0,
          stepping: bool = False):
     """The head-on run with ``text`` added; ``between(sim)`` is called once the run reached 6 s.
