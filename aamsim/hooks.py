@@ -19,7 +19,10 @@ from __future__ import annotations
 import itertools
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Any
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:
+    from aamsim.clock import Clock
 
 US_PER_S = 1_000_000
 
@@ -132,8 +135,7 @@ class HookList:
                 self.sleeping -= 1
             if hook.next_due_us <= now_us:
                 hook.fn(*args)
-                if hook.interval_fn is not None:
-                    hook.interval_us = round(hook.interval_fn() * US_PER_S)
+                hook.interval_us = _interval_now(hook)
                 step = max(hook.interval_us if hook.interval_us > 0 else dt_us, 1)
                 # Periods missed within one long step are skipped in one go (a loop over
                 # them froze the server for dt=1e300); the hook runs once, as before.
@@ -148,14 +150,14 @@ class HookList:
         self._last_call_us = -1
 
 
-def sleep_while_unchanged(hooks: HookList, hook: Hook, watched: Callable[[], object], interval_us: int, now_us: int,
-                          dt_us: int, on_wake: Callable[[int | None], None] | None = None) -> bool:
-    """Put ``hook``, running now (``now_us``), to sleep until ``watched()`` changes (see :meth:`HookList.sleep`).
+def sleep_while_unchanged(hooks: HookList, hook: Hook, clock: Clock, watched: Callable[[], object],
+                          on_wake: Callable[[int | None], None] | None = None) -> bool:
+    """Put ``hook``, running now at ``clock``'s time, to sleep until ``watched()`` changes (see :meth:`HookList.sleep`).
 
     For an owner whose runs would find nothing to do while ``watched()`` keeps its value now,
-    and would only keep their phase: whole ``interval_us`` from its due time on. ``watched()``
-    includes everything the runs and the interval depend on (the time step ``dt_us`` too);
-    the stepping of the traffic must not change it. On waking, the hook is due where it
+    and would only keep their phase: whole intervals from its due time on. ``watched()``
+    holds the owner's state its runs read; the hook's interval and the time step are watched
+    here. The stepping of the traffic must not change them. On waking, the hook is due where it
     would be, and ``on_wake(t_us)`` learns the last due time it slept through (None: none)
     for the owner to account for that run. The hook wakes at a boundary: where the owner reads
     that account in between (the conflict check's look-back, when an aircraft is deleted), it
@@ -163,12 +165,13 @@ def sleep_while_unchanged(hooks: HookList, hook: Hook, watched: Callable[[], obj
     awake, unless its due times are step boundaries from now on (the interval a whole number of
     steps, the due time of this run one too), where its runs would have been.
     """
-    if interval_us <= 0 or interval_us % dt_us or (now_us - hook.next_due_us) % dt_us:
+    interval_us, dt_us = _interval_now(hook), clock.dt_us
+    if interval_us <= 0 or interval_us % dt_us or (clock.simt_us - hook.next_due_us) % dt_us:
         return False
     before = watched()
 
     def wake(now_us: int, ran_now: bool, *args: Any) -> bool:
-        if watched() == before:
+        if clock.dt_us == dt_us and _interval_now(hook) == interval_us and watched() == before:
             return False
         last = now_us if ran_now else now_us - 1
         slept_through = None
@@ -182,6 +185,11 @@ def sleep_while_unchanged(hooks: HookList, hook: Hook, watched: Callable[[], obj
 
     hooks.sleep(hook, wake)
     return True
+
+
+def _interval_now(hook: Hook) -> int:
+    """The interval [us] the hook would run at now (the one :meth:`HookList.call_due` reads after a run)."""
+    return round(hook.interval_fn() * US_PER_S) if hook.interval_fn is not None else hook.interval_us
 
 
 @dataclass

@@ -15,6 +15,7 @@ from conftest import count_calls
 
 import aamsim.simulation as simulation_module
 from aamsim import Simulation
+from aamsim.clock import Clock
 from aamsim.hooks import HookList, sleep_while_unchanged
 
 # A head-on pair (tests/test_mvp_resolution.py) that meets at about 68 s unless MVP or DAA resolves it:
@@ -71,13 +72,19 @@ def test_restart_and_remove_forget_sleepers():
     assert hooks.sleeping == 0 and b.wake is None and hooks.next_due_us() == 0
 
 
+def _clock_at(simt_us: int) -> Clock:
+    clock = Clock(0.05)
+    clock.simt_us = simt_us
+    return clock
+
+
 def test_sleep_while_unchanged_wakes_due_where_the_runs_slept_through_would_have_left_it():
     hooks = HookList(periodic=True)
     hook = hooks.add(lambda: None, name="h", interval_s=1.0, start_us=5_000_000)
     state = {"x": 0}
     slept: list[int | None] = []
     # Running at its due time 5 s (dt 50 ms): from now on it is due at 6, 7, 8, ... s.
-    assert sleep_while_unchanged(hooks, hook, lambda: state["x"], 1_000_000, 5_000_000, 50_000, slept.append)
+    assert sleep_while_unchanged(hooks, hook, _clock_at(5_000_000), lambda: state["x"], slept.append)
     hook.next_due_us = 6_000_000  # what call_due sets after the run
     hooks.wake_sleepers(8_300_000)
     assert hook.wake is not None and slept == []  # nothing changed: asleep
@@ -88,21 +95,22 @@ def test_sleep_while_unchanged_wakes_due_where_the_runs_slept_through_would_have
     for ran_now, due, last in ((True, 10_000_000, 9_000_000), (False, 9_000_000, 8_000_000)):
         hook.next_due_us = 6_000_000
         state["x"] = 0
-        sleep_while_unchanged(hooks, hook, lambda: state["x"], 1_000_000, 5_000_000, 50_000, slept.append)
+        sleep_while_unchanged(hooks, hook, _clock_at(5_000_000), lambda: state["x"], slept.append)
         state["x"] = 1
         hooks._last_call_us = 9_000_000 if ran_now else 8_950_000
         hooks.wake_sleepers(9_000_000)
         assert (hook.next_due_us, slept[-1]) == (due, last)
     # Woken before its next due time: nothing slept through.
-    sleep_while_unchanged(hooks, hook, lambda: state["x"], 1_000_000, 9_000_000, 50_000, slept.append)
+    sleep_while_unchanged(hooks, hook, _clock_at(9_000_000), lambda: state["x"], slept.append)
     hook.next_due_us = 10_000_000
     state["x"] = 2
     hooks.wake_sleepers(9_400_000)
     assert hook.next_due_us == 10_000_000 and slept[-1] is None
     # Due times that would not all be step boundaries: it stays awake.
-    assert not sleep_while_unchanged(hooks, hook, lambda: 0, 330_000, 9_000_000, 50_000)
-    assert not sleep_while_unchanged(hooks, hook, lambda: 0, 1_000_000, 9_020_000, 50_000)
-    assert hook.wake is None
+    odd = hooks.add(lambda: None, name="odd", interval_s=0.33, start_us=9_000_000)
+    assert not sleep_while_unchanged(hooks, odd, _clock_at(9_000_000), lambda: 0)
+    assert not sleep_while_unchanged(hooks, hook, _clock_at(9_020_000), lambda: 0)
+    assert hook.wake is None and odd.wake is None
 
 
 # ------------------------------------------------------------------------- the services' idle cycles

@@ -236,10 +236,7 @@ class ConflictService:
             if slept_through_us is not None:
                 self._last_check_s = slept_through_us / 1_000_000  # as sim.simt then
 
-        clock = sim._clock
-        sleep_while_unchanged(sim.hooks.post_step, self._hook,
-                              lambda: (self.paused, sim.settings.cd_interval_s, sim._clock.dt_us),
-                              round(sim.settings.cd_interval_s * 1_000_000), clock.simt_us, clock.dt_us, woken)
+        sleep_while_unchanged(sim.hooks.post_step, self._hook, sim._clock, lambda: self.paused, woken)
 
     def _check(self, sim: SimulationCore) -> None:
         t = sim._traffic

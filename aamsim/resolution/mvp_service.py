@@ -104,11 +104,6 @@ class MVPService:
         self._hook.next_due_us = target - interval_us
         return on_time
 
-    @staticmethod
-    def _watched(sim: SimulationCore) -> tuple[str, float, int]:
-        """What an idle cycle depends on: the method, DT ASAS and the time step."""
-        return sim.settings.reso, sim.settings.cd_interval_s, sim._clock.dt_us
-
     def _sleep(self, sim: SimulationCore) -> None:
         """Idle (RESO is not MVP, nobody follows a resolution): sleep until RESO, DT ASAS or DT changes.
 
@@ -117,8 +112,7 @@ class MVPService:
         flies the traffic up to its ego). Called in a cycle on time: the due times slept through
         are this one plus whole intervals, each a cycle on time that would have found MVP idle.
         """
-        sleep_while_unchanged(sim.hooks.post_step, self._hook, lambda: self._watched(sim),
-                              max(round(sim.settings.cd_interval_s * 1e6), 1), sim._clock.simt_us, sim._clock.dt_us)
+        sleep_while_unchanged(sim.hooks.post_step, self._hook, sim._clock, lambda: sim.settings.reso)
 
     def update(self, sim: SimulationCore) -> None:
         if not self._reschedule(sim):

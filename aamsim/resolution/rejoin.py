@@ -155,9 +155,7 @@ class RouteKeeper:
         """Closest approach of the steered aircraft to their destinations (a post-step hook)."""
         if not self.steered:
             # Nobody to track: sleep until somebody is steered (awake, each sample ended a batch of steps).
-            clock = sim._clock
-            sleep_while_unchanged(sim.hooks.post_step, self._hook, lambda: (bool(self.steered), sim._clock.dt_us),
-                                  round(TRACK_INTERVAL_S * 1_000_000), clock.simt_us, clock.dt_us)
+            sleep_while_unchanged(sim.hooks.post_step, self._hook, sim._clock, lambda: bool(self.steered))
             return
         view = sim.view
         for acid, closest in self.steered.items():

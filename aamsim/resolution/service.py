@@ -158,12 +158,8 @@ class DAAService:
         Each cycle slept through would have found nothing to do; awake, each ended a batch of
         kernel steps.
         """
-        clock = sim._clock
-        sleep_while_unchanged(
-            sim.hooks.post_step, self._hook,
-            lambda: (sim.settings.reso, self.daa.params.interval_s, sim._clock.dt_us, bool(self.advisories),
-                     bool(self.keeper.steered)),
-            round(self.daa.params.interval_s * 1_000_000), clock.simt_us, clock.dt_us)
+        sleep_while_unchanged(sim.hooks.post_step, self._hook, sim._clock,
+                              lambda: (sim.settings.reso, bool(self.advisories), bool(self.keeper.steered)))
 
     def update(self, sim: SimulationCore) -> None:
         if self.keeper.steered:  # also after RESO OFF: the aircraft released then still go back to their route
