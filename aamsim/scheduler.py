@@ -32,16 +32,25 @@ class Scheduler:
         """Remove and return the commands due now."""
         return self.queue.pop_due(self.clock.simt_us)
 
-    def performance_due(self, interval_s: float) -> bool:
-        """True at a performance refresh that changes something; advances the refresh timer."""
+    def performance_due(self, interval_s: float, step_us: int) -> bool:
+        """True at a performance refresh that changes something; advances the refresh timer.
+
+        The refresh is due at the first step boundary at or after each time of the timer, as when
+        stepping one by one. ``step_us``: the step that led to this boundary. When an earlier step
+        boundary was already at or after the timer's last time (a batch of steps went past it), the
+        refresh of that time ran there, with nothing to change (a pending refresh ends the batch at
+        the timer: :meth:`steps_to_next_event`); what became pending since waits for the next time.
+        """
         now = self.clock.simt_us
         if now < self.next_perf_us:
             return False
+        interval = to_us(interval_s)
+        last_due = self.next_perf_us + interval * ((now - self.next_perf_us) // interval)
+        self.next_perf_us = last_due + interval
+        if now - last_due >= step_us:
+            return False
         refresh = self.perf_pending
         self.perf_pending = False
-        interval = to_us(interval_s)
-        if self.next_perf_us <= now:
-            self.next_perf_us += interval * ((now - self.next_perf_us) // interval + 1)
         return refresh
 
     def run_hooks(self, phase: str, *args: object) -> None:

@@ -404,9 +404,11 @@ class Simulation(SimulationAPI):
         # The scheduler's parts are called directly: this runs at every batch boundary
         # (about 10,000 times per episode of the corridor use case).
         scheduler, clock, hooks = self.scheduler, self._clock, self.hooks
+        step_us = clock.dt_us  # the step that led here (a DT command below sets the next one)
         hooks.post_step.call_due(clock.simt_us, clock.dt_us, self)
         self._run_due_commands()
-        if clock.simt_us >= scheduler.next_perf_us and scheduler.performance_due(self.settings.perf_interval_s):
+        if clock.simt_us >= scheduler.next_perf_us and scheduler.performance_due(self.settings.perf_interval_s,
+                                                                                  step_us):
             # Fixed-wing limits follow the aircraft's state: the next refresh changes them again.
             scheduler.perf_pending = intents.refresh_performance(self._traffic)
         hooks.pre_step.call_due(clock.simt_us, clock.dt_us, self)
@@ -553,12 +555,19 @@ class Simulation(SimulationAPI):
             return
         self._advance_steps(1)
 
-    def run_until(self, t_s: float) -> None:
-        """Advance until sim time ``t_s`` (a step boundary at or after it)."""
+    def run_until(self, t_s: float, stop: Callable[[], bool] | None = None) -> None:
+        """Advance until sim time ``t_s`` (a step boundary at or after it).
+
+        ``stop``: asked after every step boundary (its commands and hooks done); True ends the run
+        there, earlier. A caller waiting for something that only a command or a hook can do (an
+        aircraft created) flies to it in one call instead of stopping at every time it might be there.
+        """
         end_us = to_us(t_s)
         while True:
             self._boundary()
             if self.state == self.STATE_HOLD or self.quit_requested or self.simt_us >= end_us:
+                return
+            if stop is not None and stop():
                 return
             self._advance_steps(self.scheduler.steps_to_next_event(end_us))
 

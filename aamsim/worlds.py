@@ -20,7 +20,7 @@ kernel calls.
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from typing import Any
 
@@ -88,9 +88,13 @@ class WorldSet:
         return sim
 
     # ---------------------------------------------------------------- stepping
-    def run_until(self, targets: Mapping[int, float]) -> None:
-        """Advance each world of ``targets`` (world -> sim time [s]) as its own ``run_until(t)`` would."""
+    def run_until(self, targets: Mapping[int, float], stops: Mapping[int, Callable[[], bool]] | None = None) -> None:
+        """Advance each world of ``targets`` (world -> sim time [s]) as its own ``run_until(t)`` would.
+
+        ``stops``: world -> its ``stop`` (:meth:`Simulation.run_until`), for the worlds that have one.
+        """
         ends = {w: to_us(t) for w, t in targets.items()}
+        stops = stops or {}
         batches: dict[int, _Batch] = {}
         at_boundary = list(ends)
         while True:
@@ -99,6 +103,9 @@ class WorldSet:
                 sim._boundary()
                 end = ends[w]
                 if sim.state == Simulation.STATE_HOLD or sim.quit_requested or sim.simt_us >= end:
+                    continue
+                stop = stops.get(w)
+                if stop is not None and stop():
                     continue
                 batches[w] = _Batch(sim.scheduler.steps_to_next_event(end))
             at_boundary = []

@@ -23,7 +23,7 @@ from __future__ import annotations
 from collections.abc import Callable, Collection, Generator
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, NamedTuple
 
 import gymnasium as gym
 import numpy as np
@@ -33,7 +33,8 @@ from aamsim.errors import SourceRef
 from aamsim.limits import SimulationLimits
 from aamsim.scenarios import resolve_scenario
 from aamsim.snapshots import SNAPSHOT_FIELDS, TrafficSnapshot, take_snapshot
-from aamsim.stack.parser import ParsedScenario, TimedCommand
+from aamsim.stack.parser import ParsedScenario
+from aamsim.stack.queue import to_us
 from aamsim.stack.tokens import next_arg
 from rlbridge.policies import make_usecase_with_policies
 from rlbridge.usecases.protocol import Feedback, Observations, UseCase, check_feedback, empty_info
@@ -44,8 +45,19 @@ TRAFFIC_STATE_FIELDS = ("lat", "lon", "alt", "tas", "gs", "trk", "vs")
 DEFAULT_EXTRA_TIME_S = 7200.0  # default episode limit: last scheduled command + 2 h
 ADVANCE_CHUNK_S = 60.0  # a longer advance checks every this many seconds whether the scenario is over
 
-# What reset_steps/step_steps yield: the sim times [s] to run the simulation to, and finally the result.
-Steps = Generator[float, None, "StepResult"]
+
+
+class RunUntil(NamedTuple):
+    """A yield of the step generators: run the simulation to ``t_s`` (as a plain time does), but end the
+    run at the first step boundary where ``stop()`` is True (:meth:`aamsim.Simulation.run_until`)."""
+
+    t_s: float
+    stop: Callable[[], bool]
+
+
+# What reset_steps/step_steps yield: the sim times [s] to run the simulation to (or a RunUntil), and
+# finally the result.
+Steps = Generator["float | RunUntil", None, "StepResult"]
 
 
 class ScenarioError(ValueError):
@@ -108,6 +120,12 @@ class _Leaving:
 
     obs: Observations
     feedback: Feedback
+
+
+def _alive_in_order(previous: list[str], live: Collection[str]) -> list[str]:
+    """``live`` (in order of appearance): those in ``previous`` keep their order there, the others follow."""
+    known = set(previous)
+    return [a for a in previous if a in live] + [a for a in live if a not in known]
 
 
 def single_agent_watch(ego: str, traffic_policy: object | None) -> tuple[str, ...] | None:
@@ -182,6 +200,8 @@ class EpisodeCore:
         self.agents: list[str] = []
         self.seed: int | None = None
         self._live: dict[str, None] = {}  # agents alive now, in order of appearance
+        # While _fly_idle runs: each change of _live as (sim time [us], agent, alive after it).
+        self._live_log: list[tuple[int, str, bool]] | None = None
         self._reported: set[str] = set()  # agents alive at the last reset/step (their leaving is reported)
         self._discovered: list[str] = []
         self._left: dict[str, _Leaving] = {}
@@ -209,7 +229,7 @@ class EpisodeCore:
         hold = getattr(self.usecase, "scenario_commands", None)  # a planner holds departures back
         if hold is not None:
             commands = hold(sim, commands)
-        sim.queue.extend([TimedCommand(c.time_s, c.command, c.source) for c in commands])
+        sim.queue.extend(commands)  # TimedCommand is frozen: the parsed ones are queued as they are
         for fn in self.on_new_simulation:
             fn(sim)
         return sim
@@ -219,6 +239,8 @@ class EpisodeCore:
         if agent is None:
             return
         self._live[agent] = None
+        if self._live_log is not None:
+            self._live_log.append((sim.simt_us, agent, True))
         if self._checks_paused and self.watch is not None and agent in self.watch:
             self._resume_checks(sim)
         if agent not in self._possible:  # MCRE, PCALL, SCHEDULE, plugins: known only now
@@ -231,6 +253,8 @@ class EpisodeCore:
         if agent is None or agent not in self._live:
             return
         del self._live[agent]
+        if self._live_log is not None:
+            self._live_log.append((sim.simt_us, agent, False))
         if agent in self._reported:
             # Its final observation and feedback, taken before the aircraft disappears.
             self._left[agent] = _Leaving(self.usecase.observe(sim, [agent]),
@@ -238,9 +262,7 @@ class EpisodeCore:
 
     def _live_agents(self) -> list[str]:
         """Agents alive now: those alive before keep their order, new ones follow in order of appearance."""
-        known = set(self.agents)
-        order = [a for a in self.agents if a in self._live]
-        return order + [a for a in self._live if a not in known]
+        return _alive_in_order(self.agents, self._live)
 
     def _scenario_over(self) -> bool:
         sim = self.sim
@@ -278,13 +300,16 @@ class EpisodeCore:
             if self._live or self._scenario_over():
                 return
 
-    def _run(self, steps: Generator[float, None, Any]) -> Any:
+    def _run(self, steps: Generator[float | RunUntil, None, Any]) -> Any:
         """Run ``steps`` on the episode's own simulation; returns what the generator returns."""
         try:
             t = next(steps)
             while True:
                 assert self.sim is not None
-                self.sim.run_until(t)
+                if type(t) is RunUntil:
+                    self.sim.run_until(t.t_s, t.stop)
+                else:
+                    self.sim.run_until(t)  # type: ignore[arg-type]
                 t = steps.send(None)
         except StopIteration as stop:
             return stop.value
@@ -355,6 +380,10 @@ class EpisodeCore:
         created (the conflict service is ``paused``): nothing watched can be in them. The watched
         agents' observations, rewards and infos are the same bit for bit; the episode's records
         (its events and the safety metrics from them) then begin at the ego's creation.
+
+        When applying no actions changes nothing (the use case's ``idle_decisions_change_nothing``),
+        the simulation is not stopped at each decision on the way (:meth:`_fly_idle`): the
+        decisions are replayed, and the result is the same.
         """
         if self.sim is None:
             raise RuntimeError("step() before reset()")
@@ -366,13 +395,117 @@ class EpisodeCore:
         try:
             while True:
                 before, valid = self._begin_step({})
-                yield from self._advance_steps()
+                if self._may_fly_idle(sim):
+                    yield from self._fly_idle(agent)
+                else:
+                    yield from self._advance_steps()
                 if agent in self._live or self._scenario_over():
                     return self._finish_step(before, valid)
                 self.agents = self._live_agents()
         finally:
             if self._checks_paused:  # the scenario ended first, or the generator was closed
                 self._resume_checks(sim)
+
+    # Whether until_alive_steps may fly to its agent without stopping at the decisions (_fly_idle). A
+    # backend that does work at every decision (the BlueSky mirror) says False.
+    flies_idle_decisions: bool = True
+    FLY_IDLE_SPAN_US = 600_000_000  # how far (sim time) _fly_idle runs at most in one call
+
+    def _may_fly_idle(self, sim: Simulation) -> bool:
+        """Whether :meth:`_fly_idle` gives what :meth:`_advance_steps` gives from this decision on."""
+        usecase = self.usecase
+        if not (self.flies_idle_decisions and getattr(usecase, "idle_decisions_change_nothing", False)):
+            return False
+        interval = usecase.decision_interval_s
+        # The decisions come every interval, and one advance is one run (no ADVANCE_CHUNK_S stops:
+        # their "scenario over" checks are not replayed). A pending command keeps the scenario from
+        # being over until it runs (Simulation.is_quiescent).
+        return (0.0 < interval <= ADVANCE_CHUNK_S and usecase.next_decision_s(sim) == sim.simt + interval
+                and len(sim.queue) > 0)
+
+    def _decision_after(self, g_us: int, interval_s: float, dt_s: float, dt_us: int) -> tuple[int, float]:
+        """The decision :meth:`_advance_steps` reaches from the one at ``g_us``: its time [us], and the
+        time [s] it runs to (the first step boundary at or after it is the decision)."""
+        simt = g_us / 1_000_000  # as Simulation.simt
+        target = min(max(simt + interval_s, simt + dt_s), self.time_limit_s)
+        return g_us + max(0, -(-(to_us(target) - g_us) // dt_us)) * dt_us, target
+
+    def _fly_idle(self, agent: str) -> Generator[float | RunUntil, None, None]:
+        """:meth:`_advance_steps` for until_alive_steps's loop, without a stop at every decision.
+
+        Called at a decision, right after ``_begin_step({})``, when :meth:`_may_fly_idle`. The
+        simulation runs in one go to a decision some way ahead, and stops early at a step boundary
+        where ``agent`` exists, no command is pending, or the time step changed (a quit or a HOLD
+        stops it too). Until then nothing that the loop looks at can change at a decision: ``agent``
+        is created by a command or a hook, at a step boundary; a pending command keeps the scenario
+        from being over. The decisions flown past are replayed: the agents alive at each (from the
+        creations and deletions logged with their times), the order ``self.agents`` takes and the
+        last one with agents, where ``_begin_step`` would have set ``_t0``. ``_begin_step({})``
+        there would apply nothing (the use case's ``idle_decisions_change_nothing``). Returns at
+        the decision where the loop looks next (or at a quit, as _advance_steps does).
+        """
+        sim = self.sim
+        assert sim is not None
+        interval_s, dt_s, dt_us = self.usecase.decision_interval_s, sim.dt, sim.dt_us
+        queue = sim.queue
+
+        def stop() -> bool:
+            return agent in self._live or not queue or sim.dt_us != dt_us
+
+        log: list[tuple[int, str, bool]] = []
+        self._live_log = log
+        try:
+            while True:
+                start_us = sim.simt_us
+                live = dict(self._live)  # replayed through the log
+                decisions: list[tuple[int, float]] = []
+                g_us = start_us
+                while g_us - start_us < self.FLY_IDLE_SPAN_US:
+                    g_us, target = self._decision_after(g_us, interval_s, dt_s, dt_us)
+                    decisions.append((g_us, target))
+                    if g_us / 1_000_000 >= self.time_limit_s - 1e-9:
+                        break  # the episode's end: the loop looks there
+                log.clear()
+                far_us = g_us
+                while True:
+                    yield RunUntil(far_us / 1_000_000, stop)
+                    if sim.state == sim.STATE_HOLD:
+                        sim.state = sim.STATE_OP  # no operator in an RL loop
+                    if sim.simt_us >= far_us or sim.quit_requested or stop():
+                        break
+                now_us = sim.simt_us
+                agents, t0_us, k = self.agents, -1, 0
+                for g_us, target in decisions:
+                    if g_us >= now_us:
+                        break
+                    while k < len(log) and log[k][0] <= g_us:
+                        _, name, alive = log[k]
+                        if alive:
+                            live[name] = None
+                        else:
+                            del live[name]
+                        k += 1
+                    if live:  # _advance_steps returns here: the loop orders the agents and begins a step
+                        agents, t0_us = _alive_in_order(agents, live), g_us
+                self.agents = agents
+                if t0_us >= 0:
+                    self._t0 = t0_us / 1_000_000
+                if sim.quit_requested:
+                    return  # over now, as _advance_steps finds it
+                if now_us < g_us:  # the rest of the way to the decision, as _advance_steps flies it
+                    while True:
+                        yield target
+                        if sim.state == sim.STATE_HOLD:
+                            sim.state = sim.STATE_OP
+                        if sim.simt >= target - 1e-9 or self._scenario_over():
+                            break
+                if self._live or self._scenario_over():
+                    return
+                if not self._may_fly_idle(sim):
+                    break
+        finally:
+            self._live_log = None
+        yield from self._advance_steps()
 
     def _resume_checks(self, sim: Simulation) -> None:
         sim.services.conflicts.paused = self._checks_paused = False

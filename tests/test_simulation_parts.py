@@ -45,13 +45,61 @@ def test_scheduler_counts_steps_to_the_next_event():
 def test_scheduler_performance_timer_fires_once_per_interval_and_only_when_pending():
     clock = Clock(0.25)
     scheduler = Scheduler(clock, Hooks())
-    assert scheduler.performance_due(1.0) is False  # nothing pending
+    step = clock.dt_us
+    assert scheduler.performance_due(1.0, step) is False  # nothing pending
     scheduler.perf_pending = True
     clock.advance(1)  # 0.25 s: before the next refresh at 1 s
-    assert scheduler.performance_due(1.0) is False and scheduler.perf_pending
+    assert scheduler.performance_due(1.0, step) is False and scheduler.perf_pending
     clock.advance(3)  # 1.0 s
-    assert scheduler.performance_due(1.0) is True and not scheduler.perf_pending
+    assert scheduler.performance_due(1.0, step) is True and not scheduler.perf_pending
     assert scheduler.next_perf_us == 2_000_000
+
+
+def test_scheduler_performance_timer_after_a_batch_that_went_past_it():
+    # Stepping one by one, the refresh runs at the first step boundary at or after 0, 1, 2, ... s.
+    clock = Clock(0.25)
+    scheduler = Scheduler(clock, Hooks())
+    step = clock.dt_us
+    assert scheduler.performance_due(1.0, step) is False  # 0 s, nothing pending
+    clock.advance(14)  # one batch to 3.5 s: the boundaries at 1, 2 and 3 s refreshed nothing
+    scheduler.perf_pending = True  # an aircraft created at 3.5 s
+    assert scheduler.performance_due(1.0, step) is False and scheduler.perf_pending
+    assert scheduler.next_perf_us == 4_000_000  # not at its creation: at the next time of the timer
+    clock.advance(2)
+    assert scheduler.performance_due(1.0, step) is True and not scheduler.perf_pending
+    clock.advance(12)  # a batch to 7.0 s, a time of the timer, where an aircraft is created
+    scheduler.perf_pending = True
+    assert scheduler.performance_due(1.0, step) is True and scheduler.next_perf_us == 8_000_000
+    # Times of the timer off the step grid: with 0.3 s steps the refresh of 9 s is due at 9.1 s.
+    clock.set_dt(0.3)
+    clock.advance(7)  # 9.1 s
+    scheduler.perf_pending = True
+    assert scheduler.performance_due(1.0, clock.dt_us) is True
+    clock.advance(4)  # 10.3 s: the step boundary at 10.0 s was at the timer's time, with nothing pending
+    scheduler.perf_pending = True
+    assert scheduler.performance_due(1.0, clock.dt_us) is False and scheduler.next_perf_us == 11_000_000
+
+
+def test_an_aircraft_created_after_a_long_batch_is_refreshed_where_stepping_one_by_one_refreshes_it():
+    # T2 is created at 11.5 s; the last step boundary before it that a batch stopped at is 4 s (T1's first
+    # refresh). Its acceleration limit is its type's from the refresh at 12 s on, however the steps ran.
+    text = ("00:00:03.00>CRE T1 EC35 40.7 -74.01 0 1000 0\n00:00:03.00>ADDWPT T1 40.715 -73.985\n"
+            "00:00:03.00>SPD T1 90\n00:00:11.50>CRE T2 EC35 40.735 -74.005 0 1000 0\n"
+            "00:00:11.50>ADDWPT T2 40.725 -73.975\n00:00:11.50>SPD T2 70\n")
+    batched, stepped = Simulation(seed=1), Simulation(seed=1)
+    for sim in (batched, stepped):
+        sim.load_text(text)
+    batched.run_until(11.5)
+    t2 = batched.slot("T2")
+    axmax_at_creation = float(batched.view.axmax[t2])
+    batched.run_until(40.0)
+    while stepped.simt < 40.0 - 1e-9:
+        stepped.step()
+    assert stepped.simt == batched.simt == pytest.approx(40.0)
+    assert batched.aircraft_steps > 0 and stepped.view.ids == batched.view.ids
+    for name in ("lat", "lon", "hdg", "tas", "axmax"):
+        assert getattr(batched.view, name).tolist() == getattr(stepped.view, name).tolist(), name
+    assert axmax_at_creation != float(batched.view.axmax[t2])  # BlueSky's 2 m/s^2 until 12 s, then the type's
 
 
 def test_scenario_files_and_dt_live_in_their_parts(tmp_path):

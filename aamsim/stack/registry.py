@@ -143,9 +143,15 @@ def _without_first_annotation(fn: Callable[..., Any]) -> Any:
 def _spec_from_function(fn: Callable[..., Any], meta: CommandMeta) -> CommandSpec:
     params, raw = _declared_params(fn, meta.name)
     return CommandSpec(
-        meta.name, fn, list(params), inspect.cleandoc(fn.__doc__ or ""), meta.aliases, meta.group, raw, meta.nested,
+        meta.name, fn, list(params), _help_text(fn), meta.aliases, meta.group, raw, meta.nested,
         getattr(fn, "__aamsim_validate__", None),
     )
+
+
+@functools.lru_cache(maxsize=4096)
+def _help_text(fn: Callable[..., Any]) -> str:
+    """A handler's docstring, cleaned up: kept per function, as its arguments are (below)."""
+    return inspect.cleandoc(fn.__doc__ or "")
 
 
 @functools.lru_cache(maxsize=4096)

@@ -13,11 +13,13 @@ BlueSky) and the caller is told so it can warn.
 
 from __future__ import annotations
 
+import functools
 import json
 import math
 from dataclasses import dataclass
 from importlib import resources
 from pathlib import Path
+from typing import Any
 
 
 @dataclass(frozen=True)
@@ -63,6 +65,13 @@ class Envelope:
 DEFAULT_TABLES = ("data/performance.json", "data/openap_fixwing.json")
 
 
+@functools.lru_cache(maxsize=len(DEFAULT_TABLES))
+def _packaged_table(name: str) -> dict[str, Any]:
+    """A table shipped with the package, parsed once a process: every simulation (an episode of the
+    environments is one) builds its table from these, and only reads them."""
+    return json.loads(resources.files("aamsim.traffic").joinpath(name).read_text())  # type: ignore[no-any-return]
+
+
 class PerformanceTable:
     """Type code (or alias) -> :class:`Envelope`.
 
@@ -73,8 +82,7 @@ class PerformanceTable:
 
     def __init__(self, path: str | Path | None = None):
         if path is None:
-            package = resources.files("aamsim.traffic")
-            tables = [(name, json.loads(package.joinpath(name).read_text())) for name in DEFAULT_TABLES]
+            tables = [(name, _packaged_table(name)) for name in DEFAULT_TABLES]
         else:
             tables = [(str(path), json.loads(Path(path).read_text()))]
         self._envelopes: dict[str, Envelope] = {}

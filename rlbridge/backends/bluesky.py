@@ -97,6 +97,10 @@ def _bluesky() -> Any:
 class BlueSkyEpisode(EpisodeCore):
     """An :class:`~rlbridge.core.EpisodeCore` whose aircraft BlueSky flies (see the module docstring)."""
 
+    # Its _advance_steps sends the use case's actions to BlueSky at each decision: the decisions of a
+    # reset's flight to the ego go through it too, as the backend was checked against BlueSky.
+    flies_idle_decisions = False
+
     def __init__(self, scenario: str | Path, usecase: Any = "corridor_sa", params: dict[str, Any] | None = None,
                  time_limit_s: float | None = None, dt: float = 0.05, **kwargs: Any):
         super().__init__(scenario, usecase, params, time_limit_s=time_limit_s, dt=dt, **kwargs)

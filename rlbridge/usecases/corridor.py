@@ -134,6 +134,7 @@ class CorridorSA(UseCaseBase):
                        baselines=("mvp_speed", "daa"), advisory="non_hold")
     fixed_traffic: ClassVar[dict[str, Any]] = {"alt_noise_ft": 0.0}
     conflicts_of_agents_only: ClassVar[bool] = True  # feedback: involved_since of its agents
+    idle_decisions_change_nothing: ClassVar[bool] = True  # apply_actions({}) returns at once
     # Per agent: was it in an NMAC / LoWC event at some time during the interval.
     info_fields = {"nmac": np.bool_, "lowc": np.bool_}  # noqa: RUF012
 

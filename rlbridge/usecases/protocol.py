@@ -143,6 +143,10 @@ class UseCaseBase:
     # service: a single-agent view then leaves the conflict checks out until its ego exists
     # (rlbridge.core.EpisodeCore.until_alive_steps). False (the default) keeps every check.
     conflicts_of_agents_only: ClassVar[bool] = False
+    # True when ``apply_actions(sim, {})`` changes nothing: a single-agent view then flies to its ego
+    # without stopping at the decisions on the way (rlbridge.core.EpisodeCore._fly_idle), where it
+    # would apply no actions. False (the default) stops at each.
+    idle_decisions_change_nothing: ClassVar[bool] = False
 
     def action_targets(self, sim: Simulation, slots: np.ndarray, kind: str) -> np.ndarray:
         """Per aircraft slot, the target each action sets for advisory ``kind`` (ADVISORY_UNITS): (n, n_actions).

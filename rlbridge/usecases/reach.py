@@ -76,6 +76,7 @@ class ReachDestination(UseCaseBase):
                               *SEPARATION_CURVE[:2]))
     fixed_traffic: ClassVar[dict[str, Any]] = {"cruise_speed_kts": ()}
     conflicts_of_agents_only: ClassVar[bool] = True  # reads no separation events at all
+    idle_decisions_change_nothing: ClassVar[bool] = True  # apply_actions({}) returns at once
     info_fields = {"arrived": np.bool_, "dist_m": np.float64}  # noqa: RUF012
 
     def __init__(self, **params: Any):

@@ -26,9 +26,9 @@ import gymnasium as gym
 import numpy as np
 
 from aamsim.worlds import WorldSet
-from rlbridge.core import EpisodeCore, StepResult
+from rlbridge.core import EpisodeCore, RunUntil, StepResult
 
-Steps = Generator[float, None, Any]
+Steps = Generator["float | RunUntil", None, Any]
 
 
 class VectorEngine:
@@ -81,15 +81,18 @@ class VectorEngine:
     def run(self, programs: Mapping[int, Steps]) -> dict[int, Any]:
         """Run each world's generator (the sim times it yields) together; returns what each returned.
 
-        A generator yields the sim time [s] its world's simulation must reach next; the
+        A generator yields the sim time [s] its world's simulation must reach next (or a
+        :class:`~rlbridge.core.RunUntil`: that time, or earlier where its ``stop`` says so); the
         worlds that wait are advanced in the same :meth:`WorldSet.run_until` call.
         """
         results: dict[int, Any] = {}
-        pending: dict[int, float] = {}
+        pending: dict[int, float | RunUntil] = {}
         for w, program in programs.items():
             _resume(w, program, None, pending, results, first=True)
         while pending:
-            self.worlds.run_until(pending)
+            targets = {w: t.t_s if type(t) is RunUntil else t for w, t in pending.items()}
+            stops = {w: t.stop for w, t in pending.items() if type(t) is RunUntil}
+            self.worlds.run_until(targets, stops)  # type: ignore[arg-type]
             waiting, pending = pending, {}
             for w in waiting:
                 _resume(w, programs[w], None, pending, results)
@@ -111,7 +114,7 @@ class VectorEngine:
             core.close()
 
 
-def _resume(w: int, program: Steps, value: None, pending: dict[int, float], results: dict[int, Any],
+def _resume(w: int, program: Steps, value: None, pending: dict[int, float | RunUntil], results: dict[int, Any],
             first: bool = False) -> None:
     try:
         pending[w] = next(program) if first else program.send(value)
