@@ -46,7 +46,6 @@ DEFAULT_EXTRA_TIME_S = 7200.0  # default episode limit: last scheduled command +
 ADVANCE_CHUNK_S = 60.0  # a longer advance checks every this many seconds whether the scenario is over
 
 
-
 class RunUntil(NamedTuple):
     """A yield of the step generators: run the simulation to ``t_s`` (as a plain time does), but end the
     run at the first step boundary where ``stop()`` is True (:meth:`aamsim.Simulation.run_until`)."""
@@ -419,9 +418,11 @@ class EpisodeCore:
         interval = usecase.decision_interval_s
         # The decisions come every interval, and one advance is one run (no ADVANCE_CHUNK_S stops:
         # their "scenario over" checks are not replayed). A pending command keeps the scenario from
-        # being over until it runs (Simulation.is_quiescent).
+        # being over until it runs (Simulation.is_quiescent). AUTODELETE deletes an aircraft at its
+        # last waypoint, found by the kernel's test for the next step: on a decision, a run that
+        # stops there finds it after the decision, one that goes on before it.
         return (0.0 < interval <= ADVANCE_CHUNK_S and usecase.next_decision_s(sim) == sim.simt + interval
-                and len(sim.queue) > 0)
+                and len(sim.queue) > 0 and not sim.settings.delete_on_arrival)
 
     def _decision_after(self, g_us: int, interval_s: float, dt_s: float, dt_us: int) -> tuple[int, float]:
         """The decision :meth:`_advance_steps` reaches from the one at ``g_us``: its time [us], and the
@@ -435,10 +436,10 @@ class EpisodeCore:
 
         Called at a decision, right after ``_begin_step({})``, when :meth:`_may_fly_idle`. The
         simulation runs in one go to a decision some way ahead, and stops early at a step boundary
-        where ``agent`` exists, no command is pending, or the time step changed (a quit or a HOLD
-        stops it too). Until then nothing that the loop looks at can change at a decision: ``agent``
-        is created by a command or a hook, at a step boundary; a pending command keeps the scenario
-        from being over. The decisions flown past are replayed: the agents alive at each (from the
+        where ``agent`` exists, no command is pending, the time step changed or AUTODELETE is on (a
+        quit or a HOLD stops it too). Until then nothing that the loop looks at can change at a
+        decision: ``agent`` is created by a command or a hook, at a step boundary; a pending command
+        keeps the scenario from being over. The decisions flown past are replayed: the agents alive at each (from the
         creations and deletions logged with their times), the order ``self.agents`` takes and the
         last one with agents, where ``_begin_step`` would have set ``_t0``. ``_begin_step({})``
         there would apply nothing (the use case's ``idle_decisions_change_nothing``). Returns at
@@ -450,7 +451,7 @@ class EpisodeCore:
         queue = sim.queue
 
         def stop() -> bool:
-            return agent in self._live or not queue or sim.dt_us != dt_us
+            return agent in self._live or not queue or sim.dt_us != dt_us or sim.settings.delete_on_arrival
 
         log: list[tuple[int, str, bool]] = []
         self._live_log = log

@@ -186,3 +186,16 @@ def test_run_until_stops_at_the_first_boundary_where_asked():
     sim.run_until(20.0, lambda: False)
     assert sim.simt == pytest.approx(20.0)
     assert RunUntil(1.0, b_exists).stop is b_exists
+
+
+@pytest.mark.parametrize("when", ["00:00:00.00", "00:00:30.00"])
+def test_autodelete_stops_at_every_decision_from_when_it_is_on(tmp_path, monkeypatch, when):
+    # With AUTODELETE an aircraft is deleted at its last waypoint, which the kernel finds in its test for the
+    # next step: a run stopped on a decision finds it after the decision, a run going on before it. T1 and
+    # T2 arrive (no ATDIST) before the ego; with 0.05 s decisions every arrival falls on a decision.
+    lines = [line for line in traffic() if "ATDIST" not in line or "EGO" in line]
+    lines = [line.replace("00:01:07.35", "00:01:47.35") for line in lines] + [f"{when}>AUTODELETE ON"]
+    trace, stops, runs = same_with_fewer_runs(monkeypatch, scenario=write(tmp_path, lines), ego="EGO",
+                                              decision_interval_s=0.05, time_limit_s=400.0, steps=5)
+    assert trace[2] == pytest.approx(107.35)
+    assert (runs == stops) if when == "00:00:00.00" else (runs < stops)
