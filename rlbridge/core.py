@@ -413,7 +413,8 @@ class EpisodeCore:
     def _may_fly_idle(self, sim: Simulation) -> bool:
         """Whether :meth:`_fly_idle` gives what :meth:`_advance_steps` gives from this decision on."""
         usecase = self.usecase
-        if not (self.flies_idle_decisions and getattr(usecase, "idle_decisions_change_nothing", False)):
+        idle = getattr(usecase, "idle_decisions_change_nothing", None)  # (a use case of the protocol alone)
+        if not (self.flies_idle_decisions and idle is not None and idle(sim)):
             return False
         interval = usecase.decision_interval_s
         # The decisions come every interval, and one advance is one run (no ADVANCE_CHUNK_S stops:

@@ -95,10 +95,22 @@ def test_the_reset_and_the_steps_after_it_are_the_same_on_the_shipped_scenario(m
     assert fewer >= 2  # an ego early in the day may need none (seed 0's is among the first)
 
 
-def test_reach_destination_flies_idle_too(monkeypatch):
-    _, stops, runs = same_with_fewer_runs(monkeypatch, env_id="aamgym/ReachDestination-v1", seed=5,
-                                          decision_interval_s=1.0, steps=10)
+@pytest.mark.parametrize("env_id", ["aamgym/ReachDestination-v1", "aamgym/HeadingAltitudeSA-v1"])
+def test_the_other_use_cases_that_apply_nothing_without_actions(monkeypatch, env_id):
+    _, stops, runs = same_with_fewer_runs(monkeypatch, env_id=env_id, seed=5, decision_interval_s=1.0, steps=10)
     assert runs < stops
+
+
+def test_heading_altitude_stops_at_each_decision_while_its_keeper_steers_somebody(monkeypatch):
+    # Its keeper puts the aircraft it steers back on their routes at each decision, actions or not.
+    from rlbridge.usecases.heading_altitude import HeadingAltitudeSA
+
+    core = EpisodeCore("nyc_train_100.scn", "heading_altitude_sa", {"decision_interval_s": 1.0})
+    core.reset(seed=2)
+    usecase = core.usecase
+    assert isinstance(usecase, HeadingAltitudeSA) and core._may_fly_idle(core.sim)
+    usecase.ep.keeper.steer(core.agents[0])
+    assert not core._may_fly_idle(core.sim)
 
 
 def test_decisions_of_traffic_created_and_deleted_around_them(tmp_path, monkeypatch):

@@ -134,7 +134,6 @@ class CorridorSA(UseCaseBase):
                        baselines=("mvp_speed", "daa"), advisory="non_hold")
     fixed_traffic: ClassVar[dict[str, Any]] = {"alt_noise_ft": 0.0}
     conflicts_of_agents_only: ClassVar[bool] = True  # feedback: involved_since of its agents
-    idle_decisions_change_nothing: ClassVar[bool] = True  # apply_actions({}) returns at once
     # Per agent: was it in an NMAC / LoWC event at some time during the interval.
     info_fields = {"nmac": np.bool_, "lowc": np.bool_}  # noqa: RUF012
 
@@ -319,6 +318,9 @@ class CorridorSA(UseCaseBase):
         cas = np.asarray(sim.view.cas[slots], dtype=np.float64)
         return np.stack([np.full_like(cas, p.speed_low_kts * KTS), cas, np.full_like(cas, p.speed_high_kts * KTS)],
                         axis=1)
+
+    def idle_decisions_change_nothing(self, sim: Simulation) -> bool:
+        return True  # apply_actions({}) returns at once
 
     def apply_actions(self, sim: Simulation, actions: dict[str, Any]) -> None:
         """Speed advisories: set the selected CAS of each agent (missing agents: no advisory).

@@ -302,6 +302,11 @@ class HeadingAltitudeSA(UseCaseBase):
         off = np.array([self.offsets(a)[1] for a in range(self.n_actions)]) * FT
         return np.maximum(own[:, None] + off[None, :], self.params.alt_floor_ft * FT)
 
+    def idle_decisions_change_nothing(self, sim: Simulation) -> bool:
+        # Without actions the keeper puts the aircraft it steers back on their routes; it steers
+        # nobody until an action turns one off its route.
+        return not self.ep.keeper.steered
+
     def apply_actions(self, sim: Simulation, actions: dict[str, Any]) -> None:
         """Heading and altitude advisories (missing agents: no advisory). All are checked before any is applied."""
         view = sim.view

@@ -143,10 +143,6 @@ class UseCaseBase:
     # service: a single-agent view then leaves the conflict checks out until its ego exists
     # (rlbridge.core.EpisodeCore.until_alive_steps). False (the default) keeps every check.
     conflicts_of_agents_only: ClassVar[bool] = False
-    # True when ``apply_actions(sim, {})`` changes nothing: a single-agent view then flies to its ego
-    # without stopping at the decisions on the way (rlbridge.core.EpisodeCore._fly_idle), where it
-    # would apply no actions. False (the default) stops at each.
-    idle_decisions_change_nothing: ClassVar[bool] = False
 
     def action_targets(self, sim: Simulation, slots: np.ndarray, kind: str) -> np.ndarray:
         """Per aircraft slot, the target each action sets for advisory ``kind`` (ADVISORY_UNITS): (n, n_actions).
@@ -170,6 +166,15 @@ class UseCaseBase:
 
     def next_decision_s(self, sim: Simulation) -> float:
         return sim.simt + self.decision_interval_s
+
+    def idle_decisions_change_nothing(self, sim: Simulation) -> bool:
+        """True when ``apply_actions(sim, {})`` changes nothing now, nor at later decisions without actions.
+
+        A single-agent view then flies to its ego without stopping at the decisions on the way
+        (rlbridge.core.EpisodeCore._fly_idle), where it would apply no actions. False (the
+        default) stops at each.
+        """
+        return False
 
     def extra_metrics(self, sim: Simulation) -> dict[str, Any]:
         return {}

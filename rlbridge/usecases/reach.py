@@ -76,7 +76,6 @@ class ReachDestination(UseCaseBase):
                               *SEPARATION_CURVE[:2]))
     fixed_traffic: ClassVar[dict[str, Any]] = {"cruise_speed_kts": ()}
     conflicts_of_agents_only: ClassVar[bool] = True  # reads no separation events at all
-    idle_decisions_change_nothing: ClassVar[bool] = True  # apply_actions({}) returns at once
     info_fields = {"arrived": np.bool_, "dist_m": np.float64}  # noqa: RUF012
 
     def __init__(self, **params: Any):
@@ -135,6 +134,9 @@ class ReachDestination(UseCaseBase):
     def speed_action_targets(self, sim: Simulation, slots: np.ndarray) -> np.ndarray:
         """CAS [m/s] each action selects (the same speeds for every aircraft)."""
         return np.tile(np.asarray(self.params.speeds_kts, dtype=np.float64) * KTS, (len(slots), 1))
+
+    def idle_decisions_change_nothing(self, sim: Simulation) -> bool:
+        return True  # apply_actions({}) returns at once
 
     def apply_actions(self, sim: Simulation, actions: dict[str, Any]) -> None:
         agents = [a for a in actions if a in sim.view]
