@@ -268,10 +268,32 @@ class EpisodeCore:
         assert sim is not None
         if sim.quit_requested:
             return True
-        if self.time_limit_s is not None and sim.simt >= self.time_limit_s - 1e-9:
+        if self._at_time_limit(sim.simt):
             return True
         holding = getattr(self.usecase, "holding", None)  # departures a planner has still to release
         return sim.is_quiescent() and not (holding is not None and holding(sim))
+
+    def _at_time_limit(self, t_s: float) -> bool:
+        return self.time_limit_s is not None and t_s >= self.time_limit_s - 1e-9
+
+    def _decision_target(self, due_s: float, simt: float, dt_s: float) -> float:
+        """The time an advance from ``simt`` to a decision due at ``due_s`` runs to: a step at least, the
+        episode's time limit at most (the first step boundary at or after it is the decision)."""
+        target = max(due_s, simt + dt_s)
+        return target if self.time_limit_s is None else min(target, self.time_limit_s)
+
+    def _fly_to(self, target: float) -> Generator[float, None, None]:
+        """Run to ``target`` (a decision), or until the scenario is over on the way."""
+        sim = self.sim
+        assert sim is not None
+        # A long advance (a planner's last decision flies the rest of the episode) stops as soon as
+        # the scenario is over instead of running an empty sky up to the time limit.
+        while True:
+            yield min(target, sim.simt + ADVANCE_CHUNK_S)
+            if sim.state == sim.STATE_HOLD:
+                sim.state = sim.STATE_OP  # no operator in an RL loop
+            if sim.simt >= target - 1e-9 or self._scenario_over():
+                return
 
     def _advance(self) -> None:
         """Advance to the use case's next decision; skip ahead while no agent is alive."""
@@ -285,17 +307,7 @@ class EpisodeCore:
             due = self.usecase.next_decision_s(sim)
             if due <= sim.simt and self._live and not self._scenario_over():
                 return  # another decision due now (e.g. two departure requests at one time)
-            target = max(due, sim.simt + sim.dt)
-            if self.time_limit_s is not None:
-                target = min(target, self.time_limit_s)
-            # A long advance (a planner's last decision flies the rest of the episode) stops as soon as
-            # the scenario is over instead of running an empty sky up to the time limit.
-            while True:
-                yield min(target, sim.simt + ADVANCE_CHUNK_S)
-                if sim.state == sim.STATE_HOLD:
-                    sim.state = sim.STATE_OP  # no operator in an RL loop
-                if sim.simt >= target - 1e-9 or self._scenario_over():
-                    break
+            yield from self._fly_to(self._decision_target(due, sim.simt, sim.dt))
             if self._live or self._scenario_over():
                 return
 
@@ -429,7 +441,7 @@ class EpisodeCore:
         """The decision :meth:`_advance_steps` reaches from the one at ``g_us``: its time [us], and the
         time [s] it runs to (the first step boundary at or after it is the decision)."""
         simt = g_us / 1_000_000  # as Simulation.simt
-        target = min(max(simt + interval_s, simt + dt_s), self.time_limit_s)
+        target = self._decision_target(simt + interval_s, simt, dt_s)
         return g_us + max(0, -(-(to_us(target) - g_us) // dt_us)) * dt_us, target
 
     def _fly_idle(self, agent: str) -> Generator[float | RunUntil, None, None]:
@@ -465,7 +477,7 @@ class EpisodeCore:
                 while g_us - start_us < self.FLY_IDLE_SPAN_US:
                     g_us, target = self._decision_after(g_us, interval_s, dt_s, dt_us)
                     decisions.append((g_us, target))
-                    if g_us / 1_000_000 >= self.time_limit_s - 1e-9:
+                    if self._at_time_limit(g_us / 1_000_000):
                         break  # the episode's end: the loop looks there
                 log.clear()
                 far_us = g_us
@@ -495,12 +507,7 @@ class EpisodeCore:
                 if sim.quit_requested:
                     return  # over now, as _advance_steps finds it
                 if now_us < g_us:  # the rest of the way to the decision, as _advance_steps flies it
-                    while True:
-                        yield target
-                        if sim.state == sim.STATE_HOLD:
-                            sim.state = sim.STATE_OP
-                        if sim.simt >= target - 1e-9 or self._scenario_over():
-                            break
+                    yield from self._fly_to(target)
                 if self._live or self._scenario_over():
                     return
                 if not self._may_fly_idle(sim):
